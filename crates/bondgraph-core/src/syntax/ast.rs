@@ -1,0 +1,164 @@
+//! The syntax tree of a `.bg` file: what the user wrote, with the span of every name.
+//!
+//! Nothing here is resolved: names are text. lowering (to come) turns it into a model.
+
+use crate::diagnostic::Span;
+use crate::expr::Expr;
+
+/// A name as written, with where it was written.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Ident {
+    /// The text of the name.
+    pub name: String,
+    /// Where it stands in the source.
+    pub span: Span,
+}
+
+/// An expression whose leaves are names still to be resolved.
+pub type AstExpr = Expr<Ident>;
+
+/// A whole file: its statements in source order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct File {
+    /// Every statement that parsed, in order.
+    pub statements: Vec<Statement>,
+}
+
+/// One statement (one logical line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Statement {
+    /// What it says.
+    pub kind: StatementKind,
+    /// The whole statement.
+    pub span: Span,
+}
+
+/// The kinds of statement of the language.
+#[derive(Clone, Debug, PartialEq)]
+pub enum StatementKind {
+    /// `model NAME`
+    Model(Ident),
+    /// `param NAME = VALUE [unit] "description"`
+    Param(ParamDecl),
+    /// `input NAME [unit] "description"`
+    Input(InputDecl),
+    /// `let NAME = EXPR`
+    Let(LetDecl),
+    /// `KIND NAME body "description"`
+    Element(ElementDecl),
+    /// `a -> b, c -> d`
+    Chain(Chain),
+}
+
+/// A parameter declaration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamDecl {
+    /// Its name.
+    pub name: Ident,
+    /// Its value and the span of the value, if one was written.
+    pub value: Option<(f64, Span)>,
+    /// Its unit, as free text.
+    pub unit: Option<String>,
+    /// What it is.
+    pub description: Option<String>,
+}
+
+/// A known input signal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputDecl {
+    /// Its name.
+    pub name: Ident,
+    /// Its unit, as free text.
+    pub unit: Option<String>,
+    /// What it is.
+    pub description: Option<String>,
+}
+
+/// A named helper expression.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LetDecl {
+    /// Its name.
+    pub name: Ident,
+    /// Its definition.
+    pub value: AstExpr,
+}
+
+/// An element or detector declaration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ElementDecl {
+    /// The kind as written (`Se`, `R`, `Df`…), checked when lowering.
+    pub kind: Ident,
+    /// The element's name.
+    pub name: Ident,
+    /// What follows the name.
+    pub body: ElementBody,
+    /// What it is.
+    pub description: Option<String>,
+}
+
+/// What an element declaration says after the name.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ElementBody {
+    /// Nothing.
+    None,
+    /// `= EXPR`: the value of a source, the modulus of an element.
+    Value(AstExpr),
+    /// `: VAR = EXPR`: an explicit (possibly nonlinear) law.
+    Law(Ident, AstExpr),
+    /// `stiffness EXPR`: a C given by its stiffness.
+    Stiffness(AstExpr),
+    /// `ratio EXPR`: a TF given by its gear ratio.
+    Ratio(AstExpr),
+    /// `on JUNCTION`: where a detector is attached.
+    On(Ident),
+}
+
+/// A chain of bonds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chain {
+    /// The groups of nodes, in order.
+    pub groups: Vec<Vec<NodeRef>>,
+    /// The arrows between consecutive groups (`groups.len() - 1` of them).
+    pub arrows: Vec<Arrow>,
+}
+
+/// A node named in a chain.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeRef {
+    /// Its name.
+    pub name: Ident,
+    /// `Some` when written `0:name` or `1:name`.
+    pub junction: Option<JunctionKind>,
+    /// The whole reference.
+    pub span: Span,
+}
+
+/// The two kinds of junction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum JunctionKind {
+    /// 0-junction: common effort, flows sum to zero.
+    Zero,
+    /// 1-junction: common flow, efforts sum to zero.
+    One,
+}
+
+impl JunctionKind {
+    /// `"0"` or `"1"`.
+    pub fn symbol(self) -> &'static str {
+        match self {
+            JunctionKind::Zero => "0",
+            JunctionKind::One => "1",
+        }
+    }
+}
+
+/// An arrow between two groups of a chain.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Arrow {
+    /// Whether power flows from the left group to the right one (`->`) or back (`<-`).
+    pub forward: bool,
+    /// The bond number written on the arrow, with its span.
+    pub number: Option<(u32, Span)>,
+    /// The arrow.
+    pub span: Span,
+}

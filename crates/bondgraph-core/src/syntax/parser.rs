@@ -1,0 +1,605 @@
+//! From text to [`ast::File`]: each statement parsed by pest, its pairs turned into syntax nodes.
+
+use pest::iterators::{Pair, Pairs};
+use pest::pratt_parser::{Assoc, Op, PrattParser};
+use pest::Parser as _;
+use std::sync::OnceLock;
+
+use super::ast::{self, AstExpr, Ident};
+use super::split;
+use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use crate::expr::{BinOp, Expr, Func};
+
+#[allow(missing_docs)]
+mod generated {
+    /// The pest parser generated from `bg.pest`.
+    #[derive(pest_derive::Parser)]
+    #[grammar = "syntax/bg.pest"]
+    pub struct BgParser;
+}
+use generated::{BgParser, Rule};
+
+/// Parses a whole file; statements that do not parse are reported and left out.
+pub fn parse(text: &str) -> (ast::File, Diagnostics) {
+    let mut file = ast::File::default();
+    let mut diagnostics = Diagnostics::default();
+    for span in split::statements(text) {
+        match parse_statement(&text[span.start..span.end], span.start) {
+            Ok(statement) => file.statements.push(statement),
+            Err(errors) => errors.into_iter().for_each(|d| diagnostics.push(d)),
+        }
+    }
+    (file, diagnostics)
+}
+
+/// Parses one statement whose text starts at byte `offset` of its file.
+fn parse_statement(text: &str, offset: usize) -> Result<ast::Statement, Vec<Diagnostic>> {
+    let mut pairs =
+        BgParser::parse(Rule::statement, text).map_err(|e| vec![syntax_error(&e, text, offset)])?;
+    let Some(statement) = pairs.next() else {
+        return Err(vec![Diagnostic::error(
+            Code::Syntax,
+            Span::new(offset, offset + text.len()),
+            "empty statement",
+        )]);
+    };
+    let mut builder = Builder {
+        offset,
+        errors: Vec::new(),
+    };
+    let kind = statement
+        .into_inner()
+        .find(|p| p.as_rule() != Rule::EOI)
+        .map(|p| builder.statement(p));
+    match kind {
+        Some(kind) if builder.errors.is_empty() => Ok(ast::Statement {
+            kind,
+            span: Span::new(offset, offset + text.len()),
+        }),
+        _ => Err(builder.errors),
+    }
+}
+
+/// Turns pairs into syntax nodes, collecting the errors the grammar cannot express.
+struct Builder {
+    offset: usize,
+    errors: Vec<Diagnostic>,
+}
+
+impl Builder {
+    fn span(&self, pair: &Pair<'_, Rule>) -> Span {
+        let s = pair.as_span();
+        Span::new(s.start(), s.end()).shifted(self.offset)
+    }
+
+    fn ident(&self, pair: Pair<'_, Rule>) -> Ident {
+        Ident {
+            name: pair.as_str().to_string(),
+            span: self.span(&pair),
+        }
+    }
+
+    fn statement(&mut self, pair: Pair<'_, Rule>) -> ast::StatementKind {
+        let rule = pair.as_rule();
+        let mut inner = pair.into_inner();
+        match rule {
+            Rule::model_decl => {
+                let name = self.ident(nth(&mut inner, Rule::ident));
+                ast::StatementKind::Model(name)
+            }
+            Rule::param_decl => ast::StatementKind::Param(self.param(inner)),
+            Rule::input_decl => {
+                let name = self.ident(nth(&mut inner, Rule::ident));
+                let (unit, description) = unit_and_description(inner);
+                ast::StatementKind::Input(ast::InputDecl {
+                    name,
+                    unit,
+                    description,
+                })
+            }
+            Rule::let_decl => {
+                let name = self.ident(nth(&mut inner, Rule::ident));
+                let value = self.expr(nth(&mut inner, Rule::expr));
+                ast::StatementKind::Let(ast::LetDecl { name, value })
+            }
+            Rule::element_decl => ast::StatementKind::Element(self.element(inner)),
+            _ => ast::StatementKind::Chain(self.chain(inner)),
+        }
+    }
+
+    fn param(&mut self, inner: Pairs<'_, Rule>) -> ast::ParamDecl {
+        let mut name = None;
+        let mut value = None;
+        let mut unit = None;
+        let mut description = None;
+        for p in inner {
+            match p.as_rule() {
+                Rule::ident => name = Some(self.ident(p)),
+                Rule::param_value => value = self.param_value(p),
+                Rule::unit => unit = Some(inner_text(p)),
+                Rule::description => description = Some(inner_text(p)),
+                _ => {}
+            }
+        }
+        ast::ParamDecl {
+            name: name.unwrap_or_else(|| Ident {
+                name: String::new(),
+                span: Span::new(self.offset, self.offset),
+            }),
+            value,
+            unit,
+            description,
+        }
+    }
+
+    fn param_value(&mut self, pair: Pair<'_, Rule>) -> Option<(f64, Span)> {
+        let span = self.span(&pair);
+        let negative = pair
+            .clone()
+            .into_inner()
+            .any(|p| p.as_rule() == Rule::sign && p.as_str() == "-");
+        let number = pair.into_inner().find(|p| p.as_rule() == Rule::number)?;
+        let value = self.number(&number)?;
+        Some((if negative { -value } else { value }, span))
+    }
+
+    fn number(&mut self, pair: &Pair<'_, Rule>) -> Option<f64> {
+        match pair.as_str().parse::<f64>() {
+            Ok(x) if x.is_finite() => Some(x),
+            _ => {
+                self.errors.push(
+                    Diagnostic::error(Code::Syntax, self.span(pair), "number out of range")
+                        .with_label("expected a finite number"),
+                );
+                None
+            }
+        }
+    }
+
+    fn element(&mut self, mut inner: Pairs<'_, Rule>) -> ast::ElementDecl {
+        let kind = self.ident(nth(&mut inner, Rule::ident));
+        let name = self.ident(nth(&mut inner, Rule::ident));
+        let mut body = ast::ElementBody::None;
+        let mut description = None;
+        for p in inner {
+            let rule = p.as_rule();
+            if rule == Rule::description {
+                description = Some(inner_text(p));
+                continue;
+            }
+            let mut parts = p.into_inner();
+            body = match rule {
+                Rule::value_body => ast::ElementBody::Value(self.expr(nth(&mut parts, Rule::expr))),
+                Rule::law_body => {
+                    let var = self.ident(nth(&mut parts, Rule::ident));
+                    ast::ElementBody::Law(var, self.expr(nth(&mut parts, Rule::expr)))
+                }
+                Rule::stiffness_body => {
+                    ast::ElementBody::Stiffness(self.expr(nth(&mut parts, Rule::expr)))
+                }
+                Rule::ratio_body => ast::ElementBody::Ratio(self.expr(nth(&mut parts, Rule::expr))),
+                _ => ast::ElementBody::On(self.ident(nth(&mut parts, Rule::ident))),
+            };
+        }
+        ast::ElementDecl {
+            kind,
+            name,
+            body,
+            description,
+        }
+    }
+
+    fn chain(&mut self, inner: Pairs<'_, Rule>) -> ast::Chain {
+        let mut chain = ast::Chain {
+            groups: Vec::new(),
+            arrows: Vec::new(),
+        };
+        for p in inner {
+            match p.as_rule() {
+                Rule::group => {
+                    let group = p.into_inner().map(|n| self.node_ref(n)).collect();
+                    chain.groups.push(group);
+                }
+                rule => {
+                    let span = self.span(&p);
+                    let number = p.into_inner().next().and_then(|n| {
+                        let s = self.span(&n);
+                        match n.as_str().parse::<u32>() {
+                            Ok(k) if k > 0 => Some((k, s)),
+                            _ => {
+                                self.errors.push(
+                                    Diagnostic::error(Code::BondNumber, s, "bad bond number")
+                                        .with_label("expected a number from 1 to 4294967295"),
+                                );
+                                None
+                            }
+                        }
+                    });
+                    chain.arrows.push(ast::Arrow {
+                        forward: rule == Rule::arrow_forward,
+                        number,
+                        span,
+                    });
+                }
+            }
+        }
+        chain
+    }
+
+    fn node_ref(&mut self, pair: Pair<'_, Rule>) -> ast::NodeRef {
+        let span = self.span(&pair);
+        let Some(first) = pair.into_inner().next() else {
+            return ast::NodeRef {
+                name: Ident {
+                    name: String::new(),
+                    span,
+                },
+                junction: None,
+                span,
+            };
+        };
+        if first.as_rule() == Rule::junction {
+            let mut parts = first.into_inner();
+            let kind = match nth(&mut parts, Rule::junction_kind).as_str() {
+                "0" => ast::JunctionKind::Zero,
+                _ => ast::JunctionKind::One,
+            };
+            let name = self.ident(nth(&mut parts, Rule::ident));
+            ast::NodeRef {
+                name,
+                junction: Some(kind),
+                span,
+            }
+        } else {
+            ast::NodeRef {
+                name: self.ident(first),
+                junction: None,
+                span,
+            }
+        }
+    }
+
+    fn expr(&mut self, pair: Pair<'_, Rule>) -> AstExpr {
+        let pratt = pratt();
+        self.expr_pairs(pair.into_inner(), pratt)
+    }
+
+    fn expr_pairs(&mut self, pairs: Pairs<'_, Rule>, pratt: &PrattParser<Rule>) -> AstExpr {
+        // The closures below all need `self`; a RefCell lets them share it for one parse.
+        let this = std::cell::RefCell::new(self);
+        pratt
+            .map_primary(|p| this.borrow_mut().primary(p, pratt))
+            .map_prefix(|op, x| match op.as_rule() {
+                Rule::neg => Expr::Neg(Box::new(x)),
+                _ => x,
+            })
+            .map_infix(|a, op, b| {
+                let op = match op.as_rule() {
+                    Rule::add => BinOp::Add,
+                    Rule::sub => BinOp::Sub,
+                    Rule::mul => BinOp::Mul,
+                    Rule::div => BinOp::Div,
+                    _ => BinOp::Pow,
+                };
+                Expr::binary(op, a, b)
+            })
+            .parse(pairs)
+    }
+
+    fn primary(&mut self, pair: Pair<'_, Rule>, pratt: &PrattParser<Rule>) -> AstExpr {
+        match pair.as_rule() {
+            Rule::number => Expr::Num(self.number(&pair).unwrap_or(0.0)),
+            Rule::ident => Expr::Leaf(self.ident(pair)),
+            Rule::expr => self.expr_pairs(pair.into_inner(), pratt),
+            _ => self.call(pair, pratt),
+        }
+    }
+
+    fn call(&mut self, pair: Pair<'_, Rule>, pratt: &PrattParser<Rule>) -> AstExpr {
+        let span = self.span(&pair);
+        let mut inner = pair.into_inner();
+        let name = self.ident(nth(&mut inner, Rule::ident));
+        let args: Vec<Pair<'_, Rule>> = inner.collect();
+        match name.name.as_str() {
+            "der" => self.der(&name, span, args, pratt),
+            "int" => match <[_; 1]>::try_from(args) {
+                Ok([x]) => Expr::Int(Box::new(self.expr_pairs(x.into_inner(), pratt))),
+                Err(args) => self.arity_error(&name, span, args.len(), "1"),
+            },
+            _ => match Func::from_name(&name.name) {
+                Some(func) if func.arity() == args.len() => {
+                    let args = args
+                        .into_iter()
+                        .map(|a| self.expr_pairs(a.into_inner(), pratt))
+                        .collect();
+                    Expr::Call(func, args)
+                }
+                Some(func) => self.arity_error(&name, span, args.len(), &func.arity().to_string()),
+                None => {
+                    let known: Vec<&str> = Func::ALL.iter().map(|f| f.name()).collect();
+                    self.errors.push(
+                        Diagnostic::error(
+                            Code::BadCall,
+                            name.span,
+                            format!("unknown function `{}`", name.name),
+                        )
+                        .with_label("not a function of the language")
+                        .with_help(format!(
+                            "the functions are {}, der and int",
+                            known.join(", ")
+                        )),
+                    );
+                    Expr::Num(0.0)
+                }
+            },
+        }
+    }
+
+    fn der(
+        &mut self,
+        name: &Ident,
+        span: Span,
+        args: Vec<Pair<'_, Rule>>,
+        pratt: &PrattParser<Rule>,
+    ) -> AstExpr {
+        let mut args = args.into_iter();
+        let (Some(x), order, None) = (args.next(), args.next(), args.next()) else {
+            return self.arity_error(name, span, 0, "1 or 2");
+        };
+        let n = match order {
+            None => 1,
+            Some(o) => {
+                let s = self.span(&o);
+                match o.as_str().trim().parse::<u32>() {
+                    Ok(n @ 1..=16) => n,
+                    _ => {
+                        self.errors.push(
+                            Diagnostic::error(
+                                Code::BadCall,
+                                s,
+                                "the order of a derivative must be a whole number",
+                            )
+                            .with_label("expected an integer from 1 to 16"),
+                        );
+                        1
+                    }
+                }
+            }
+        };
+        Expr::Der(Box::new(self.expr_pairs(x.into_inner(), pratt)), n)
+    }
+
+    fn arity_error(&mut self, name: &Ident, span: Span, got: usize, want: &str) -> AstExpr {
+        self.errors.push(
+            Diagnostic::error(
+                Code::BadCall,
+                span,
+                format!("`{}` called with {got} argument(s)", name.name),
+            )
+            .with_label(format!("expected {want} argument(s)")),
+        );
+        Expr::Num(0.0)
+    }
+}
+
+fn pratt() -> &'static PrattParser<Rule> {
+    static PRATT: OnceLock<PrattParser<Rule>> = OnceLock::new();
+    PRATT.get_or_init(|| {
+        // Lowest precedence first. Prefix minus sits below `^`, so `-x^2` is `-(x^2)`.
+        PrattParser::new()
+            .op(Op::infix(Rule::add, Assoc::Left) | Op::infix(Rule::sub, Assoc::Left))
+            .op(Op::infix(Rule::mul, Assoc::Left) | Op::infix(Rule::div, Assoc::Left))
+            .op(Op::prefix(Rule::neg) | Op::prefix(Rule::pos))
+            .op(Op::infix(Rule::pow, Assoc::Right))
+    })
+}
+
+/// The next pair, which the grammar guarantees is a `rule`.
+fn nth<'i>(pairs: &mut Pairs<'i, Rule>, rule: Rule) -> Pair<'i, Rule> {
+    let found = pairs.find(|p| p.as_rule() == rule);
+    // The grammar makes this pair mandatory; a missing one is a bug in this file, not in input.
+    found.unwrap_or_else(|| panic!("grammar guarantees a {rule:?} here"))
+}
+
+fn inner_text(pair: Pair<'_, Rule>) -> String {
+    pair.into_inner()
+        .next()
+        .map_or_else(String::new, |p| p.as_str().trim().to_string())
+}
+
+fn unit_and_description(inner: Pairs<'_, Rule>) -> (Option<String>, Option<String>) {
+    let mut unit = None;
+    let mut description = None;
+    for p in inner {
+        match p.as_rule() {
+            Rule::unit => unit = Some(inner_text(p)),
+            Rule::description => description = Some(inner_text(p)),
+            _ => {}
+        }
+    }
+    (unit, description)
+}
+
+/// A pest error as a diagnostic that names what was expected, in the language's own words.
+fn syntax_error(error: &pest::error::Error<Rule>, text: &str, offset: usize) -> Diagnostic {
+    let pos = match error.location {
+        pest::error::InputLocation::Pos(p) => p,
+        pest::error::InputLocation::Span((s, _)) => s,
+    };
+    let end = next_token_end(text, pos);
+    let span = Span::new(pos, end).shifted(offset);
+    let found = text.get(pos..end).unwrap_or("");
+    let expected = match &error.variant {
+        pest::error::ErrorVariant::ParsingError { positives, .. } => describe(positives),
+        pest::error::ErrorVariant::CustomError { message } => message.clone(),
+    };
+    let message = if found.is_empty() {
+        "unexpected end of statement".to_string()
+    } else {
+        format!("unexpected `{found}`")
+    };
+    Diagnostic::error(Code::Syntax, span, message).with_label(format!("expected {expected}"))
+}
+
+/// The end of the token starting at `pos`, so the error underlines a word, not one byte.
+fn next_token_end(text: &str, pos: usize) -> usize {
+    let rest = text.get(pos..).unwrap_or("");
+    let mut chars = rest.char_indices();
+    let Some((_, first)) = chars.next() else {
+        return pos;
+    };
+    let is_word = |c: char| c.is_alphanumeric() || c == '_' || c == '.';
+    if !is_word(first) {
+        return pos + first.len_utf8();
+    }
+    pos + chars
+        .find(|&(_, c)| !is_word(c))
+        .map_or(rest.len(), |(i, _)| i)
+}
+
+/// "a or b": the expected tokens, named as a user would name them.
+fn describe(rules: &[Rule]) -> String {
+    let mut names: Vec<&str> = rules.iter().filter_map(|r| rule_name(*r)).collect();
+    names.sort_unstable();
+    names.dedup();
+    match names.as_slice() {
+        [] => "something else".to_string(),
+        [one] => (*one).to_string(),
+        [init @ .., last] => format!("{} or {last}", init.join(", ")),
+    }
+}
+
+fn rule_name(rule: Rule) -> Option<&'static str> {
+    Some(match rule {
+        Rule::statement | Rule::element_decl | Rule::chain => "a statement",
+        Rule::ident | Rule::keyword => "a name",
+        Rule::kw_model => "`model`",
+        Rule::kw_param => "`param`",
+        Rule::kw_input => "`input`",
+        Rule::kw_let => "`let`",
+        Rule::kw_on => "`on`",
+        Rule::kw_stiffness => "`stiffness`",
+        Rule::kw_ratio => "`ratio`",
+        Rule::param_value | Rule::number | Rule::sign => "a number",
+        Rule::unit => "a unit in brackets like `[Ohm]`",
+        Rule::description => "a description in double quotes",
+        Rule::value_body | Rule::law_body | Rule::stiffness_body | Rule::ratio_body => {
+            "`= value`, `: law`, `stiffness`, `ratio`"
+        }
+        Rule::on_body => "`on`",
+        Rule::group | Rule::node_ref | Rule::junction => "a node (a name, `0:name` or `1:name`)",
+        Rule::junction_kind => "`0` or `1`",
+        Rule::arrow_forward | Rule::arrow_back => "an arrow (`->` or `<-`)",
+        Rule::bond_number => "a bond number",
+        Rule::expr | Rule::call => "an expression",
+        Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::pow => "an operator",
+        Rule::neg | Rule::pos => "an expression",
+        Rule::EOI => "the end of the statement",
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::syntax::ast::{ElementBody, StatementKind};
+
+    fn one(text: &str) -> StatementKind {
+        let (file, diags) = parse(text);
+        assert!(diags.is_empty(), "{diags:?}");
+        file.statements.into_iter().next().unwrap().kind
+    }
+
+    fn show(e: &AstExpr) -> String {
+        let mut s = String::new();
+        e.write_with(&mut s, &|i: &Ident| i.name.clone()).unwrap();
+        s
+    }
+
+    fn value_of(text: &str) -> String {
+        match one(text) {
+            StatementKind::Let(l) => show(&l.value),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn precedence_follows_mathematics() {
+        assert_eq!(value_of("let a = 1 + 2 * 3"), "1 + 2 * 3");
+        assert_eq!(value_of("let a = (1 + 2) * 3"), "(1 + 2) * 3");
+        assert_eq!(value_of("let a = -x^2"), "-x ^ 2");
+        assert_eq!(value_of("let a = x^y^z"), "x ^ y ^ z");
+        assert_eq!(value_of("let a = a - b - c"), "a - b - c");
+        assert_eq!(value_of("let a = 2.5e-3 / x"), "0.0025 / x");
+        assert_eq!(
+            value_of("let w = -4*K*j0*(1 - exp(-gamma*z))/(1 + exp(-gamma*z))"),
+            "-4 * K * j0 * (1 - exp(-gamma * z)) / (1 + exp(-gamma * z))"
+        );
+        assert_eq!(
+            value_of("let d = der(y, 2) + int(y) + der(y)"),
+            "der(y, 2) + int(y) + der(y)"
+        );
+    }
+
+    #[test]
+    fn spans_point_into_the_file() {
+        let text = "model m\nparam Re = 0.3 [Ohm] \"armature resistance\"\n";
+        let (file, _) = parse(text);
+        let StatementKind::Param(p) = &file.statements[1].kind else {
+            panic!()
+        };
+        assert_eq!(&text[p.name.span.start..p.name.span.end], "Re");
+        assert_eq!(p.value.map(|v| v.0), Some(0.3));
+        assert_eq!(p.unit.as_deref(), Some("Ohm"));
+        assert_eq!(p.description.as_deref(), Some("armature resistance"));
+    }
+
+    #[test]
+    fn element_bodies() {
+        match one("C link stiffness K \"spring\"") {
+            StatementKind::Element(e) => {
+                assert_eq!(e.kind.name, "C");
+                assert!(matches!(e.body, ElementBody::Stiffness(_)));
+                assert_eq!(e.description.as_deref(), Some("spring"));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(matches!(
+            one("R o : f = k*sqrt(abs(e))"),
+            StatementKind::Element(ast::ElementDecl {
+                body: ElementBody::Law(..),
+                ..
+            })
+        ));
+        assert!(matches!(
+            one("Df y1 on shaft"),
+            StatementKind::Element(ast::ElementDecl {
+                body: ElementBody::On(..),
+                ..
+            })
+        ));
+    }
+
+    #[test]
+    fn chains_with_fan_out_numbers_and_back_arrows() {
+        let StatementKind::Chain(c) = one("U -[1]-> 1:elec ->\n  Rm, Lm <- x") else {
+            panic!()
+        };
+        assert_eq!(c.groups.len(), 4);
+        assert_eq!(c.groups[2].len(), 2);
+        assert_eq!(c.groups[1][0].junction, Some(ast::JunctionKind::One));
+        assert_eq!(c.arrows[0].number.map(|n| n.0), Some(1));
+        assert!(c.arrows[0].forward);
+        assert!(!c.arrows[2].forward);
+    }
+
+    #[test]
+    fn every_bad_statement_is_reported() {
+        let (file, diags) = parse("model m\nparam = 3\nR r = (1\nR ok = 2\nlet x = foo(1)\n");
+        assert_eq!(file.statements.len(), 2);
+        assert_eq!(diags.len(), 3);
+        let first = diags.iter().next().unwrap();
+        assert_eq!(first.code, Code::Syntax);
+        assert!(first.label.contains("a name"), "{}", first.label);
+    }
+}
