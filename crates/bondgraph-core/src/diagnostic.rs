@@ -91,6 +91,12 @@ pub enum Code {
     Detector,
     /// A declaration that nothing uses.
     Unused,
+    /// A name the language keeps for itself (`t`).
+    Reserved,
+    /// A value that is not a finite number.
+    BadValue,
+    /// A model with nothing in it.
+    Empty,
 }
 
 impl Code {
@@ -114,6 +120,9 @@ impl Code {
             Code::Direction => "bg::direction",
             Code::Detector => "bg::detector",
             Code::Unused => "bg::unused",
+            Code::Reserved => "bg::reserved",
+            Code::BadValue => "bg::bad-value",
+            Code::Empty => "bg::empty",
         }
     }
 }

@@ -427,8 +427,17 @@ fn syntax_error(error: &pest::error::Error<Rule>, text: &str, offset: usize) -> 
         pest::error::InputLocation::Span((s, _)) => s,
     };
     let end = next_token_end(text, pos);
-    let span = Span::new(pos, end).shifted(offset);
     let found = text.get(pos..end).unwrap_or("");
+    // At the end of a statement there is nothing to underline: point at its last character.
+    let span = if found.is_empty() {
+        let last = text
+            .get(..pos)
+            .and_then(|t| t.trim_end().char_indices().last());
+        last.map_or(Span::new(pos, pos), |(i, c)| Span::new(i, i + c.len_utf8()))
+    } else {
+        Span::new(pos, end)
+    }
+    .shifted(offset);
     let expected = match &error.variant {
         pest::error::ErrorVariant::ParsingError { positives, .. } => describe(positives),
         pest::error::ErrorVariant::CustomError { message } => message.clone(),

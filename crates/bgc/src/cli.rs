@@ -1,0 +1,117 @@
+//! Arguments and what each command does with them.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use bondgraph_core::graph::BondGraph;
+use clap::{Parser, Subcommand, ValueEnum};
+
+use crate::report;
+use crate::summary;
+
+/// bgc — a bond-graph compiler for model-based fault detection.
+///
+/// Reads a `.bg` model (a bond graph with its sensors) and checks it or writes it out.
+#[derive(Parser, Debug)]
+#[command(name = "bgc", version, about, long_about = None)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct Args {
+    #[command(subcommand)]
+    command: Option<Command>,
+
+    /// The model to read (a `.bg` file).
+    #[arg(value_name = "MODEL", required = true)]
+    model: Option<PathBuf>,
+
+    /// What to write; without it, bgc checks the model and prints its summary.
+    #[arg(long, value_enum, value_name = "TARGET")]
+    emit: Option<Target>,
+
+    /// Write the output to FILE instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Check a model and print what it holds: counts of elements, bonds, junctions, detectors,
+    /// and its parameters.
+    Check {
+        /// The model to check.
+        #[arg(value_name = "MODEL")]
+        model: PathBuf,
+        /// Write the summary to FILE instead of standard output.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+}
+
+/// The output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Target {
+    /// Graphviz DOT of the bond graph (`dot -Tsvg` draws it).
+    Dot,
+}
+
+/// Why bgc stops without success.
+pub enum Failure {
+    /// The model has errors; they were reported.
+    Invalid,
+    /// Arguments or files were wrong; the reason was printed.
+    Usage,
+}
+
+impl Failure {
+    /// The process exit code for this failure.
+    pub fn exit_code(&self) -> ExitCode {
+        match self {
+            Failure::Invalid => ExitCode::from(1),
+            Failure::Usage => ExitCode::from(2),
+        }
+    }
+}
+
+/// Runs the command the arguments describe.
+pub fn run(args: Args) -> Result<(), Failure> {
+    match (args.command, args.model) {
+        (Some(Command::Check { model, output }), _) => {
+            let graph = load(&model)?;
+            write(output.as_deref(), &summary::check(&graph))
+        }
+        (None, Some(model)) => {
+            let graph = load(&model)?;
+            let text = match args.emit {
+                None => summary::check(&graph),
+                Some(Target::Dot) => bondgraph_codegen::dot::emit(&graph),
+            };
+            write(args.output.as_deref(), &text)
+        }
+        // clap requires MODEL when there is no subcommand.
+        (None, None) => Err(Failure::Usage),
+    }
+}
+
+/// Reads and validates a model, reporting every diagnostic on standard error.
+fn load(path: &Path) -> Result<BondGraph, Failure> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        eprintln!("error: cannot read `{}`: {e}", path.display());
+        Failure::Usage
+    })?;
+    let name = path.display().to_string();
+    report::load(&name, bytes).ok_or(Failure::Invalid)
+}
+
+fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {
+    use std::io::Write as _;
+    let result = match path {
+        Some(path) => std::fs::write(path, text).map_err(|e| (path.display().to_string(), e)),
+        None => std::io::stdout()
+            .lock()
+            .write_all(text.as_bytes())
+            .map_err(|e| ("standard output".to_string(), e)),
+    };
+    result.map_err(|(place, e)| {
+        eprintln!("error: cannot write {place}: {e}");
+        Failure::Usage
+    })
+}

@@ -1,0 +1,153 @@
+//! Core diagnostics shown with miette: file:line:col, the source line, what was expected.
+
+use std::fmt;
+
+use bondgraph_core::diagnostic::{self, Code, Diagnostic, Diagnostics, Severity, Span};
+use bondgraph_core::graph::BondGraph;
+use miette::{LabeledSpan, MietteHandlerOpts, NamedSource, SourceSpan};
+
+/// Sets how reports look: no terminal hyperlinks (they break copy-paste and snapshots), and a
+/// fixed width so output does not depend on the terminal it was produced on.
+pub fn install_hook() {
+    // Fails only if a hook is already set, in which case that one is kept.
+    let _ = miette::set_hook(Box::new(|_| {
+        Box::new(
+            MietteHandlerOpts::new()
+                .terminal_links(false)
+                .width(100)
+                .build(),
+        )
+    }));
+}
+
+/// Loads a model from raw bytes, printing every diagnostic; the graph if there was no error.
+pub fn load(name: &str, bytes: Vec<u8>) -> Option<BondGraph> {
+    let (text, diagnostics) = match String::from_utf8(bytes) {
+        Ok(text) => {
+            let (graph, diagnostics) = bondgraph_core::load(&text);
+            print(name, &text, &diagnostics);
+            return graph.filter(|_| !diagnostics.has_errors());
+        }
+        Err(e) => not_text(&e),
+    };
+    print(name, &text, &diagnostics);
+    None
+}
+
+/// The diagnostic for a file that is not UTF-8, located at its first bad byte.
+fn not_text(e: &std::string::FromUtf8Error) -> (String, Diagnostics) {
+    let at = e.utf8_error().valid_up_to();
+    let byte = e.as_bytes().get(at).copied().unwrap_or(0);
+    // Show the text up to the bad byte, then a replacement character standing for it: the rest
+    // of a binary file is noise on a terminal.
+    let valid = String::from_utf8_lossy(&e.as_bytes()[..at]);
+    let text = format!("{valid}\u{FFFD}");
+    let mut diagnostics = Diagnostics::default();
+    diagnostics.push(
+        Diagnostic::error(
+            Code::NotText,
+            Span::new(at, at + 3),
+            "the file is not UTF-8 text",
+        )
+        .with_label(format!("found byte 0x{byte:02X}; expected UTF-8 text"))
+        .with_help("a .bg model is a text file; check that this is the right file"),
+    );
+    (text, diagnostics)
+}
+
+fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
+    for d in diagnostics.iter() {
+        let report = Report {
+            diagnostic: d.clone(),
+            source: NamedSource::new(name, text.to_string()),
+        };
+        eprintln!("{:?}", miette::Report::new(report));
+    }
+    let errors = diagnostics.error_count();
+    let warnings = diagnostics.len() - errors;
+    if errors > 0 {
+        eprintln!(
+            "bgc: {name}: {errors} error{}{}",
+            plural(errors),
+            if warnings > 0 {
+                format!(", {warnings} warning{}", plural(warnings))
+            } else {
+                String::new()
+            }
+        );
+    }
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
+/// One core diagnostic with the source it points into.
+struct Report {
+    diagnostic: Diagnostic,
+    source: NamedSource<String>,
+}
+
+impl fmt::Debug for Report {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.diagnostic.message)
+    }
+}
+
+impl fmt::Display for Report {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let lc = diagnostic::LineIndex::new(self.source.inner())
+            .line_col(self.source.inner(), self.diagnostic.span.start);
+        write!(
+            f,
+            "{}:{lc}: {}",
+            self.source.name(),
+            self.diagnostic.message
+        )
+    }
+}
+
+impl std::error::Error for Report {}
+
+fn source_span(span: Span) -> SourceSpan {
+    SourceSpan::new(span.start.into(), span.len())
+}
+
+impl miette::Diagnostic for Report {
+    fn code<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        Some(Box::new(self.diagnostic.code.as_str()))
+    }
+
+    fn severity(&self) -> Option<miette::Severity> {
+        Some(match self.diagnostic.severity {
+            Severity::Error => miette::Severity::Error,
+            Severity::Warning => miette::Severity::Warning,
+        })
+    }
+
+    fn help<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        self.diagnostic
+            .help
+            .as_ref()
+            .map(|h| Box::new(h) as Box<dyn fmt::Display>)
+    }
+
+    fn source_code(&self) -> Option<&dyn miette::SourceCode> {
+        Some(&self.source)
+    }
+
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        let d = &self.diagnostic;
+        let label = (!d.label.is_empty()).then(|| d.label.clone());
+        let primary = LabeledSpan::new_primary_with_span(label, source_span(d.span));
+        let notes = d
+            .notes
+            .iter()
+            .map(|n| LabeledSpan::new_with_span(Some(n.message.clone()), source_span(n.span)));
+        Some(Box::new(std::iter::once(primary).chain(notes)))
+    }
+}

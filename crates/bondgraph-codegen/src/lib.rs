@@ -1,0 +1,3 @@
+//! bondgraph-codegen: what bgc writes from a model. One module per output format.
+
+pub mod dot;

@@ -1,0 +1,116 @@
+//! `let` definitions: an order in which each follows those it uses, and cycles reported.
+
+use super::laws::Variability;
+use super::model::{LetId, Signal, SignalExpr};
+use crate::diagnostic::{Code, Diagnostic, Diagnostics};
+use crate::syntax::ast::LetDecl;
+
+/// The `let`s in dependency order; those on a cycle (reported here) or depending on one are
+/// left out. Iterative depth-first search, so a long chain of `let`s cannot overflow the stack.
+pub(crate) fn order(
+    decls: &[&LetDecl],
+    resolved: &[Option<SignalExpr>],
+    diagnostics: &mut Diagnostics,
+) -> Vec<LetId> {
+    #[derive(Clone, Copy, PartialEq)]
+    enum Mark {
+        New,
+        Open,
+        Done,
+        Broken,
+    }
+    let deps: Vec<Vec<u32>> = resolved.iter().map(|e| dependencies(e.as_ref())).collect();
+    let mut mark = vec![Mark::New; decls.len()];
+    let mut order = Vec::with_capacity(decls.len());
+    for root in 0..decls.len() {
+        if mark[root] != Mark::New {
+            continue;
+        }
+        // Stack of (let, index of the next dependency to visit).
+        let mut stack = vec![(root, 0usize)];
+        mark[root] = Mark::Open;
+        while let Some(&mut (node, ref mut next)) = stack.last_mut() {
+            if let Some(&dep) = deps[node].get(*next) {
+                *next += 1;
+                let dep = dep as usize;
+                match mark[dep] {
+                    Mark::New => {
+                        mark[dep] = Mark::Open;
+                        stack.push((dep, 0));
+                    }
+                    Mark::Open => {
+                        let start = stack.iter().position(|&(n, _)| n == dep).unwrap_or(0);
+                        let cycle: Vec<usize> = stack[start..].iter().map(|&(n, _)| n).collect();
+                        diagnostics.push(cycle_error(decls, &cycle));
+                        cycle.iter().for_each(|&n| mark[n] = Mark::Broken);
+                    }
+                    Mark::Broken => mark[node] = Mark::Broken,
+                    Mark::Done => {}
+                }
+            } else {
+                stack.pop();
+                if mark[node] == Mark::Open {
+                    mark[node] = Mark::Done;
+                    order.push(LetId(node as u32));
+                } else if let Some(&(parent, _)) = stack.last() {
+                    // A let that uses a broken one is broken too, but not reported again.
+                    mark[parent] = Mark::Broken;
+                }
+            }
+        }
+    }
+    order
+}
+
+fn dependencies(expr: Option<&SignalExpr>) -> Vec<u32> {
+    let mut deps = Vec::new();
+    if let Some(expr) = expr {
+        expr.for_each_leaf(&mut |s| {
+            if let Signal::Let(LetId(i)) = s {
+                deps.push(*i);
+            }
+        });
+    }
+    deps.sort_unstable();
+    deps.dedup();
+    deps
+}
+
+fn cycle_error(decls: &[&LetDecl], cycle: &[usize]) -> Diagnostic {
+    let first = decls[cycle[0]];
+    let names: Vec<&str> = cycle
+        .iter()
+        .chain(std::iter::once(&cycle[0]))
+        .map(|&n| decls[n].name.name.as_str())
+        .collect();
+    let mut d = Diagnostic::error(
+        Code::Cycle,
+        first.name.span,
+        format!("`let` definitions form a cycle: {}", names.join(" -> ")),
+    )
+    .with_label("this definition depends on itself")
+    .with_help("a `let` may use only `let`s that do not use it back");
+    for &n in &cycle[1..] {
+        d = d.with_note(
+            decls[n].name.span,
+            format!("`{}` is on the cycle", decls[n].name.name),
+        );
+    }
+    d
+}
+
+/// How a resolved `let` varies, given those of the `let`s before it; `None` if one is broken.
+pub(crate) fn variability(expr: &SignalExpr, lets: &[Option<Variability>]) -> Option<Variability> {
+    let mut most = Some(Variability::Constant);
+    expr.for_each_leaf(&mut |s| {
+        let v = match s {
+            Signal::Param(_) => Some(Variability::Constant),
+            Signal::Input(_) | Signal::Time => Some(Variability::Known),
+            Signal::Sensor(_) => Some(Variability::Measured),
+            Signal::Let(LetId(i)) => lets.get(*i as usize).copied().flatten(),
+            Signal::Port(_) => None,
+        };
+        most = most.zip(v).map(|(a, b)| a.max(b));
+    });
+    most
+}

@@ -1,0 +1,15 @@
+//! The bond graph: its model types, lowering from the syntax tree, and structural checks.
+
+mod bonds;
+mod laws;
+mod lets;
+mod lower;
+pub mod model;
+mod scope;
+mod validate;
+
+pub use lower::lower;
+pub use model::*;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,428 @@
+//! The bond graph a model describes: nodes and bonds in a petgraph, signals in typed tables.
+//!
+//! Everything here is resolved: names are ids, laws are normalised, bonds are numbered. Spans
+//! stay attached so later stages can still point at the source.
+
+use petgraph::graph::{DiGraph, EdgeIndex, NodeIndex};
+use petgraph::visit::EdgeRef;
+use petgraph::Direction;
+
+use crate::diagnostic::Span;
+use crate::expr::Expr;
+pub use crate::syntax::ast::JunctionKind;
+
+/// A node of the graph: an element, a junction or a detector.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct NodeId(pub NodeIndex);
+
+/// A bond of the graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct BondId(pub EdgeIndex);
+
+/// A parameter, by its place in [`BondGraph::params`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ParamId(pub u32);
+
+/// An input, by its place in [`BondGraph::inputs`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct InputId(pub u32);
+
+/// A `let` definition, by its place in [`BondGraph::lets`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct LetId(pub u32);
+
+/// What a name in an expression stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Signal {
+    /// A constant parameter.
+    Param(ParamId),
+    /// A known input signal.
+    Input(InputId),
+    /// A named helper expression.
+    Let(LetId),
+    /// The signal a detector measures.
+    Sensor(NodeId),
+    /// Time, `t`.
+    Time,
+    /// A port variable of the element whose law this is (`e`, `f`, `p`, `q`).
+    Port(PortVar),
+}
+
+/// The variables at an element's port, usable in its own law.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum PortVar {
+    /// Effort.
+    E,
+    /// Flow.
+    F,
+    /// Momentum, the integral of effort (the state of an `I`).
+    P,
+    /// Displacement, the integral of flow (the state of a `C`).
+    Q,
+}
+
+impl PortVar {
+    /// The name as written in a law.
+    pub fn name(self) -> &'static str {
+        match self {
+            PortVar::E => "e",
+            PortVar::F => "f",
+            PortVar::P => "p",
+            PortVar::Q => "q",
+        }
+    }
+
+    /// The port variable called `name`, if any.
+    pub fn from_name(name: &str) -> Option<PortVar> {
+        match name {
+            "e" => Some(PortVar::E),
+            "f" => Some(PortVar::F),
+            "p" => Some(PortVar::P),
+            "q" => Some(PortVar::Q),
+            _ => None,
+        }
+    }
+}
+
+/// An expression over resolved signals.
+pub type SignalExpr = Expr<Signal>;
+
+/// A constant parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    /// Its name.
+    pub name: String,
+    /// Its nominal value.
+    pub value: f64,
+    /// Its unit, as written.
+    pub unit: Option<String>,
+    /// What it is.
+    pub description: Option<String>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// A known input signal (a voltage command, a pump flow…).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Input {
+    /// Its name.
+    pub name: String,
+    /// Its unit, as written.
+    pub unit: Option<String>,
+    /// What it is.
+    pub description: Option<String>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// A named helper expression.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Let {
+    /// Its name.
+    pub name: String,
+    /// Its definition.
+    pub value: SignalExpr,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// The element kinds of the language.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ElementKind {
+    /// Effort source.
+    Se,
+    /// Flow source.
+    Sf,
+    /// Modulated effort source.
+    MSe,
+    /// Modulated flow source.
+    MSf,
+    /// Resistor (dissipation).
+    R,
+    /// Capacitor (potential energy).
+    C,
+    /// Inertia (kinetic energy).
+    I,
+    /// Transformer.
+    TF,
+    /// Gyrator.
+    GY,
+    /// Modulated transformer.
+    MTF,
+    /// Modulated gyrator.
+    MGY,
+}
+
+impl ElementKind {
+    /// Every kind, in the order the docs list them.
+    pub const ALL: [ElementKind; 11] = [
+        ElementKind::Se,
+        ElementKind::Sf,
+        ElementKind::MSe,
+        ElementKind::MSf,
+        ElementKind::R,
+        ElementKind::C,
+        ElementKind::I,
+        ElementKind::TF,
+        ElementKind::GY,
+        ElementKind::MTF,
+        ElementKind::MGY,
+    ];
+
+    /// The name as written.
+    pub fn name(self) -> &'static str {
+        match self {
+            ElementKind::Se => "Se",
+            ElementKind::Sf => "Sf",
+            ElementKind::MSe => "MSe",
+            ElementKind::MSf => "MSf",
+            ElementKind::R => "R",
+            ElementKind::C => "C",
+            ElementKind::I => "I",
+            ElementKind::TF => "TF",
+            ElementKind::GY => "GY",
+            ElementKind::MTF => "MTF",
+            ElementKind::MGY => "MGY",
+        }
+    }
+
+    /// The kind called `name`, if any.
+    pub fn from_name(name: &str) -> Option<ElementKind> {
+        ElementKind::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Sources: one bond, pointing out.
+    pub fn is_source(self) -> bool {
+        matches!(
+            self,
+            ElementKind::Se | ElementKind::Sf | ElementKind::MSe | ElementKind::MSf
+        )
+    }
+
+    /// R, C and I: one bond, pointing in.
+    pub fn is_one_port_passive(self) -> bool {
+        matches!(self, ElementKind::R | ElementKind::C | ElementKind::I)
+    }
+
+    /// TF, GY and their modulated forms: one bond in, one out.
+    pub fn is_two_port(self) -> bool {
+        matches!(
+            self,
+            ElementKind::TF | ElementKind::GY | ElementKind::MTF | ElementKind::MGY
+        )
+    }
+}
+
+/// The two detector kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum DetectorKind {
+    /// Measures the effort of a 0-junction.
+    De,
+    /// Measures the flow of a 1-junction.
+    Df,
+}
+
+impl DetectorKind {
+    /// The name as written.
+    pub fn name(self) -> &'static str {
+        match self {
+            DetectorKind::De => "De",
+            DetectorKind::Df => "Df",
+        }
+    }
+
+    /// The kind called `name`, if any.
+    pub fn from_name(name: &str) -> Option<DetectorKind> {
+        match name {
+            "De" => Some(DetectorKind::De),
+            "Df" => Some(DetectorKind::Df),
+            _ => None,
+        }
+    }
+
+    /// The junction kind whose common variable this detector reads.
+    pub fn junction(self) -> JunctionKind {
+        match self {
+            DetectorKind::De => JunctionKind::Zero,
+            DetectorKind::Df => JunctionKind::One,
+        }
+    }
+}
+
+/// The constitutive law of an element, normalised.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Law {
+    /// A source's value: the effort of `Se`/`MSe`, the flow of `Sf`/`MSf`.
+    Source(SignalExpr),
+    /// A linear one-port with coefficient `x`: `R`: e = x·f; `C`: e = x·q; `I`: f = x·p.
+    Linear(SignalExpr),
+    /// A law given explicitly: `output = rhs`, the rhs in the element's other port variable.
+    Explicit {
+        /// The variable the law defines.
+        output: PortVar,
+        /// Its definition.
+        rhs: SignalExpr,
+    },
+    /// The modulus of a two-port: `TF`: e1 = m·e2, f2 = m·f1; `GY`: e1 = r·f2, e2 = r·f1.
+    Modulus(SignalExpr),
+}
+
+impl Law {
+    /// The expression the law is made of.
+    pub fn expr(&self) -> &SignalExpr {
+        match self {
+            Law::Source(x) | Law::Linear(x) | Law::Modulus(x) => x,
+            Law::Explicit { rhs, .. } => rhs,
+        }
+    }
+}
+
+/// What a node is.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NodeKind {
+    /// A 0- or 1-junction.
+    Junction(JunctionKind),
+    /// An element and its law.
+    Element(ElementKind, Law),
+    /// A detector; its name is the name of the signal it measures.
+    Detector(DetectorKind),
+}
+
+/// A node with its name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Node {
+    /// Its name.
+    pub name: String,
+    /// What it is.
+    pub kind: NodeKind,
+    /// What it is for, as the user described it.
+    pub description: Option<String>,
+    /// Where it is declared (for a junction: its first mention).
+    pub span: Span,
+}
+
+/// Whether a bond carries power or only information.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum BondKind {
+    /// A power bond: effort and flow, power positive along the half-arrow.
+    Power,
+    /// An activated bond from a junction to a detector: a measurement, no power.
+    Signal,
+}
+
+/// A bond, directed along positive power (from `tail` to `head` in the graph).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bond {
+    /// Its number, as shown on drawings and used in equations.
+    pub number: u32,
+    /// Power or signal.
+    pub kind: BondKind,
+    /// The arrow that made it.
+    pub span: Span,
+}
+
+/// A whole model: its signals and its graph.
+#[derive(Clone, Debug)]
+pub struct BondGraph {
+    /// The model's name.
+    pub name: String,
+    /// Parameters, in declaration order.
+    pub params: Vec<Param>,
+    /// Inputs, in declaration order.
+    pub inputs: Vec<Input>,
+    /// `let` definitions, in declaration order.
+    pub lets: Vec<Let>,
+    /// The `let` definitions in an order where each comes after those it uses.
+    pub let_order: Vec<LetId>,
+    /// Nodes and bonds; edges point along positive power.
+    pub graph: DiGraph<Node, Bond>,
+}
+
+impl BondGraph {
+    /// The node `id`.
+    pub fn node(&self, id: NodeId) -> &Node {
+        &self.graph[id.0]
+    }
+
+    /// The bond `id`.
+    pub fn bond(&self, id: BondId) -> &Bond {
+        &self.graph[id.0]
+    }
+
+    /// Every node, in declaration order.
+    pub fn nodes(&self) -> impl Iterator<Item = NodeId> + '_ {
+        self.graph.node_indices().map(NodeId)
+    }
+
+    /// Every bond, in the order the chains wrote them.
+    pub fn bonds(&self) -> impl Iterator<Item = BondId> + '_ {
+        self.graph.edge_indices().map(BondId)
+    }
+
+    /// The two ends of a bond, in power direction.
+    pub fn ends(&self, id: BondId) -> (NodeId, NodeId) {
+        let (a, b) = self
+            .graph
+            .edge_endpoints(id.0)
+            .expect("a BondId always names a bond of its own graph");
+        (NodeId(a), NodeId(b))
+    }
+
+    /// The bonds at a node whose power flows into it (`Incoming`) or out of it (`Outgoing`).
+    pub fn bonds_at(&self, node: NodeId, direction: Direction) -> Vec<BondId> {
+        let mut bonds: Vec<BondId> = self
+            .graph
+            .edges_directed(node.0, direction)
+            .map(|e| BondId(e.id()))
+            .collect();
+        bonds.sort();
+        bonds
+    }
+
+    /// The name of a signal.
+    pub fn signal_name(&self, signal: Signal) -> &str {
+        match signal {
+            Signal::Param(ParamId(i)) => &self.params[i as usize].name,
+            Signal::Input(InputId(i)) => &self.inputs[i as usize].name,
+            Signal::Let(LetId(i)) => &self.lets[i as usize].name,
+            Signal::Sensor(node) => &self.node(node).name,
+            Signal::Time => "t",
+            Signal::Port(var) => var.name(),
+        }
+    }
+
+    /// An expression as the user would write it.
+    pub fn show(&self, expr: &SignalExpr) -> String {
+        let mut out = String::new();
+        // Writing into a String cannot fail.
+        let _ = expr.write_with(&mut out, &|s| self.signal_name(*s).to_string());
+        out
+    }
+
+    /// Counts of what the model holds, for `bgc check`.
+    pub fn counts(&self) -> Counts {
+        let mut counts = Counts::default();
+        for node in self.graph.node_weights() {
+            match node.kind {
+                NodeKind::Junction(_) => counts.junctions += 1,
+                NodeKind::Element(..) => counts.elements += 1,
+                NodeKind::Detector(_) => counts.detectors += 1,
+            }
+        }
+        counts.bonds = self.graph.edge_count();
+        counts
+    }
+}
+
+/// How many of each thing a model holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counts {
+    /// Elements (sources, R, C, I, TF, GY and modulated forms).
+    pub elements: usize,
+    /// Bonds, power and signal.
+    pub bonds: usize,
+    /// 0- and 1-junctions.
+    pub junctions: usize,
+    /// Detectors.
+    pub detectors: usize,
+}
