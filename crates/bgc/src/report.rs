@@ -6,14 +6,16 @@ use bondgraph_core::diagnostic::{self, Code, Diagnostic, Diagnostics, Severity, 
 use bondgraph_core::graph::BondGraph;
 use miette::{LabeledSpan, MietteHandlerOpts, NamedSource, SourceSpan};
 
-/// Sets how reports look: no terminal hyperlinks (they break copy-paste and snapshots), and a
-/// fixed width so output does not depend on the terminal it was produced on.
+/// Sets how reports look: no terminal hyperlinks (they break copy-paste and snapshots); a fixed
+/// width and character set, so output does not depend on the terminal it was produced on.
+/// Colour still follows the terminal and `NO_COLOR`.
 pub fn install_hook() {
     // Fails only if a hook is already set, in which case that one is kept.
     let _ = miette::set_hook(Box::new(|_| {
         Box::new(
             MietteHandlerOpts::new()
                 .terminal_links(false)
+                .unicode(true)
                 .width(100)
                 .build(),
         )

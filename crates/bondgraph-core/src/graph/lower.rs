@@ -74,6 +74,7 @@ impl<'a> Lowerer<'a, '_> {
                 StatementKind::Let(l) => self.declare_let(l),
                 StatementKind::Element(e) => self.declare_element(e),
                 StatementKind::Chain(c) => self.declare_junctions(c),
+                StatementKind::Unparsed(u) => self.declare_unparsed(u),
             }
         }
         if self.model.is_none() {
@@ -82,6 +83,26 @@ impl<'a> Lowerer<'a, '_> {
                     .with_label("expected `model NAME` as the first statement")
                     .with_help("start the file with a line such as `model dc_motor`"),
             );
+        }
+    }
+
+    /// Marks what a statement that did not parse declares, so its uses stay quiet.
+    fn declare_unparsed(&mut self, unparsed: &'a ast::Unparsed) {
+        for junction in &unparsed.junctions {
+            self.scope.break_node(&junction.name);
+        }
+        let (Some(first), name) = (&unparsed.first, &unparsed.name) else {
+            return;
+        };
+        match (first.name.as_str(), name) {
+            ("model", _) => self.model = self.model.or(Some(name.as_ref().unwrap_or(first))),
+            ("param" | "input" | "let", Some(name)) => self.scope.break_signal(&name.name),
+            ("De" | "Df", Some(name)) => {
+                self.scope.break_signal(&name.name);
+                self.scope.break_node(&name.name);
+            }
+            (_, Some(name)) => self.scope.break_node(&name.name),
+            (_, None) => {}
         }
     }
 

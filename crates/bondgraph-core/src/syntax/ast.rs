@@ -48,6 +48,20 @@ pub enum StatementKind {
     Element(ElementDecl),
     /// `a -> b, c -> d`
     Chain(Chain),
+    /// A statement that did not parse (already reported), with what could still be read.
+    Unparsed(Unparsed),
+}
+
+/// The names a statement that did not parse seems to declare, so that their uses elsewhere
+/// are not reported a second time as undefined.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Unparsed {
+    /// The first word (`param`, `Se`, `model`…).
+    pub first: Option<Ident>,
+    /// The second word, when it directly follows the first: the declared name.
+    pub name: Option<Ident>,
+    /// Junctions written `0:NAME` or `1:NAME`.
+    pub junctions: Vec<Ident>,
 }
 
 /// A parameter declaration.

@@ -4,6 +4,7 @@
 
 pub mod ast;
 mod parser;
+mod recover;
 mod split;
 
 pub use parser::parse;

@@ -6,6 +6,7 @@ use pest::Parser as _;
 use std::sync::OnceLock;
 
 use super::ast::{self, AstExpr, Ident};
+use super::recover;
 use super::split;
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::expr::{BinOp, Expr, Func};
@@ -26,7 +27,14 @@ pub fn parse(text: &str) -> (ast::File, Diagnostics) {
     for span in split::statements(text) {
         match parse_statement(&text[span.start..span.end], span.start) {
             Ok(statement) => file.statements.push(statement),
-            Err(errors) => errors.into_iter().for_each(|d| diagnostics.push(d)),
+            Err(errors) => {
+                errors.into_iter().for_each(|d| diagnostics.push(d));
+                let unparsed = recover::names(&text[span.start..span.end], span.start);
+                file.statements.push(ast::Statement {
+                    kind: ast::StatementKind::Unparsed(unparsed),
+                    span,
+                });
+            }
         }
     }
     (file, diagnostics)
@@ -34,6 +42,7 @@ pub fn parse(text: &str) -> (ast::File, Diagnostics) {
 
 /// Parses one statement whose text starts at byte `offset` of its file.
 fn parse_statement(text: &str, offset: usize) -> Result<ast::Statement, Vec<Diagnostic>> {
+    too_complex(text, offset).map_or(Ok(()), |d| Err(vec![d]))?;
     let mut pairs =
         BgParser::parse(Rule::statement, text).map_err(|e| vec![syntax_error(&e, text, offset)])?;
     let Some(statement) = pairs.next() else {
@@ -58,6 +67,65 @@ fn parse_statement(text: &str, offset: usize) -> Result<ast::Statement, Vec<Diag
         }),
         _ => Err(builder.errors),
     }
+}
+
+/// Most operators in one statement; also bounds the depth of every expression tree.
+pub(crate) const MAX_OPERATORS: usize = 1000;
+/// Deepest nesting of parentheses.
+pub(crate) const MAX_NESTING: usize = 64;
+
+/// Rejects a statement whose expression would be deeper than the recursive stages after the
+/// parser (and the parser itself) can take without exhausting the stack. No model of a real
+/// machine comes near these limits; a corrupted or generated file can.
+fn too_complex(text: &str, offset: usize) -> Option<Diagnostic> {
+    let bytes = text.as_bytes();
+    let (mut operators, mut depth) = (0usize, 0usize);
+    let mut in_text = false;
+    let mut in_comment = false;
+    for (i, &b) in bytes.iter().enumerate() {
+        match b {
+            b'\n' => (in_text, in_comment) = (false, false),
+            _ if in_comment => {}
+            b'"' => in_text = !in_text,
+            _ if in_text => {}
+            b'#' => in_comment = true,
+            b'(' => {
+                depth += 1;
+                operators += 1;
+            }
+            b')' => depth = depth.saturating_sub(1),
+            b'+' | b'*' | b'/' | b'^' | b',' => operators += 1,
+            // A minus that is not part of an arrow (`->`, `<-`, `-[3]->`, `<-[3]-`).
+            b'-' => {
+                let next = bytes.get(i + 1).copied();
+                let previous = i.checked_sub(1).map(|j| bytes[j]);
+                if !matches!(next, Some(b'>' | b'[')) && !matches!(previous, Some(b'<' | b']')) {
+                    operators += 1;
+                }
+            }
+            _ => {}
+        }
+        let span = Span::new(i, i + 1).shifted(offset);
+        if depth > MAX_NESTING {
+            return Some(
+                Diagnostic::error(Code::Syntax, span, "parentheses nested too deep")
+                    .with_label(format!(
+                        "expected at most {MAX_NESTING} levels of parentheses"
+                    ))
+                    .with_help("split the expression with `let` definitions"),
+            );
+        }
+        if operators > MAX_OPERATORS {
+            return Some(
+                Diagnostic::error(Code::Syntax, span, "too many operators in one statement")
+                    .with_label(format!(
+                        "expected at most {MAX_OPERATORS} operators per statement"
+                    ))
+                    .with_help("split the expression with `let` definitions"),
+            );
+        }
+    }
+    None
 }
 
 /// Turns pairs into syntax nodes, collecting the errors the grammar cannot express.
@@ -374,9 +442,16 @@ impl Builder {
             Diagnostic::error(
                 Code::BadCall,
                 span,
-                format!("`{}` called with {got} argument(s)", name.name),
+                format!(
+                    "`{}` called with {got} argument{}",
+                    name.name,
+                    if got == 1 { "" } else { "s" }
+                ),
             )
-            .with_label(format!("expected {want} argument(s)")),
+            .with_label(format!(
+                "expected {want} argument{}",
+                if want == "1" { "" } else { "s" }
+            )),
         );
         Expr::Num(0.0)
     }
@@ -447,7 +522,14 @@ fn syntax_error(error: &pest::error::Error<Rule>, text: &str, offset: usize) -> 
     } else {
         format!("unexpected `{found}`")
     };
-    Diagnostic::error(Code::Syntax, span, message).with_label(format!("expected {expected}"))
+    let d =
+        Diagnostic::error(Code::Syntax, span, message).with_label(format!("expected {expected}"));
+    let open = text.matches('(').count();
+    if found.is_empty() && open > text.matches(')').count() {
+        d.with_help("a `(` is not closed")
+    } else {
+        d
+    }
 }
 
 /// The end of the token starting at `pos`, so the error underlines a word, not one byte.
@@ -511,6 +593,39 @@ fn rule_name(rule: Rule) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn expressions_at_the_limits_parse_and_beyond_them_are_refused() {
+        // Run where tests run: a 2 MiB thread stack.
+        let statement = |body: String| format!("let x = {body}");
+        let power = statement(format!("a{}", "^a".repeat(MAX_OPERATORS)));
+        let minus = statement(format!("{}a", "-".repeat(MAX_OPERATORS)));
+        let sum = statement(format!("a{}", "+a".repeat(MAX_OPERATORS)));
+        let parens = statement(format!(
+            "{}a{}",
+            "(".repeat(MAX_NESTING),
+            ")".repeat(MAX_NESTING)
+        ));
+        for text in [&power, &minus, &sum, &parens] {
+            let (file, diagnostics) = parse(text);
+            assert!(diagnostics.is_empty(), "{diagnostics:?}");
+            let mut leaves = 0;
+            for s in &file.statements {
+                if let ast::StatementKind::Let(l) = &s.kind {
+                    l.value.for_each_leaf(&mut |_| leaves += 1);
+                }
+            }
+            assert!(leaves >= 1);
+        }
+        for text in [
+            format!("{power}^a"),
+            format!("-{minus}"),
+            format!("let x = ({})", &parens[8..]),
+        ] {
+            let (_, diagnostics) = parse(&text);
+            assert_eq!(diagnostics.len(), 1, "{diagnostics:?}");
+        }
+    }
     use crate::syntax::ast::{ElementBody, StatementKind};
 
     fn one(text: &str) -> StatementKind {
@@ -605,7 +720,13 @@ mod tests {
     #[test]
     fn every_bad_statement_is_reported() {
         let (file, diags) = parse("model m\nparam = 3\nR r = (1\nR ok = 2\nlet x = foo(1)\n");
-        assert_eq!(file.statements.len(), 2);
+        // The bad statements stay in the file as `Unparsed`, with the names they declare.
+        let parsed = file
+            .statements
+            .iter()
+            .filter(|s| !matches!(s.kind, ast::StatementKind::Unparsed(_)))
+            .count();
+        assert_eq!((parsed, file.statements.len()), (2, 5));
         assert_eq!(diags.len(), 3);
         let first = diags.iter().next().unwrap();
         assert_eq!(first.code, Code::Syntax);

@@ -1,0 +1,23 @@
+//! Every model in `tests/bad/` is rejected with exit code 1, and its diagnostics, which must
+//! name the file, line and column, are snapshotted.
+
+mod common;
+
+use common::{bgc, code, names_line_and_column, relative, stderr, stdout};
+
+#[test]
+fn every_bad_model_is_rejected_with_a_located_diagnostic() {
+    insta::glob!("bad/*.bg", |path| {
+        let model = relative(path);
+        let out = bgc(&["check", &model]);
+        let report = stderr(&out);
+        assert_eq!(code(&out), 1, "{model}: {report}");
+        assert!(
+            stdout(&out).is_empty(),
+            "{model}: printed a summary for an invalid model"
+        );
+        let has_line_col = names_line_and_column(&report, &model);
+        assert!(has_line_col, "{model}: no file:line:col in\n{report}");
+        insta::assert_snapshot!("diagnostics", report);
+    });
+}

@@ -1,0 +1,97 @@
+//! The command line: help, version, exit codes, output files.
+
+mod common;
+
+use common::{bgc, code, root, stderr, stdout};
+
+#[test]
+fn help_and_version() {
+    let help = bgc(&["--help"]);
+    assert_eq!(code(&help), 0);
+    for word in ["--emit", "-o, --output", "check", "MODEL"] {
+        assert!(
+            stdout(&help).contains(word),
+            "help lacks {word}:\n{}",
+            stdout(&help)
+        );
+    }
+    let version = bgc(&["--version"]);
+    assert_eq!(code(&version), 0);
+    assert_eq!(
+        stdout(&version).trim(),
+        format!("bgc {}", env!("CARGO_PKG_VERSION"))
+    );
+}
+
+#[test]
+fn an_unknown_target_is_a_usage_error_listing_the_valid_ones() {
+    let out = bgc(&["models/dc_motor.bg", "--emit", "svgz"]);
+    assert_eq!(code(&out), 2);
+    assert!(
+        stderr(&out).contains("possible values: dot"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(stdout(&out).is_empty());
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    assert_eq!(code(&bgc(&[])), 2);
+    assert_eq!(code(&bgc(&["--frobnicate", "models/dc_motor.bg"])), 2);
+    let missing = bgc(&["check", "models/no_such_model.bg"]);
+    assert_eq!(code(&missing), 2);
+    assert!(
+        stderr(&missing).contains("no_such_model.bg"),
+        "{}",
+        stderr(&missing)
+    );
+    assert_eq!(
+        code(&bgc(&["check", "models"])),
+        2,
+        "a directory is not a model"
+    );
+}
+
+#[test]
+fn an_invalid_model_exits_1_and_writes_nothing() {
+    let dir = std::env::temp_dir().join(format!("bgc-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let bad = dir.join("bad.bg");
+    std::fs::write(&bad, "model bad\nSe s = 1\ns -> r\n").expect("write");
+    let out_file = dir.join("out.dot");
+    let out = bgc(&[
+        bad.to_str().expect("utf-8 path"),
+        "--emit",
+        "dot",
+        "-o",
+        out_file.to_str().expect("utf-8 path"),
+    ]);
+    assert_eq!(code(&out), 1);
+    assert!(stdout(&out).is_empty());
+    assert!(!out_file.exists(), "no output file for an invalid model");
+    assert!(stderr(&out).contains("bad.bg:3:6"), "{}", stderr(&out));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn output_goes_to_the_file_given_with_o() {
+    let dir = std::env::temp_dir().join(format!("bgc-cli-o-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let file = dir.join("bench.dot");
+    let out = bgc(&[
+        "models/backlash_bench.bg",
+        "--emit",
+        "dot",
+        "-o",
+        file.to_str().expect("utf-8 path"),
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(stdout(&out).is_empty());
+    let written = std::fs::read_to_string(&file).expect("written");
+    let direct = bgc(&["models/backlash_bench.bg", "--emit", "dot"]);
+    assert_eq!(written, stdout(&direct));
+    assert!(written.starts_with("digraph \"backlash_bench\""));
+    std::fs::remove_dir_all(&dir).ok();
+    assert!(root().join("models/backlash_bench.bg").exists());
+}

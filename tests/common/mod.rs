@@ -1,0 +1,63 @@
+//! Running the `bgc` binary the way a user does, from the workspace root.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+/// The workspace root, where `models/` and `tests/` are.
+pub fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// A path relative to the workspace root, with `/` separators, as shown in diagnostics.
+pub fn relative(path: &Path) -> String {
+    let root = root().canonicalize().expect("workspace root");
+    let path = path.canonicalize().expect("test file");
+    path.strip_prefix(&root)
+        .expect("inside the workspace")
+        .components()
+        .map(|c| c.as_os_str().to_string_lossy().into_owned())
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
+/// Runs bgc with `args` from the workspace root, colours off.
+pub fn bgc(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bgc"))
+        .args(args)
+        .current_dir(root())
+        .env("NO_COLOR", "1")
+        .env_remove("FORCE_COLOR")
+        .env_remove("CLICOLOR_FORCE")
+        .stdin(Stdio::null())
+        .output()
+        .expect("bgc runs")
+}
+
+/// Standard output as text.
+pub fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// Standard error as text.
+pub fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// The exit code; a signal or a panic (101) fails the test at the call site.
+pub fn code(output: &Output) -> i32 {
+    output.status.code().unwrap_or(-1)
+}
+
+/// Whether `report` names `file:LINE:COL` somewhere.
+pub fn names_line_and_column(report: &str, file: &str) -> bool {
+    let located = format!("{file}:");
+    report.match_indices(&located).any(|(at, _)| {
+        let mut parts = report[at + located.len()..].splitn(3, ':');
+        let number = |s: Option<&str>| {
+            s.is_some_and(|s| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit()))
+        };
+        number(parts.next()) && number(parts.next())
+    })
+}
