@@ -35,3 +35,20 @@ pub fn mass_spring_chain(stages: usize, detector_every: usize) -> String {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn generated_chains_are_valid_and_sized_as_documented() {
+        for stages in [1, 2, 7] {
+            let (graph, diagnostics) = crate::load(&mass_spring_chain(stages, 5));
+            let graph = graph.unwrap_or_else(|| panic!("{diagnostics:#?}"));
+            let counts = graph.counts();
+            assert_eq!(counts.elements, 3 * stages + 1);
+            assert_eq!(counts.junctions, 3 * stages - 2);
+            assert_eq!(counts.detectors, stages.div_ceil(5));
+        }
+    }
+}
