@@ -3,10 +3,14 @@
 //! [`load`] reads a model's text into a validated [`graph::BondGraph`]: the `.bg` syntax
 //! ([`syntax`]), then lowering and checks ([`graph`]), with [`diagnostic`]s tied to source spans.
 
+pub mod causality;
 pub mod diagnostic;
 pub mod expr;
+pub mod fdi;
 pub mod generate;
 pub mod graph;
+pub mod sim;
+pub mod symbolic;
 pub mod syntax;
 
 use diagnostic::Diagnostics;

@@ -1,0 +1,541 @@
+//! The equations of a bond graph, as relations between bond variables that can be solved in
+//! chosen directions: what causality assignment orients.
+
+use std::collections::HashMap;
+
+use petgraph::Direction::{Incoming, Outgoing};
+
+use super::Mode;
+use crate::expr::Expr;
+use crate::graph::{
+    BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,
+    Signal, SignalExpr,
+};
+use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool};
+
+/// An unknown of the system, by index into [`System::vars`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct VarId(pub u32);
+
+/// What an unknown is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Var {
+    /// The effort on a bond.
+    Effort(BondId),
+    /// The flow on a bond.
+    Flow(BondId),
+    /// The common variable of a junction (effort of a 0, flow of a 1).
+    Common(NodeId),
+}
+
+impl Var {
+    /// The unknown as a reader of the model names it: `e3`, `f7`, or its junction.
+    pub fn describe(self, model: &BondGraph) -> String {
+        match self {
+            Var::Effort(b) => format!("e{}", model.bond(b).number),
+            Var::Flow(b) => format!("f{}", model.bond(b).number),
+            Var::Common(j) => format!("the common variable of junction `{}`", model.node(j).name),
+        }
+    }
+}
+
+/// How an equation relates its unknowns.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Relation {
+    /// `var = value`, `value` over knowns (a source; an inverted detector; a state output).
+    Assign {
+        /// The unknown defined.
+        var: VarId,
+        /// Its value.
+        value: ExprId,
+    },
+    /// `a = k·b`, solvable for either side.
+    Scale {
+        /// Left side.
+        a: VarId,
+        /// Right side.
+        b: VarId,
+        /// The factor, over knowns.
+        k: ExprId,
+    },
+    /// `out = rhs`, `rhs` over a `Var` leaf: solvable for `out` only (a nonlinear law).
+    Law {
+        /// The unknown defined.
+        out: VarId,
+        /// Its definition.
+        rhs: ExprId,
+    },
+    /// `Σ ± var = 0` (a junction's balance), solvable for any term.
+    Sum {
+        /// The terms, `true` for plus.
+        terms: Vec<(bool, VarId)>,
+    },
+    /// A storage element in diagnosis: `out = d/dt g(input)` (derivative causality) and/or
+    /// `out2 = h(int(input2))` (integral causality), each over the `Var` leaf of its input.
+    Storage {
+        /// Derivative form: the rate, and g over the co-energy variable.
+        derivative: Option<(VarId, ExprId)>,
+        /// Integral form: the co-energy variable, and h over the integral of the rate.
+        integral: Option<(VarId, ExprId)>,
+    },
+}
+
+/// One equation and whose it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Equation {
+    /// The element, junction or detector whose law this is.
+    pub owner: NodeId,
+    /// The relation.
+    pub relation: Relation,
+    /// Every unknown it involves.
+    pub vars: Vec<VarId>,
+    /// The `let`s its expressions use, directly or through other `let`s.
+    pub lets: Vec<LetId>,
+}
+
+/// A state variable of the integral-causality model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    /// `p_NAME` for an `I`, `q_NAME` for a `C`.
+    pub name: String,
+    /// The storage element.
+    pub element: NodeId,
+    /// The unknown whose value is the state's derivative (effort of an `I`, flow of a `C`).
+    pub rate: VarId,
+}
+
+/// A storage element that cannot take the causality its mode requires, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refusal {
+    /// The element.
+    pub element: NodeId,
+    /// Why.
+    pub reason: String,
+}
+
+/// The equations of a model for one mode, over one expression pool.
+#[derive(Clone, Debug)]
+pub struct System {
+    /// The unknowns.
+    pub vars: Vec<Var>,
+    /// The equations.
+    pub equations: Vec<Equation>,
+    /// State variables (integral mode).
+    pub states: Vec<State>,
+    /// Storage elements whose law cannot be used in the mode's causality.
+    pub refusals: Vec<Refusal>,
+    /// The expressions.
+    pub pool: Pool,
+    index: HashMap<Var, VarId>,
+}
+
+impl System {
+    /// The id of an unknown.
+    pub fn var(&self, var: Var) -> Option<VarId> {
+        self.index.get(&var).copied()
+    }
+}
+
+/// Writes the equations of `model` for `mode`.
+pub fn build(model: &BondGraph, mode: Mode) -> System {
+    let mut b = Builder {
+        model,
+        mode,
+        sys: System {
+            vars: Vec::new(),
+            equations: Vec::new(),
+            states: Vec::new(),
+            refusals: Vec::new(),
+            pool: Pool::default(),
+            index: HashMap::new(),
+        },
+        lets: vec![None; model.lets.len()],
+    };
+    b.lets();
+    for bond in model.bonds() {
+        if model.bond(bond).kind == BondKind::Power {
+            b.new_var(Var::Effort(bond));
+            b.new_var(Var::Flow(bond));
+        }
+    }
+    for node in model.nodes() {
+        match &model.node(node).kind {
+            NodeKind::Junction(kind) => b.junction(node, *kind),
+            NodeKind::Element(kind, law) => b.element(node, *kind, law),
+            NodeKind::Detector(_) => b.detector(node),
+        }
+    }
+    b.sys
+}
+
+struct Builder<'m> {
+    model: &'m BondGraph,
+    mode: Mode,
+    sys: System,
+    /// Each `let` as an expression, with the `let`s it uses.
+    lets: Vec<Option<(ExprId, Vec<LetId>)>>,
+}
+
+impl Builder<'_> {
+    fn new_var(&mut self, var: Var) -> VarId {
+        let id = VarId(self.sys.vars.len() as u32);
+        self.sys.vars.push(var);
+        self.sys.index.insert(var, id);
+        id
+    }
+
+    fn var(&mut self, var: Var) -> VarId {
+        match self.sys.index.get(&var) {
+            Some(&id) => id,
+            None => self.new_var(var),
+        }
+    }
+
+    fn leaf(&mut self, v: VarId) -> ExprId {
+        self.sys.pool.leaf(Leaf::Var(v.0))
+    }
+
+    fn lets(&mut self) {
+        for &id in &self.model.let_order {
+            let mut used = Vec::new();
+            let e = self.expr(
+                &self.model.lets[id.0 as usize].value,
+                &mut |_| None,
+                &mut used,
+            );
+            used.sort();
+            used.dedup();
+            self.lets[id.0 as usize] = Some((e, used));
+        }
+    }
+
+    /// An expression over signals as a pool expression; `port` gives the leaf of a port
+    /// variable; the `let`s used are added to `used`.
+    fn expr(
+        &mut self,
+        expr: &SignalExpr,
+        port: &mut dyn FnMut(PortVar) -> Option<ExprId>,
+        used: &mut Vec<LetId>,
+    ) -> ExprId {
+        let p = &mut self.sys.pool;
+        match expr {
+            Expr::Num(x) => p.num(*x),
+            Expr::Leaf(s) => match *s {
+                Signal::Param(id) => p.leaf(Leaf::Param(id)),
+                Signal::Input(id) => p.leaf(Leaf::Input(id, 0)),
+                Signal::Sensor(id) => p.leaf(Leaf::Sensor(id, 0)),
+                Signal::Time => p.leaf(Leaf::Time),
+                Signal::Port(v) => port(v).unwrap_or_else(|| p.num(f64::NAN)),
+                Signal::Let(id) => match &self.lets[id.0 as usize] {
+                    Some((e, inner)) => {
+                        used.push(id);
+                        used.extend(inner);
+                        *e
+                    }
+                    None => p.num(f64::NAN),
+                },
+            },
+            Expr::Neg(a) => {
+                let a = self.expr(a, port, used);
+                self.sys.pool.neg(a)
+            }
+            Expr::Binary(op, a, b) => {
+                let a = self.expr(a, port, used);
+                let b = self.expr(b, port, used);
+                self.sys.pool.binary(*op, a, b)
+            }
+            Expr::Call(f, args) => {
+                let args: Vec<ExprId> = args.iter().map(|a| self.expr(a, port, used)).collect();
+                self.sys.pool.call(*f, &args)
+            }
+            Expr::Der(a, n) => {
+                let mut e = self.expr(a, port, used);
+                for _ in 0..*n {
+                    let mut d = Derivatives::new(known_signal_rule);
+                    e = d
+                        .of(&mut self.sys.pool, e)
+                        .unwrap_or_else(|| self.sys.pool.num(f64::NAN));
+                }
+                e
+            }
+            Expr::Int(a) => {
+                let a = self.expr(a, port, used);
+                self.sys.pool.int(a)
+            }
+        }
+    }
+
+    fn push(&mut self, owner: NodeId, relation: Relation, lets: Vec<LetId>) {
+        let mut vars = Vec::new();
+        let mut exprs = Vec::new();
+        match &relation {
+            Relation::Assign { var, value } => {
+                vars.push(*var);
+                exprs.push(*value);
+            }
+            Relation::Scale { a, b, k } => {
+                vars.extend([*a, *b]);
+                exprs.push(*k);
+            }
+            Relation::Law { out, rhs } => {
+                vars.push(*out);
+                exprs.push(*rhs);
+            }
+            Relation::Sum { terms } => vars.extend(terms.iter().map(|t| t.1)),
+            Relation::Storage {
+                derivative,
+                integral,
+            } => {
+                for (out, g) in derivative.iter().chain(integral) {
+                    vars.push(*out);
+                    exprs.push(*g);
+                }
+            }
+        }
+        for e in exprs {
+            for leaf in self.sys.pool.leaves(e) {
+                if let Leaf::Var(v) = leaf {
+                    vars.push(VarId(v));
+                }
+            }
+        }
+        vars.sort();
+        vars.dedup();
+        self.sys.equations.push(Equation {
+            owner,
+            relation,
+            vars,
+            lets,
+        });
+    }
+
+    fn power_bonds(&self, node: NodeId) -> (Vec<BondId>, Vec<BondId>) {
+        let power = |bonds: Vec<BondId>| -> Vec<BondId> {
+            bonds
+                .into_iter()
+                .filter(|&b| self.model.bond(b).kind == BondKind::Power)
+                .collect()
+        };
+        (
+            power(self.model.bonds_at(node, Incoming)),
+            power(self.model.bonds_at(node, Outgoing)),
+        )
+    }
+
+    fn junction(&mut self, node: NodeId, kind: JunctionKind) {
+        let common = self.var(Var::Common(node));
+        let (incoming, outgoing) = self.power_bonds(node);
+        let side = |b| match kind {
+            JunctionKind::Zero => Var::Flow(b),
+            JunctionKind::One => Var::Effort(b),
+        };
+        let shared = |b| match kind {
+            JunctionKind::Zero => Var::Effort(b),
+            JunctionKind::One => Var::Flow(b),
+        };
+        let one = self.sys.pool.num(1.0);
+        let mut terms = Vec::new();
+        for (plus, &b) in incoming
+            .iter()
+            .map(|b| (true, b))
+            .chain(outgoing.iter().map(|b| (false, b)))
+        {
+            let a = self.var(shared(b));
+            self.push(
+                node,
+                Relation::Scale {
+                    a,
+                    b: common,
+                    k: one,
+                },
+                Vec::new(),
+            );
+            terms.push((plus, self.var(side(b))));
+        }
+        self.push(node, Relation::Sum { terms }, Vec::new());
+    }
+
+    fn detector(&mut self, node: NodeId) {
+        // Only inverted detectors are equations; in integral mode a detector is an output.
+        if self.mode != Mode::Diagnosis {
+            return;
+        }
+        let Some(&bond) = self.model.bonds_at(node, Incoming).first() else {
+            return;
+        };
+        let (junction, _) = self.model.ends(bond);
+        let var = self.var(Var::Common(junction));
+        let value = self.sys.pool.leaf(Leaf::Sensor(node, 0));
+        self.push(node, Relation::Assign { var, value }, Vec::new());
+    }
+
+    fn element(&mut self, node: NodeId, kind: ElementKind, law: &Law) {
+        let (incoming, outgoing) = self.power_bonds(node);
+        let mut used = Vec::new();
+        match kind {
+            ElementKind::Se | ElementKind::MSe | ElementKind::Sf | ElementKind::MSf => {
+                let Some(&b) = outgoing.first() else { return };
+                let var = if matches!(kind, ElementKind::Se | ElementKind::MSe) {
+                    self.var(Var::Effort(b))
+                } else {
+                    self.var(Var::Flow(b))
+                };
+                let value = self.expr(law.expr(), &mut |_| None, &mut used);
+                self.push(node, Relation::Assign { var, value }, used);
+            }
+            ElementKind::R => {
+                let Some(&b) = incoming.first() else { return };
+                let (e, f) = (self.var(Var::Effort(b)), self.var(Var::Flow(b)));
+                let relation = match law {
+                    Law::Linear(x) => {
+                        let k = self.expr(x, &mut |_| None, &mut used);
+                        Relation::Scale { a: e, b: f, k }
+                    }
+                    Law::Explicit { output, rhs } => {
+                        let (out, input, port) = if *output == PortVar::E {
+                            (e, f, PortVar::F)
+                        } else {
+                            (f, e, PortVar::E)
+                        };
+                        let leaf = self.leaf(input);
+                        let rhs = self.expr(rhs, &mut |v| (v == port).then_some(leaf), &mut used);
+                        Relation::Law { out, rhs }
+                    }
+                    _ => return,
+                };
+                self.push(node, relation, used);
+            }
+            ElementKind::TF | ElementKind::MTF | ElementKind::GY | ElementKind::MGY => {
+                let (Some(&b1), Some(&b2)) = (incoming.first(), outgoing.first()) else {
+                    return;
+                };
+                let m = self.expr(law.expr(), &mut |_| None, &mut used);
+                let (e1, f1, e2, f2) = (
+                    self.var(Var::Effort(b1)),
+                    self.var(Var::Flow(b1)),
+                    self.var(Var::Effort(b2)),
+                    self.var(Var::Flow(b2)),
+                );
+                let (first, second) = if matches!(kind, ElementKind::TF | ElementKind::MTF) {
+                    ((e1, e2), (f2, f1))
+                } else {
+                    ((e1, f2), (e2, f1))
+                };
+                self.push(
+                    node,
+                    Relation::Scale {
+                        a: first.0,
+                        b: first.1,
+                        k: m,
+                    },
+                    used.clone(),
+                );
+                self.push(
+                    node,
+                    Relation::Scale {
+                        a: second.0,
+                        b: second.1,
+                        k: m,
+                    },
+                    used,
+                );
+            }
+            ElementKind::I | ElementKind::C => {
+                self.storage(node, kind, law, incoming.first().copied())
+            }
+        }
+    }
+
+    /// `I`: f = φ(p), dp/dt = e. `C`: e = φ(q), dq/dt = f.
+    fn storage(&mut self, node: NodeId, kind: ElementKind, law: &Law, bond: Option<BondId>) {
+        let Some(b) = bond else { return };
+        let (e, f) = (self.var(Var::Effort(b)), self.var(Var::Flow(b)));
+        // (output of the energy law, rate = derivative of the energy variable, energy variable)
+        let (co, rate, energy) = if kind == ElementKind::I {
+            (f, e, PortVar::P)
+        } else {
+            (e, f, PortVar::Q)
+        };
+        let co_port = if kind == ElementKind::I {
+            PortVar::F
+        } else {
+            PortVar::E
+        };
+        let name = format!("{}_{}", energy.name(), self.model.node(node).name);
+        let mut used = Vec::new();
+        // φ(x) as a function of a given expression for the energy variable, if the law gives it.
+        let phi = |this: &mut Self, x: ExprId, used: &mut Vec<LetId>| -> Option<ExprId> {
+            match law {
+                Law::Linear(k) => {
+                    let k = this.expr(k, &mut |_| None, used);
+                    Some(this.sys.pool.mul(k, x))
+                }
+                Law::Explicit { output, rhs } if *output == co_port => {
+                    Some(this.expr(rhs, &mut |v| (v == energy).then_some(x), used))
+                }
+                _ => None,
+            }
+        };
+        // The energy variable as a function of the co-energy one, if the law gives it.
+        let inverse = |this: &mut Self, y: ExprId, used: &mut Vec<LetId>| -> Option<ExprId> {
+            match law {
+                Law::Linear(k) => {
+                    let k = this.expr(k, &mut |_| None, used);
+                    Some(this.sys.pool.div(y, k))
+                }
+                Law::Explicit { output, rhs } if *output == energy => {
+                    Some(this.expr(rhs, &mut |v| (v == co_port).then_some(y), used))
+                }
+                _ => None,
+            }
+        };
+        match self.mode {
+            Mode::Integral => {
+                let index = self.sys.states.len() as u32;
+                let state = self.sys.pool.leaf(Leaf::State(index));
+                match phi(self, state, &mut used) {
+                    Some(value) => {
+                        self.sys.states.push(State { name, element: node, rate });
+                        self.push(node, Relation::Assign { var: co, value }, used);
+                    }
+                    None => self.sys.refusals.push(Refusal {
+                        element: node,
+                        reason: format!(
+                            "its law gives `{}` from `{}`, so it cannot hold the state `{}` (integral causality)",
+                            energy.name(),
+                            co_port.name(),
+                            energy.name()
+                        ),
+                    }),
+                }
+            }
+            Mode::Diagnosis => {
+                let co_leaf = self.leaf(co);
+                let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
+                let rate_leaf = self.leaf(rate);
+                let integral_of_rate = self.sys.pool.int(rate_leaf);
+                let integral = phi(self, integral_of_rate, &mut used).map(|h| (co, h));
+                if derivative.is_none() {
+                    self.sys.refusals.push(Refusal {
+                        element: node,
+                        reason: format!(
+                            "its law gives `{}` from `{}`, so it cannot take derivative causality",
+                            co_port.name(),
+                            energy.name()
+                        ),
+                    });
+                }
+                used.sort();
+                used.dedup();
+                self.push(
+                    node,
+                    Relation::Storage {
+                        derivative,
+                        integral,
+                    },
+                    used,
+                );
+            }
+        }
+    }
+}

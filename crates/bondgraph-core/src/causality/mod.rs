@@ -1,0 +1,166 @@
+//! Causality: which end of each bond sets its effort, found by orienting the model's equations.
+//!
+//! Two modes: [`Mode::Integral`] (storage in integral causality, states known: for state
+//! equations) and [`Mode::Diagnosis`] (storage in derivative causality, detectors inverted into
+//! sources of their measured signal: for ARRs). See [`solve`] for the order of assignment.
+
+pub mod equations;
+pub mod solve;
+
+use equations::{Relation, System, Var, VarId};
+use solve::{Class, Solved, Use};
+
+use crate::graph::{BondGraph, BondId, BondKind, NodeId, NodeKind};
+use crate::symbolic::ExprId;
+
+/// Which causality storage elements should take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Integral causality, detectors as outputs: for simulation.
+    Integral,
+    /// Derivative causality, detectors inverted: for diagnosis.
+    Diagnosis,
+}
+
+/// The causality a storage element took.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StorageCausality {
+    /// It holds a state: its co-energy variable comes from the integral of its input.
+    Integral,
+    /// Its output is the derivative of a function of its input.
+    Derivative,
+    /// Its equation was not used (unreached part of the graph, or a loop).
+    Unassigned,
+}
+
+/// A model's equations, oriented for one mode.
+pub struct Causal {
+    /// The mode.
+    pub mode: Mode,
+    /// The equations and their expressions.
+    pub system: System,
+    /// How each was used.
+    pub solved: Solved,
+}
+
+/// Orients the equations of `model` for `mode`.
+pub fn assign(model: &BondGraph, mode: Mode) -> Causal {
+    let mut system = equations::build(model, mode);
+    let solved = solve::solve(model, &mut system, mode);
+    Causal {
+        mode,
+        system,
+        solved,
+    }
+}
+
+impl Causal {
+    /// The value of an unknown, if it was computed.
+    pub fn value(&self, var: Var) -> Option<ExprId> {
+        self.system
+            .var(var)
+            .and_then(|v| self.solved.values[v.0 as usize])
+    }
+
+    /// The node that sets the effort of a power bond (the stroke is at the other end).
+    pub fn effort_setter(&self, model: &BondGraph, bond: BondId) -> Option<NodeId> {
+        let v = self.system.var(Var::Effort(bond))?;
+        let eq = self.solved.solved_by[v.0 as usize]?;
+        let owner = self.system.equations[eq].owner;
+        let (tail, head) = model.ends(bond);
+        // A detector imposes through its junction.
+        if owner == tail || owner == head {
+            Some(owner)
+        } else {
+            let junction = |n: NodeId| matches!(model.node(n).kind, NodeKind::Junction(_));
+            [tail, head].into_iter().find(|&n| junction(n))
+        }
+    }
+
+    /// The causality each storage element took.
+    pub fn storage(&self, model: &BondGraph) -> Vec<(NodeId, StorageCausality)> {
+        let mut out = Vec::new();
+        for (i, eq) in self.system.equations.iter().enumerate() {
+            let NodeKind::Element(kind, _) = model.node(eq.owner).kind else {
+                continue;
+            };
+            if !matches!(
+                kind,
+                crate::graph::ElementKind::I | crate::graph::ElementKind::C
+            ) {
+                continue;
+            }
+            let causality = match (self.mode, &eq.relation, self.solved.uses[i]) {
+                (Mode::Integral, Relation::Assign { .. }, _) => StorageCausality::Integral,
+                (
+                    _,
+                    _,
+                    Use::Solves {
+                        class: Class::Preferred,
+                        ..
+                    },
+                ) => StorageCausality::Derivative,
+                (
+                    _,
+                    _,
+                    Use::Solves {
+                        class: Class::Fallback,
+                        ..
+                    },
+                ) => StorageCausality::Integral,
+                (_, Relation::Storage { .. }, Use::Redundant { .. }) => {
+                    StorageCausality::Derivative
+                }
+                _ => StorageCausality::Unassigned,
+            };
+            out.push((eq.owner, causality));
+        }
+        out
+    }
+
+    /// Unknowns that could not be computed.
+    pub fn unsolved(&self) -> Vec<VarId> {
+        (0..self.system.vars.len())
+            .filter(|&i| self.solved.values[i].is_none())
+            .map(|i| VarId(i as u32))
+            .collect()
+    }
+
+    /// Equations left over: (equation index, residual).
+    pub fn redundant(&self) -> Vec<(usize, ExprId)> {
+        self.solved
+            .uses
+            .iter()
+            .enumerate()
+            .filter_map(|(i, u)| match u {
+                Use::Redundant { residual } => Some((i, *residual)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The bond (or detector) that sets the common variable of a junction.
+    pub fn strong_bond(&self, model: &BondGraph, junction: NodeId) -> Option<Strong> {
+        let v = self.system.var(Var::Common(junction))?;
+        let eq = &self.system.equations[self.solved.solved_by[v.0 as usize]?];
+        match (&eq.relation, &model.node(eq.owner).kind) {
+            (_, NodeKind::Detector(_)) => Some(Strong::Detector(eq.owner)),
+            (Relation::Scale { a, .. }, _) => match self.system.vars[a.0 as usize] {
+                Var::Effort(b) | Var::Flow(b) if model.bond(b).kind == BondKind::Power => {
+                    Some(Strong::Bond(b))
+                }
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+}
+
+/// What sets a junction's common variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strong {
+    /// A power bond.
+    Bond(BondId),
+    /// An inverted detector.
+    Detector(NodeId),
+}

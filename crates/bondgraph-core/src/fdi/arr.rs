@@ -1,0 +1,169 @@
+//! Analytical redundancy relations: the equations left over once the model, in derivative
+//! causality with inverted detectors, has computed every unknown from known signals.
+
+use std::collections::BTreeSet;
+
+use crate::causality::{assign, Causal, Mode};
+use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
+use crate::symbolic::{ExprId, Leaf, Simplifier};
+
+/// One ARR: `residual = 0` while the machine is healthy.
+#[derive(Clone, Debug)]
+pub struct Arr {
+    /// `ARR1`, `ARR2`…
+    pub name: String,
+    /// The node whose equation became redundant.
+    pub origin: NodeId,
+    /// The junction the ARR is written at: the origin, or the junction an element is bonded to.
+    pub junction: NodeId,
+    /// The detector the ARR is attributed to.
+    pub sensor: Option<NodeId>,
+    /// The residual, over parameters, inputs and measured signals.
+    pub residual: ExprId,
+    /// Every node whose equation the residual was derived from.
+    pub nodes: BTreeSet<NodeId>,
+    /// Every `let` those equations use.
+    pub lets: BTreeSet<LetId>,
+}
+
+/// The ARRs of a model, with the oriented equations they came from.
+pub struct Diagnosis {
+    /// The equations in diagnosis causality.
+    pub causal: Causal,
+    /// The ARRs, in the order of the nodes they come from.
+    pub arrs: Vec<Arr>,
+    /// Problems met: unknowns that could not be computed, missing ARRs.
+    pub problems: Vec<String>,
+}
+
+/// Derives the ARRs of `model`.
+pub fn diagnose(model: &BondGraph) -> Diagnosis {
+    let causal = assign(model, Mode::Diagnosis);
+    let mut arrs: Vec<Arr> = causal
+        .redundant()
+        .into_iter()
+        .map(|(eq, residual)| {
+            let (nodes, lets) = cone(&causal, eq);
+            let origin = causal.system.equations[eq].owner;
+            Arr {
+                name: String::new(),
+                origin,
+                junction: junction_of(model, origin),
+                sensor: None,
+                residual,
+                nodes,
+                lets,
+            }
+        })
+        .collect();
+    arrs.sort_by_key(|a| a.origin);
+    let mut causal = causal;
+    let mut simplifier = Simplifier::default();
+    for arr in &mut arrs {
+        arr.residual = simplifier.simplify(&mut causal.system.pool, arr.residual);
+    }
+    attribute_sensors(model, &causal, &mut arrs);
+    for (i, arr) in arrs.iter_mut().enumerate() {
+        arr.name = format!("ARR{}", i + 1);
+    }
+    let problems = problems(model, &causal, arrs.len());
+    Diagnosis {
+        causal,
+        arrs,
+        problems,
+    }
+}
+
+/// `node` if it is a junction, else the first junction it is bonded to.
+fn junction_of(model: &BondGraph, node: NodeId) -> NodeId {
+    let is_junction = |n: NodeId| matches!(model.node(n).kind, NodeKind::Junction(_));
+    if is_junction(node) {
+        return node;
+    }
+    model
+        .bonds()
+        .filter_map(|b| {
+            let (t, h) = model.ends(b);
+            (t == node || h == node).then(|| if t == node { h } else { t })
+        })
+        .find(|&n| is_junction(n))
+        .unwrap_or(node)
+}
+
+/// The nodes and `let`s of every equation a redundant equation depends on.
+fn cone(causal: &Causal, start: usize) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
+    let eqs = &causal.system.equations;
+    let mut seen = vec![false; eqs.len()];
+    let mut stack = vec![start];
+    let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
+    while let Some(i) = stack.pop() {
+        if std::mem::replace(&mut seen[i], true) {
+            continue;
+        }
+        nodes.insert(eqs[i].owner);
+        lets.extend(eqs[i].lets.iter().copied());
+        for v in &eqs[i].vars {
+            if let Some(j) = causal.solved.solved_by[v.0 as usize] {
+                if j != i {
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    (nodes, lets)
+}
+
+/// Each ARR gets one detector it uses, the first in declaration order not already taken.
+fn attribute_sensors(model: &BondGraph, causal: &Causal, arrs: &mut [Arr]) {
+    let mut taken = BTreeSet::new();
+    for arr in arrs.iter_mut() {
+        let mut used: BTreeSet<NodeId> = BTreeSet::new();
+        for leaf in causal.system.pool.leaves(arr.residual) {
+            if let Leaf::Sensor(s, _) = leaf {
+                used.insert(s);
+            }
+        }
+        used.extend(
+            arr.nodes
+                .iter()
+                .filter(|n| matches!(model.node(**n).kind, NodeKind::Detector(_))),
+        );
+        // The detector on the ARR's own junction first, then any other it uses.
+        let own = used.iter().find(|s| {
+            model
+                .bonds_at(**s, petgraph::Direction::Incoming)
+                .iter()
+                .any(|b| model.ends(*b).0 == arr.junction)
+        });
+        arr.sensor = own
+            .filter(|s| !taken.contains(*s))
+            .or_else(|| used.iter().find(|s| !taken.contains(*s)))
+            .or_else(|| used.iter().next())
+            .copied();
+        if let Some(s) = arr.sensor {
+            taken.insert(s);
+        }
+    }
+}
+
+fn problems(model: &BondGraph, causal: &Causal, found: usize) -> Vec<String> {
+    let mut out = Vec::new();
+    let unsolved: Vec<String> = causal
+        .unsolved()
+        .iter()
+        .map(|v| causal.system.vars[v.0 as usize].describe(model))
+        .collect();
+    if !unsolved.is_empty() {
+        out.push(format!(
+            "these unknowns cannot be computed from known signals (an algebraic loop, or a part no detector observes): {}",
+            unsolved.join(", ")
+        ));
+    }
+    let detectors = model.counts().detectors;
+    if found != detectors {
+        out.push(format!(
+            "{detectors} detector(s) but {found} ARR(s): the model is not fully observable by its detectors"
+        ));
+    }
+    out
+}

@@ -1,0 +1,7 @@
+//! Fault detection and isolation: the ARRs of a model and its fault signature matrix.
+
+mod arr;
+mod fsm;
+
+pub use arr::{diagnose, Arr, Diagnosis};
+pub use fsm::{components, Component, ComponentKind, Fsm, Row};

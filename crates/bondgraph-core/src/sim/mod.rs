@@ -1,0 +1,126 @@
+//! State equations: the model in integral causality, dx/dt = f(x, u), and its detector outputs.
+
+use std::collections::HashMap;
+
+use crate::causality::equations::Var;
+use crate::causality::{assign, Mode};
+use crate::graph::{BondGraph, NodeId, NodeKind};
+use crate::symbolic::{ExprId, Leaf, Pool};
+
+/// One state equation, `d(name)/dt = rhs`.
+#[derive(Clone, Debug)]
+pub struct StateEquation {
+    /// `p_NAME` or `q_NAME`.
+    pub name: String,
+    /// The storage element.
+    pub element: NodeId,
+    /// The right-hand side, over states (`Leaf::State`), parameters, inputs and time.
+    pub rhs: ExprId,
+}
+
+/// The state-space form of a model.
+pub struct StateSpace {
+    /// The expressions.
+    pub pool: Pool,
+    /// One equation per state, in declaration order of the storage elements.
+    pub states: Vec<StateEquation>,
+    /// Each detector's output, over states and inputs.
+    pub outputs: Vec<(NodeId, ExprId)>,
+    /// Why the state equations are incomplete, if they are.
+    pub problems: Vec<String>,
+}
+
+/// Derives the state equations of `model`.
+pub fn state_space(model: &BondGraph) -> StateSpace {
+    let mut causal = assign(model, Mode::Integral);
+    let mut problems: Vec<String> = causal
+        .system
+        .refusals
+        .iter()
+        .map(|r| format!("`{}`: {}", model.node(r.element).name, r.reason))
+        .collect();
+    let unsolved: Vec<String> = causal
+        .unsolved()
+        .iter()
+        .map(|v| causal.system.vars[v.0 as usize].describe(model))
+        .collect();
+    if !unsolved.is_empty() {
+        problems.push(format!(
+            "these unknowns form an algebraic loop that is not solved: {}",
+            unsolved.join(", ")
+        ));
+    }
+    for (eq, _) in causal.redundant() {
+        let owner = causal.system.equations[eq].owner;
+        problems.push(format!(
+            "causal conflict at `{}`: its equation is over-determined in integral causality",
+            model.node(owner).name
+        ));
+    }
+    let nan = causal.system.pool.num(f64::NAN);
+    let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
+    for id in model.nodes() {
+        if let NodeKind::Detector(_) = model.node(id).kind {
+            let junction = model
+                .bonds_at(id, petgraph::Direction::Incoming)
+                .first()
+                .map(|b| model.ends(*b).0);
+            let value = junction
+                .and_then(|j| causal.value(Var::Common(j)))
+                .unwrap_or(nan);
+            outputs.push((id, value));
+        }
+    }
+    let pool = &mut causal.system.pool;
+    // Modulations may read detectors; replace measured signals by the outputs they measure.
+    for _ in 0..=outputs.len() {
+        let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
+        for (_, e) in outputs.iter_mut() {
+            *e = measured(pool, *e, &map);
+        }
+    }
+    let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
+    let states: Vec<StateEquation> = causal
+        .system
+        .states
+        .clone()
+        .into_iter()
+        .map(|s| {
+            let rhs = causal.solved.values[s.rate.0 as usize].unwrap_or(nan);
+            StateEquation {
+                name: s.name,
+                element: s.element,
+                rhs: measured(pool, rhs, &map),
+            }
+        })
+        .collect();
+    let all: Vec<ExprId> = states
+        .iter()
+        .map(|s| s.rhs)
+        .chain(outputs.iter().map(|o| o.1))
+        .collect();
+    let mut leftover = false;
+    for e in all {
+        leftover |= pool.leaves(e).iter().any(|l| matches!(l, Leaf::Sensor(..)));
+    }
+    if leftover {
+        problems.push(
+            "a modulation reads a measured signal that depends on itself, or a derivative of one: \
+             not a state-space model"
+                .to_string(),
+        );
+    }
+    StateSpace {
+        pool: causal.system.pool,
+        states,
+        outputs,
+        problems,
+    }
+}
+
+fn measured(pool: &mut Pool, e: ExprId, outputs: &HashMap<NodeId, ExprId>) -> ExprId {
+    pool.substitute(e, &mut |_, leaf| match leaf {
+        Leaf::Sensor(s, 0) => outputs.get(&s).copied(),
+        _ => None,
+    })
+}

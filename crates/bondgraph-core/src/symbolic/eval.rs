@@ -1,0 +1,68 @@
+//! Numeric evaluation of expressions.
+
+use super::pool::{ExprId, Leaf, Node, Pool};
+use std::collections::HashMap;
+
+use crate::expr::BinOp;
+
+/// Evaluates expressions of one pool with leaf values from a closure, memoising shared nodes.
+pub struct Evaluator<'p, F> {
+    pool: &'p Pool,
+    leaf: F,
+    values: Vec<f64>,
+    done: Vec<bool>,
+    integrals: HashMap<ExprId, f64>,
+}
+
+impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
+    /// An evaluator over `pool`, reading leaves with `leaf`.
+    pub fn new(pool: &'p Pool, leaf: F) -> Self {
+        Evaluator {
+            pool,
+            leaf,
+            values: vec![0.0; pool.len()],
+            done: vec![false; pool.len()],
+            integrals: HashMap::new(),
+        }
+    }
+
+    /// Gives the current values of `int(..)` nodes, which cannot be evaluated pointwise.
+    pub fn with_integrals(mut self, integrals: HashMap<ExprId, f64>) -> Self {
+        self.integrals = integrals;
+        self
+    }
+
+    /// The value of `root`.
+    pub fn value(&mut self, root: ExprId) -> f64 {
+        let mut order = Vec::new();
+        self.pool.visit_reachable(&[root], |id, node| {
+            if !self.done[id.0 as usize] {
+                order.push((id, node));
+            }
+        });
+        for (id, node) in order {
+            let v = |x: ExprId| self.values[x.0 as usize];
+            let value = match node {
+                Node::Num(bits) => f64::from_bits(bits),
+                Node::Leaf(l) => (self.leaf)(l),
+                Node::Neg(a) => -v(a),
+                Node::Binary(op, a, b) => {
+                    let (a, b) = (v(a), v(b));
+                    match op {
+                        BinOp::Add => a + b,
+                        BinOp::Sub => a - b,
+                        BinOp::Mul => a * b,
+                        BinOp::Div => a / b,
+                        BinOp::Pow => a.powf(b),
+                    }
+                }
+                Node::Call1(f, a) => f.apply(&[v(a)]),
+                Node::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
+                Node::Int(_) => self.integrals.get(&id).copied().unwrap_or(f64::NAN),
+            };
+            self.values[id.0 as usize] = value;
+            self.done[id.0 as usize] = true;
+        }
+        self.values[root.0 as usize]
+    }
+}

@@ -1,0 +1,385 @@
+//! Nodes of the expression DAG and their hash-consing constructors.
+
+use std::collections::HashMap;
+
+use crate::expr::{BinOp, Func};
+use crate::graph::{InputId, NodeId, ParamId};
+
+/// An expression: an index into its [`Pool`]. Children always have smaller ids than parents.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct ExprId(pub u32);
+
+/// A leaf of an expression.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Leaf {
+    /// A model parameter.
+    Param(ParamId),
+    /// The `n`-th time derivative of a known input.
+    Input(InputId, u32),
+    /// The `n`-th time derivative of a measured signal.
+    Sensor(NodeId, u32),
+    /// A state variable (momentum of an `I`, displacement of a `C`), by index.
+    State(u32),
+    /// An unknown of an equation system, by index, until it is substituted away.
+    Var(u32),
+    /// Time.
+    Time,
+}
+
+/// One node of the DAG.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A number, by its bits (so nodes can be hashed); never NaN from a constructor.
+    Num(u64),
+    /// A leaf.
+    Leaf(Leaf),
+    /// `-a`
+    Neg(ExprId),
+    /// `a op b`
+    Binary(BinOp, ExprId, ExprId),
+    /// `f(a)`
+    Call1(Func, ExprId),
+    /// `f(a, b)`
+    Call2(Func, ExprId, ExprId),
+    /// The time integral of `a` from the start of the record.
+    Int(ExprId),
+}
+
+/// The arena of expression nodes, each stored once.
+#[derive(Default, Clone, Debug)]
+pub struct Pool {
+    nodes: Vec<Node>,
+    index: HashMap<Node, ExprId>,
+}
+
+impl Pool {
+    /// The node of `id`.
+    pub fn node(&self, id: ExprId) -> Node {
+        self.nodes[id.0 as usize]
+    }
+
+    /// Number of distinct nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Whether the pool is empty.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    fn intern(&mut self, node: Node) -> ExprId {
+        if let Some(&id) = self.index.get(&node) {
+            return id;
+        }
+        let id = ExprId(self.nodes.len() as u32);
+        self.nodes.push(node);
+        self.index.insert(node, id);
+        id
+    }
+
+    /// A number.
+    pub fn num(&mut self, x: f64) -> ExprId {
+        // One zero, so `0` and `-0` share a node.
+        let x = if x == 0.0 { 0.0 } else { x };
+        self.intern(Node::Num(x.to_bits()))
+    }
+
+    /// The value of `id` if it is a number.
+    pub fn as_num(&self, id: ExprId) -> Option<f64> {
+        match self.node(id) {
+            Node::Num(bits) => Some(f64::from_bits(bits)),
+            _ => None,
+        }
+    }
+
+    /// A leaf.
+    pub fn leaf(&mut self, leaf: Leaf) -> ExprId {
+        self.intern(Node::Leaf(leaf))
+    }
+
+    /// `-a`
+    pub fn neg(&mut self, a: ExprId) -> ExprId {
+        match self.node(a) {
+            Node::Num(bits) => self.num(-f64::from_bits(bits)),
+            Node::Neg(x) => x,
+            Node::Binary(BinOp::Sub, x, y) => self.intern(Node::Binary(BinOp::Sub, y, x)),
+            _ => self.intern(Node::Neg(a)),
+        }
+    }
+
+    /// `a + b`
+    pub fn add(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        match (self.as_num(a), self.as_num(b)) {
+            (Some(x), Some(y)) => self.num(x + y),
+            (Some(0.0), _) => b,
+            (_, Some(0.0)) => a,
+            _ => match self.node(b) {
+                Node::Neg(y) => self.intern(Node::Binary(BinOp::Sub, a, y)),
+                _ => self.intern(Node::Binary(BinOp::Add, a, b)),
+            },
+        }
+    }
+
+    /// `a - b`
+    pub fn sub(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        if a == b {
+            return self.num(0.0);
+        }
+        match (self.as_num(a), self.as_num(b)) {
+            (Some(x), Some(y)) => self.num(x - y),
+            (Some(0.0), _) => self.neg(b),
+            (_, Some(0.0)) => a,
+            _ => match self.node(b) {
+                Node::Neg(y) => self.intern(Node::Binary(BinOp::Add, a, y)),
+                _ => self.intern(Node::Binary(BinOp::Sub, a, b)),
+            },
+        }
+    }
+
+    /// `a * b`
+    pub fn mul(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        match (self.as_num(a), self.as_num(b)) {
+            (Some(x), Some(y)) => self.num(x * y),
+            (Some(0.0), _) | (_, Some(0.0)) => self.num(0.0),
+            (Some(1.0), _) => b,
+            (_, Some(1.0)) => a,
+            (Some(-1.0), _) => self.neg(b),
+            (_, Some(-1.0)) => self.neg(a),
+            _ => match (self.node(a), self.node(b)) {
+                (Node::Neg(x), Node::Neg(y)) => self.mul(x, y),
+                (Node::Neg(x), _) => {
+                    let m = self.mul(x, b);
+                    self.neg(m)
+                }
+                (_, Node::Neg(y)) => {
+                    let m = self.mul(a, y);
+                    self.neg(m)
+                }
+                _ => self.intern(Node::Binary(BinOp::Mul, a, b)),
+            },
+        }
+    }
+
+    /// `a / b`
+    pub fn div(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        match (self.as_num(a), self.as_num(b)) {
+            (Some(x), Some(y)) if y != 0.0 => self.num(x / y),
+            (Some(0.0), _) => self.num(0.0),
+            (_, Some(1.0)) => a,
+            (_, Some(-1.0)) => self.neg(a),
+            _ => match (self.node(a), self.node(b)) {
+                // (1 / x) / y stays readable as 1 / (x * y); x / (1 / y) is x * y.
+                (_, Node::Binary(BinOp::Div, one, y)) if self.as_num(one) == Some(1.0) => {
+                    self.mul(a, y)
+                }
+                (Node::Neg(x), _) => {
+                    let d = self.div(x, b);
+                    self.neg(d)
+                }
+                _ => self.intern(Node::Binary(BinOp::Div, a, b)),
+            },
+        }
+    }
+
+    /// `a ^ b`
+    pub fn pow(&mut self, a: ExprId, b: ExprId) -> ExprId {
+        match (self.as_num(a), self.as_num(b)) {
+            (Some(x), Some(y)) => self.num(x.powf(y)),
+            (_, Some(1.0)) => a,
+            (_, Some(0.0)) => self.num(1.0),
+            _ => self.intern(Node::Binary(BinOp::Pow, a, b)),
+        }
+    }
+
+    /// `a op b`
+    pub fn binary(&mut self, op: BinOp, a: ExprId, b: ExprId) -> ExprId {
+        match op {
+            BinOp::Add => self.add(a, b),
+            BinOp::Sub => self.sub(a, b),
+            BinOp::Mul => self.mul(a, b),
+            BinOp::Div => self.div(a, b),
+            BinOp::Pow => self.pow(a, b),
+        }
+    }
+
+    /// `f(a)` or `f(a, b)`; constant arguments are folded.
+    pub fn call(&mut self, func: Func, args: &[ExprId]) -> ExprId {
+        let values: Option<Vec<f64>> = args.iter().map(|&a| self.as_num(a)).collect();
+        if let Some(values) = values {
+            let v = func.apply(&values);
+            if v.is_finite() {
+                return self.num(v);
+            }
+        }
+        match args {
+            [a] => self.intern(Node::Call1(func, *a)),
+            [a, b, ..] => self.intern(Node::Call2(func, *a, *b)),
+            [] => self.num(f64::NAN),
+        }
+    }
+
+    /// The time integral of `a`.
+    pub fn int(&mut self, a: ExprId) -> ExprId {
+        match self.as_num(a) {
+            Some(0.0) => a,
+            _ => self.intern(Node::Int(a)),
+        }
+    }
+
+    /// Sum of signed terms (`true` = plus); zero when empty.
+    pub fn signed_sum(&mut self, terms: &[(bool, ExprId)]) -> ExprId {
+        let mut acc: Option<ExprId> = None;
+        for &(plus, t) in terms {
+            acc = Some(match (acc, plus) {
+                (None, true) => t,
+                (None, false) => self.neg(t),
+                (Some(a), true) => self.add(a, t),
+                (Some(a), false) => self.sub(a, t),
+            });
+        }
+        acc.unwrap_or_else(|| self.num(0.0))
+    }
+
+    /// Calls `f` on every node reachable from `roots`, children before parents, once each.
+    pub fn visit_reachable(&self, roots: &[ExprId], mut f: impl FnMut(ExprId, Node)) {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack: Vec<ExprId> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut seen[id.0 as usize], true) {
+                continue;
+            }
+            stack.extend(children(self.node(id)));
+        }
+        // Ids are created children first, so id order is a topological order.
+        for (i, node) in self.nodes.iter().enumerate() {
+            if seen[i] {
+                f(ExprId(i as u32), *node);
+            }
+        }
+    }
+
+    /// Every leaf reachable from `root`, in id order.
+    pub fn leaves(&self, root: ExprId) -> Vec<Leaf> {
+        let mut out = Vec::new();
+        self.visit_reachable(&[root], |_, node| {
+            if let Node::Leaf(l) = node {
+                out.push(l);
+            }
+        });
+        out
+    }
+
+    /// `root` with leaves replaced by `f` (leaves for which `f` returns `None` stay).
+    pub fn substitute(
+        &mut self,
+        root: ExprId,
+        f: &mut impl FnMut(&mut Pool, Leaf) -> Option<ExprId>,
+    ) -> ExprId {
+        let mut order = Vec::new();
+        self.visit_reachable(&[root], |id, _| order.push(id));
+        let mut map: HashMap<ExprId, ExprId> = HashMap::with_capacity(order.len());
+        for id in order {
+            let m = |x: ExprId| map.get(&x).copied().unwrap_or(x);
+            let new = match self.node(id) {
+                Node::Num(_) => id,
+                Node::Leaf(l) => f(self, l).unwrap_or(id),
+                Node::Neg(a) => {
+                    let a = m(a);
+                    self.neg(a)
+                }
+                Node::Binary(op, a, b) => {
+                    let (a, b) = (m(a), m(b));
+                    self.binary(op, a, b)
+                }
+                Node::Call1(func, a) => {
+                    let a = m(a);
+                    self.call(func, &[a])
+                }
+                Node::Call2(func, a, b) => {
+                    let (a, b) = (m(a), m(b));
+                    self.call(func, &[a, b])
+                }
+                Node::Int(a) => {
+                    let a = m(a);
+                    self.int(a)
+                }
+            };
+            map.insert(id, new);
+        }
+        map.get(&root).copied().unwrap_or(root)
+    }
+}
+
+impl Pool {
+    /// Copies `root` of `other` into this pool, mapping its leaves with `leaf`.
+    pub fn import(
+        &mut self,
+        other: &Pool,
+        root: ExprId,
+        leaf: &mut impl FnMut(&mut Pool, Leaf) -> ExprId,
+    ) -> ExprId {
+        let mut order = Vec::new();
+        other.visit_reachable(&[root], |id, node| order.push((id, node)));
+        let mut map: HashMap<ExprId, ExprId> = HashMap::with_capacity(order.len());
+        for (id, node) in order {
+            let m = |x: ExprId| map[&x];
+            let new = match node {
+                Node::Num(bits) => self.num(f64::from_bits(bits)),
+                Node::Leaf(l) => leaf(self, l),
+                Node::Neg(a) => self.neg(m(a)),
+                Node::Binary(op, a, b) => self.binary(op, m(a), m(b)),
+                Node::Call1(f, a) => self.call(f, &[m(a)]),
+                Node::Call2(f, a, b) => self.call(f, &[m(a), m(b)]),
+                Node::Int(a) => self.int(m(a)),
+            };
+            map.insert(id, new);
+        }
+        map[&root]
+    }
+}
+
+/// The children of a node.
+pub(crate) fn children(node: Node) -> impl Iterator<Item = ExprId> {
+    let (a, b) = match node {
+        Node::Num(_) | Node::Leaf(_) => (None, None),
+        Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => (Some(a), None),
+        Node::Binary(_, a, b) | Node::Call2(_, a, b) => (Some(a), Some(b)),
+    };
+    a.into_iter().chain(b)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn equal_subexpressions_are_one_node() {
+        let mut p = Pool::default();
+        let x = p.leaf(Leaf::Time);
+        let two = p.num(2.0);
+        let a = p.mul(two, x);
+        let b = p.mul(two, x);
+        assert_eq!(a, b);
+        let s = p.add(a, b);
+        assert_eq!(p.len(), 4, "t, 2, 2*t and their sum");
+        assert!(matches!(p.node(s), Node::Binary(BinOp::Add, l, r) if l == r));
+    }
+
+    #[test]
+    fn constructors_fold_constants_and_neutral_elements() {
+        let mut p = Pool::default();
+        let x = p.leaf(Leaf::Time);
+        let (zero, one, three) = (p.num(0.0), p.num(1.0), p.num(3.0));
+        assert_eq!(p.add(x, zero), x);
+        assert_eq!(p.mul(one, x), x);
+        assert_eq!(p.mul(x, zero), zero);
+        let nine = p.mul(three, three);
+        assert_eq!(p.as_num(nine), Some(9.0));
+        let nx = p.neg(x);
+        assert_eq!(p.neg(nx), x);
+        assert_eq!(p.sub(x, x), zero);
+        let e = p.call(Func::Exp, &[zero]);
+        assert_eq!(p.as_num(e), Some(1.0));
+    }
+}

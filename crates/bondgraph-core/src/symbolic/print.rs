@@ -1,0 +1,178 @@
+//! Expressions as text: the plain infix of the JSON contract, and LaTeX.
+
+use std::fmt::Write as _;
+
+use super::pool::{ExprId, Leaf, Node, Pool};
+use crate::expr::{BinOp, Func};
+
+/// Writes expressions of one pool, naming leaves with a closure.
+pub struct Printer<'p, F> {
+    pool: &'p Pool,
+    name: F,
+}
+
+/// Binding strength of a printed node: 1 sums, 2 products, 3 unary minus, 4 powers, 5 atoms.
+fn precedence(node: Node) -> u8 {
+    match node {
+        Node::Binary(op, ..) => op.precedence(),
+        Node::Neg(_) => 3,
+        Node::Num(bits) if f64::from_bits(bits) < 0.0 => 3,
+        _ => 5,
+    }
+}
+
+impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
+    /// A printer over `pool` with leaf names from `name`.
+    pub fn new(pool: &'p Pool, name: F) -> Self {
+        Printer { pool, name }
+    }
+
+    /// Plain infix: `+ - * / ^`, calls, `der(y, n)`, `int(..)`.
+    pub fn text(&self, root: ExprId) -> String {
+        let mut out = String::new();
+        self.text_into(&mut out, root, 0);
+        out
+    }
+
+    fn text_into(&self, out: &mut String, id: ExprId, outer: u8) {
+        let node = self.pool.node(id);
+        let paren = precedence(node) < outer;
+        if paren {
+            out.push('(');
+        }
+        match node {
+            Node::Num(bits) => {
+                let _ = write!(out, "{}", f64::from_bits(bits));
+            }
+            Node::Leaf(l) => out.push_str(&(self.name)(l)),
+            Node::Neg(a) => {
+                out.push('-');
+                self.text_into(out, a, 3);
+            }
+            Node::Binary(op, a, b) => {
+                let p = op.precedence();
+                let (lp, rp) = if op == BinOp::Pow {
+                    (p + 1, p)
+                } else {
+                    (p, p + 1)
+                };
+                self.text_into(out, a, lp);
+                let _ = write!(out, " {} ", op.symbol());
+                self.text_into(out, b, rp);
+            }
+            Node::Call1(f, a) => {
+                let _ = write!(out, "{}(", f.name());
+                self.text_into(out, a, 0);
+                out.push(')');
+            }
+            Node::Call2(f, a, b) => {
+                let _ = write!(out, "{}(", f.name());
+                self.text_into(out, a, 0);
+                out.push_str(", ");
+                self.text_into(out, b, 0);
+                out.push(')');
+            }
+            Node::Int(a) => {
+                out.push_str("int(");
+                self.text_into(out, a, 0);
+                out.push(')');
+            }
+        }
+        if paren {
+            out.push(')');
+        }
+    }
+
+    /// LaTeX math (no surrounding `$`); leaf names are used as given.
+    pub fn latex(&self, root: ExprId) -> String {
+        let mut out = String::new();
+        self.latex_into(&mut out, root, 0);
+        out
+    }
+
+    fn latex_into(&self, out: &mut String, id: ExprId, outer: u8) {
+        let node = self.pool.node(id);
+        // A fraction groups its parts itself.
+        let own = match node {
+            Node::Binary(BinOp::Div, ..) => 5,
+            n => precedence(n),
+        };
+        let paren = own < outer;
+        if paren {
+            out.push_str("\\left(");
+        }
+        match node {
+            Node::Num(bits) => {
+                let _ = write!(out, "{}", f64::from_bits(bits));
+            }
+            Node::Leaf(l) => out.push_str(&(self.name)(l)),
+            Node::Neg(a) => {
+                out.push('-');
+                self.latex_into(out, a, 3);
+            }
+            Node::Binary(BinOp::Div, a, b) => {
+                out.push_str("\\frac{");
+                self.latex_into(out, a, 0);
+                out.push_str("}{");
+                self.latex_into(out, b, 0);
+                out.push('}');
+            }
+            Node::Binary(BinOp::Pow, a, b) => {
+                out.push('{');
+                self.latex_into(out, a, 5);
+                out.push_str("}^{");
+                self.latex_into(out, b, 0);
+                out.push('}');
+            }
+            Node::Binary(op, a, b) => {
+                let p = op.precedence();
+                self.latex_into(out, a, p);
+                out.push_str(match op {
+                    BinOp::Add => " + ",
+                    BinOp::Sub => " - ",
+                    _ => " \\, ",
+                });
+                self.latex_into(out, b, p + 1);
+            }
+            Node::Call1(f, a) => {
+                out.push_str(latex_function(f));
+                out.push_str("\\left(");
+                self.latex_into(out, a, 0);
+                out.push_str("\\right)");
+            }
+            Node::Call2(f, a, b) => {
+                out.push_str(latex_function(f));
+                out.push_str("\\left(");
+                self.latex_into(out, a, 0);
+                out.push_str(", ");
+                self.latex_into(out, b, 0);
+                out.push_str("\\right)");
+            }
+            Node::Int(a) => {
+                out.push_str("\\int_0^t ");
+                self.latex_into(out, a, 2);
+                out.push_str(" \\, d\\tau");
+            }
+        }
+        if paren {
+            out.push_str("\\right)");
+        }
+    }
+}
+
+fn latex_function(f: Func) -> &'static str {
+    match f {
+        Func::Exp => "\\exp",
+        Func::Log => "\\ln",
+        Func::Sqrt => "\\operatorname{sqrt}",
+        Func::Abs => "\\operatorname{abs}",
+        Func::Sign => "\\operatorname{sign}",
+        Func::Sin => "\\sin",
+        Func::Cos => "\\cos",
+        Func::Tan => "\\tan",
+        Func::Tanh => "\\tanh",
+        Func::Atan => "\\arctan",
+        Func::Min => "\\min",
+        Func::Max => "\\max",
+    }
+}
