@@ -28,11 +28,18 @@ fn an_unknown_target_is_a_usage_error_listing_the_valid_ones() {
     let out = bgc(&["models/dc_motor.bg", "--emit", "svgz"]);
     assert_eq!(code(&out), 2);
     assert!(
-        stderr(&out).contains("possible values: dot"),
+        stderr(&out).contains("possible values: text, json, latex, state, dot"),
         "{}",
         stderr(&out)
     );
     assert!(stdout(&out).is_empty());
+}
+
+#[test]
+fn standalone_is_only_for_latex() {
+    let out = bgc(&["models/dc_motor.bg", "--emit", "json", "--standalone"]);
+    assert_eq!(code(&out), 2);
+    assert!(stderr(&out).contains("--standalone"), "{}", stderr(&out));
 }
 
 #[test]

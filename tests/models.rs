@@ -1,4 +1,5 @@
-//! Every model in `models/`: it checks, its DOT is stable, snapshotted, and renders with Graphviz.
+//! Every model in `models/`: it checks; every emitter's output is stable and snapshotted; the
+//! JSON follows the documented schema; the DOT renders with Graphviz.
 
 mod common;
 
@@ -7,8 +8,22 @@ use std::process::{Command, Stdio};
 
 use common::{bgc, code, relative, stderr, stdout};
 
+/// Runs bgc twice, requires success and byte-identical output, returns it.
+fn emit(model: &str, args: &[&str]) -> String {
+    let mut full = vec![model];
+    full.extend(args);
+    let out = bgc(&full);
+    assert_eq!(code(&out), 0, "{model} {args:?}: {}", stderr(&out));
+    let again = bgc(&full);
+    assert_eq!(
+        out.stdout, again.stdout,
+        "{model} {args:?}: output differs between runs"
+    );
+    stdout(&out)
+}
+
 #[test]
-fn every_model_checks_and_emits_dot() {
+fn every_model_checks_and_every_emitter_is_snapshotted() {
     insta::glob!("../models", "*.bg", |path| {
         let model = relative(path);
         let check = bgc(&["check", &model]);
@@ -20,16 +35,102 @@ fn every_model_checks_and_emits_dot() {
         );
         insta::assert_snapshot!("check", stdout(&check));
 
-        let dot = bgc(&[&model, "--emit", "dot"]);
-        assert_eq!(code(&dot), 0, "{model}: {}", stderr(&dot));
-        let again = bgc(&[&model, "--emit", "dot"]);
-        assert_eq!(
-            dot.stdout, again.stdout,
-            "{model}: DOT differs between runs"
-        );
-        insta::assert_snapshot!("dot", stdout(&dot));
-        render(&model, &dot.stdout);
+        let dot = emit(&model, &["--emit", "dot"]);
+        insta::assert_snapshot!("dot", dot);
+        render(&model, dot.as_bytes());
+
+        insta::assert_snapshot!("text", emit(&model, &["--emit", "text"]));
+        insta::assert_snapshot!("latex", emit(&model, &["--emit", "latex"]));
+        let json = emit(&model, &["--emit", "json"]);
+        schema(&model, &json);
+        insta::assert_snapshot!("json", json);
+        compile_latex(&model, &emit(&model, &["--emit", "latex", "--standalone"]));
+        let causality = bgc(&["causality", &model]);
+        assert_eq!(code(&causality), 0);
+        insta::assert_snapshot!("causality", stdout(&causality));
     });
+}
+
+/// The JSON contract of the README, checked field by field.
+fn schema(model: &str, text: &str) {
+    let v: serde_json::Value =
+        serde_json::from_str(text).unwrap_or_else(|e| panic!("{model}: invalid JSON: {e}"));
+    let sensors = v["sensors"].as_array().expect("sensors");
+    let arrs = v["arrs"].as_array().expect("arrs");
+    assert_eq!(arrs.len(), sensors.len(), "{model}: one ARR per sensor");
+    assert!(v["model"].is_string() && v["parameters"].is_object() && v["inputs"].is_array());
+    for s in sensors {
+        assert!(
+            matches!(s["kind"].as_str(), Some("De" | "Df")),
+            "{model}: {s}"
+        );
+    }
+    for e in v["state_equations"].as_array().expect("state_equations") {
+        assert!(e["state"].is_string() && e["rhs"].is_string());
+    }
+    let residuals = v["fsm"]["residuals"].as_array().expect("residuals");
+    assert_eq!(residuals.len(), arrs.len());
+    for (i, arr) in arrs.iter().enumerate() {
+        assert_eq!(arr["name"], format!("ARR{}", i + 1));
+        for key in ["junction", "sensor", "expr"] {
+            assert!(arr[key].is_string(), "{model}: ARR{} lacks {key}", i + 1);
+        }
+        assert!(arr["components"].is_array());
+    }
+    for row in v["fsm"]["rows"].as_array().expect("rows") {
+        let signature = row["signature"].as_array().expect("signature");
+        assert_eq!(signature.len(), residuals.len());
+        let db = signature.iter().any(|b| b == 1);
+        assert_eq!(row["Db"] == 1, db, "{model}: Db of {}", row["component"]);
+        for key in ["component", "kind"] {
+            assert!(row[key].is_string());
+        }
+        assert!(row["parameters"].is_array() && row["signals"].is_array());
+    }
+}
+
+/// A tool the test needs: present, or skipped with a note outside CI, or a failure under CI.
+fn tool(name: &str) -> bool {
+    let found = Command::new(name)
+        .arg("--version")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok();
+    if !found {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "`{name}` is needed under CI (.ci/run installs it)"
+        );
+        eprintln!("note: `{name}` not found; that check is skipped");
+    }
+    found
+}
+
+/// Compiles a standalone LaTeX document with pdflatex.
+fn compile_latex(model: &str, tex: &str) {
+    if !tool("pdflatex") {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!(
+        "bgc-latex-{}-{}",
+        std::process::id(),
+        model.replace('/', "_")
+    ));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    std::fs::write(dir.join("arr.tex"), tex).expect("write tex");
+    let out = Command::new("pdflatex")
+        .args(["-interaction=nonstopmode", "-halt-on-error", "arr.tex"])
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .output()
+        .expect("pdflatex runs");
+    assert!(
+        out.status.success() && dir.join("arr.pdf").exists(),
+        "{model}: pdflatex failed:\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// Renders DOT with Graphviz. Where `dot` is missing the test is skipped with a note, except

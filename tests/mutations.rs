@@ -191,7 +191,11 @@ fn mutated_models_never_crash_the_cli_and_every_rejection_names_line_and_column(
             let path = dir.join(format!("{n}-{name}"));
             std::fs::write(&path, &mutant).expect("write mutant");
             let shown = path.to_str().expect("utf-8 temp path");
-            for args in [vec!["check", shown], vec![shown, "--emit", "dot"]] {
+            for args in [
+                vec!["check", shown],
+                vec![shown, "--emit", "dot"],
+                vec![shown, "--emit", "json"],
+            ] {
                 let out = bgc(&args);
                 let report = stderr(&out);
                 let context = || {

@@ -23,9 +23,13 @@ pub struct Args {
     #[arg(value_name = "MODEL", required = true)]
     model: Option<PathBuf>,
 
-    /// What to write; without it, bgc checks the model and prints its summary.
-    #[arg(long, value_enum, value_name = "TARGET")]
-    emit: Option<Target>,
+    /// What to write.
+    #[arg(long, value_enum, value_name = "TARGET", default_value = "text")]
+    emit: Target,
+
+    /// With `--emit latex`: a whole document that compiles with pdflatex.
+    #[arg(long)]
+    standalone: bool,
 
     /// Write the output to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
@@ -44,12 +48,30 @@ enum Command {
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Print the causality of a model in both modes: storage causality, what sets each
+    /// junction, conflicts and algebraic loops.
+    Causality {
+        /// The model.
+        #[arg(value_name = "MODEL")]
+        model: PathBuf,
+        /// Write the report to FILE instead of standard output.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
 }
 
 /// The output formats.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Target {
-    /// Graphviz DOT of the bond graph (`dot -Tsvg` draws it).
+    /// Causality, state equations, ARRs and the FSM as a readable summary.
+    Text,
+    /// The same as JSON (the schema is in the README).
+    Json,
+    /// ARRs in an `align` environment and the FSM as a `tabular`.
+    Latex,
+    /// The state equations and detector outputs only.
+    State,
+    /// Graphviz DOT of the bond graph with causal strokes (`dot -Tsvg` draws it).
     Dot,
 }
 
@@ -78,11 +100,27 @@ pub fn run(args: Args) -> Result<(), Failure> {
             let graph = load(&model)?;
             write(output.as_deref(), &summary::check(&graph))
         }
+        (Some(Command::Causality { model, output }), _) => {
+            let graph = load(&model)?;
+            let analysis = bondgraph_core::analysis::analyse(&graph);
+            write(
+                output.as_deref(),
+                &bondgraph_codegen::text::causality(&analysis),
+            )
+        }
         (None, Some(model)) => {
             let graph = load(&model)?;
+            if args.standalone && args.emit != Target::Latex {
+                eprintln!("error: --standalone applies to --emit latex only");
+                return Err(Failure::Usage);
+            }
+            let analysis = bondgraph_core::analysis::analyse(&graph);
             let text = match args.emit {
-                None => summary::check(&graph),
-                Some(Target::Dot) => bondgraph_codegen::dot::emit(&graph),
+                Target::Text => bondgraph_codegen::text::emit(&analysis),
+                Target::Json => bondgraph_codegen::json::emit(&analysis),
+                Target::Latex => bondgraph_codegen::latex::emit(&analysis, args.standalone),
+                Target::State => bondgraph_codegen::text::state(&analysis),
+                Target::Dot => bondgraph_codegen::dot::emit(&graph, Some(&analysis.integral)),
             };
             write(args.output.as_deref(), &text)
         }

@@ -1,3 +1,7 @@
 //! bondgraph-codegen: what bgc writes from a model. One module per output format.
 
 pub mod dot;
+pub mod json;
+pub mod latex;
+mod names;
+pub mod text;

@@ -3,6 +3,7 @@
 //! [`load`] reads a model's text into a validated [`graph::BondGraph`]: the `.bg` syntax
 //! ([`syntax`]), then lowering and checks ([`graph`]), with [`diagnostic`]s tied to source spans.
 
+pub mod analysis;
 pub mod causality;
 pub mod diagnostic;
 pub mod expr;

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use crate::causality::equations::Var;
 use crate::causality::{assign, Mode};
 use crate::graph::{BondGraph, NodeId, NodeKind};
-use crate::symbolic::{ExprId, Leaf, Pool};
+use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
 
 /// One state equation, `d(name)/dt = rhs`.
 #[derive(Clone, Debug)]
@@ -94,6 +94,14 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
             }
         })
         .collect();
+    let mut simplifier = Simplifier::default();
+    let mut states = states;
+    for s in &mut states {
+        s.rhs = simplifier.simplify(pool, s.rhs);
+    }
+    for (_, e) in &mut outputs {
+        *e = simplifier.simplify(pool, *e);
+    }
     let all: Vec<ExprId> = states
         .iter()
         .map(|s| s.rhs)

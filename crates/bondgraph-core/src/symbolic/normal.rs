@@ -158,6 +158,17 @@ impl Simplifier {
                     .as_num(b)
                     .filter(|e| e.fract() == 0.0 && e.abs() <= 8.0);
                 match exponent {
+                    // A power of a sum stays a power (1/(1 + x)^2 reads better expanded
+                    // nowhere); a power of a monomial multiplies its exponents.
+                    Some(e) if base.len() > 1 => {
+                        let (lead, sum) = normalised_sum(pool, &base);
+                        let n = e as i32;
+                        let mut m = Monomial::new();
+                        m.insert(sum, n);
+                        let mut p = Poly::new();
+                        p.insert(m, lead.powi(n));
+                        p
+                    }
                     Some(e) => {
                         let n = e as i32;
                         let mut out = constant(1.0);
@@ -170,9 +181,6 @@ impl Simplifier {
                             return constant(f64::NAN);
                         };
                         for _ in 0..n.unsigned_abs() {
-                            if out.len() * factor.len() > MAX_TERMS {
-                                return self.opaque(pool, whole);
-                            }
                             out = mul(&out, &factor);
                         }
                         out
@@ -208,11 +216,7 @@ fn reciprocal(pool: &mut Pool, q: &Poly) -> Option<Poly> {
             Some(p)
         }
         _ => {
-            // Normalise the sum so its leading coefficient is 1: 1/(2a + 2b) = 0.5 · 1/(a + b).
-            let lead = q.values().next().copied().unwrap_or(1.0);
-            let mut scaled = q.clone();
-            scaled.values_mut().for_each(|c| *c /= lead);
-            let sum = rebuild(pool, &scaled);
+            let (lead, sum) = normalised_sum(pool, q);
             let mut m = Monomial::new();
             m.insert(sum, -1);
             let mut p = Poly::new();
@@ -222,6 +226,14 @@ fn reciprocal(pool: &mut Pool, q: &Poly) -> Option<Poly> {
     }
 }
 
+/// A sum as `lead · S` with S's leading coefficient 1, so 2a + 2b and a + b share the atom S.
+fn normalised_sum(pool: &mut Pool, q: &Poly) -> (f64, ExprId) {
+    let lead = q.values().next().copied().unwrap_or(1.0);
+    let mut scaled = q.clone();
+    scaled.values_mut().for_each(|c| *c /= lead);
+    (lead, rebuild(pool, &scaled))
+}
+
 /// The polynomial as an expression: terms in canonical order, negative powers as a quotient.
 fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
     let mut terms: Vec<(bool, ExprId)> = Vec::with_capacity(poly.len());
@@ -229,7 +241,9 @@ fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
     let mut ordered: Vec<(&Monomial, &f64)> = poly.iter().filter(|(m, _)| !m.is_empty()).collect();
     ordered.extend(poly.iter().filter(|(m, _)| m.is_empty()));
     for (m, &c) in ordered {
-        let mut numerator: Option<ExprId> = None;
+        // The coefficient first, then the atoms: 4 * K * j0, not 4 * (K * j0).
+        let magnitude = pool.num(c.abs());
+        let mut numerator: Option<ExprId> = (c.abs() != 1.0).then_some(magnitude);
         let mut denominator: Option<ExprId> = None;
         for (&a, &e) in m {
             let exp = pool.num(f64::from(e.abs()));
@@ -244,11 +258,7 @@ fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
                 None => factor,
             });
         }
-        let magnitude = pool.num(c.abs());
-        let body = match numerator {
-            Some(n) => pool.mul(magnitude, n),
-            None => magnitude,
-        };
+        let body = numerator.unwrap_or(magnitude);
         let term = match denominator {
             Some(d) => pool.div(body, d),
             None => body,

@@ -134,6 +134,16 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
                 });
                 self.latex_into(out, b, p + 1);
             }
+            Node::Call1(Func::Sqrt, a) => {
+                out.push_str("\\sqrt{");
+                self.latex_into(out, a, 0);
+                out.push('}');
+            }
+            Node::Call1(Func::Abs, a) => {
+                out.push_str("\\left|");
+                self.latex_into(out, a, 0);
+                out.push_str("\\right|");
+            }
             Node::Call1(f, a) => {
                 out.push_str(latex_function(f));
                 out.push_str("\\left(");
