@@ -256,7 +256,7 @@ fn residuals_vanish_on_the_model_and_move_with_the_parameters_the_fsm_names() {
                 .rows
                 .iter()
                 .filter(|r| r.component.parameters.iter().any(|q| q.0 as usize == p))
-                .flat_map(|r| r.signature.iter().enumerate().filter(|s| *s.1).map(|s| s.0))
+                .flat_map(|r| r.marks.iter().copied())
                 .collect();
             let mut faulty = nominal.clone();
             faulty[p] *= 1.2;

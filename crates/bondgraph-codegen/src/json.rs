@@ -93,7 +93,7 @@ pub fn emit(a: &Analysis<'_>) -> String {
             let components = fsm
                 .rows
                 .iter()
-                .filter(|r| r.signature.get(i).copied().unwrap_or(false))
+                .filter(|r| r.marks.binary_search(&i).is_ok())
                 .map(|r| string(&r.component.name));
             format!(
                 "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"components\": {}}}",
@@ -119,7 +119,7 @@ pub fn emit(a: &Analysis<'_>) -> String {
                 string(c.kind.name()),
                 list(c.parameters.iter().map(|p| string(&m.params[p.0 as usize].name))),
                 list(c.signals.iter().map(|s| string(s))),
-                list(r.signature.iter().map(|&b| bit(b))),
+                list(r.signature(fsm.residuals.len()).into_iter().map(bit)),
                 bit(r.detectable),
                 bit(r.isolable)
             )

@@ -79,7 +79,7 @@ fn fsm(out: &mut String, a: &Analysis<'_>) {
             bit(row.detectable),
             bit(row.isolable)
         );
-        for &s in &row.signature {
+        for s in row.signature(f.residuals.len()) {
             let _ = write!(line, " & {}", bit(s));
         }
         let _ = writeln!(out, "{line} \\\\");

@@ -128,7 +128,7 @@ fn fsm_table(out: &mut String, a: &Analysis<'_>) {
             flag(row.detectable),
             flag(row.isolable)
         );
-        for &s in &row.signature {
+        for s in row.signature(fsm.residuals.len()) {
             let _ = write!(line, "  {:>3}", flag(s));
         }
         let params: Vec<&str> = row

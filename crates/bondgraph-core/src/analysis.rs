@@ -98,7 +98,11 @@ mod tests {
         let model = model.unwrap_or_else(|| panic!("{diagnostics:#?}"));
         let a = analyse(&model);
         assert!(a.state.problems.is_empty(), "{:?}", a.state.problems);
-        assert!(a.diagnosis.problems.is_empty(), "{:?}", a.diagnosis.problems);
+        assert!(
+            a.diagnosis.problems.is_empty(),
+            "{:?}",
+            a.diagnosis.problems
+        );
         let names = |pool: &Pool, e| {
             Printer::new(pool, |l| match l {
                 Leaf::Param(p) => model.params[p.0 as usize].name.clone(),
@@ -148,14 +152,17 @@ mod tests {
         }
     }
 
-    const HEAD: &str = "model t\nparam R1 = 2\nparam C1 = 3\nparam L1 = 5\nparam m = 7\nparam r = 11\ninput U\n";
+    const HEAD: &str =
+        "model t\nparam R1 = 2\nparam C1 = 3\nparam L1 = 5\nparam m = 7\nparam r = 11\ninput U\n";
 
     #[test]
     fn rc_circuit() {
         // Se U -> 1 -> R, C.  Integral: q' = f = e_R / R1 = (U - q/C1) / R1.
         // Diagnosis with the current i, C in derivative causality: e_C = U - R1 i from the
         // junction, so i = C1 d/dt(U - R1 i): i - C1 U' + R1 C1 i' = 0 (no integral needed).
-        let d = derive(&format!("{HEAD}Se u = U\nR res = R1\nC cap = C1\nDf i on j\nu -> 1:j -> res, cap\n"));
+        let d = derive(&format!(
+            "{HEAD}Se u = U\nR res = R1\nC cap = C1\nDf i on j\nu -> 1:j -> res, cap\n"
+        ));
         assert_eq!(d.states, ["q_cap' = U / R1 - q_cap / (R1 * C1)"]);
         assert_eq!(d.outputs, ["i = U / R1 - q_cap / (R1 * C1)"]);
         assert_eq!(d.arrs, ["ARR1@j: R1 * C1 * der(i, 1) - C1 * der(U, 1) + i"]);
@@ -167,7 +174,9 @@ mod tests {
     fn rc_with_a_voltage_sensor_takes_derivative_causality() {
         // Parallel RC fed by a current source; v measured on the 0-junction:
         // Sf I -> 0 -> R, C.  ARR: I - v/R1 - C1 v' = 0.  State: q' = I - q/(C1 R1).
-        let d = derive(&format!("{HEAD}Sf src = U\nR res = R1\nC cap = C1\nDe v on n\nsrc -> 0:n -> res, cap\n"));
+        let d = derive(&format!(
+            "{HEAD}Sf src = U\nR res = R1\nC cap = C1\nDe v on n\nsrc -> 0:n -> res, cap\n"
+        ));
         assert_eq!(d.states, ["q_cap' = U - q_cap / (R1 * C1)"]);
         assert_eq!(d.arrs, ["ARR1@n: U - v / R1 - C1 * der(v, 1)"]);
         assert_eq!(d.derivative, [("cap".into(), StorageCausality::Derivative)]);
@@ -176,7 +185,9 @@ mod tests {
     #[test]
     fn rl_circuit() {
         // Se U -> 1 -> R, I.  p' = U - R1 p / L1.  With i measured: U - R1 i - L1 i' = 0.
-        let d = derive(&format!("{HEAD}Se u = U\nR res = R1\nI ind = L1\nDf i on j\nu -> 1:j -> res, ind\n"));
+        let d = derive(&format!(
+            "{HEAD}Se u = U\nR res = R1\nI ind = L1\nDf i on j\nu -> 1:j -> res, ind\n"
+        ));
         assert_eq!(d.states, ["p_ind' = U - R1 * p_ind / L1"]);
         assert_eq!(d.outputs, ["i = p_ind / L1"]);
         assert_eq!(d.arrs, ["ARR1@j: U - R1 * i - L1 * der(i, 1)"]);
@@ -204,8 +215,20 @@ mod tests {
             "{HEAD}Se u = U\nR res = R1\nI ind = L1\nGY gy = r\nI rotor = m\nDf i on e\nDf w on s\n\
              u -> 1:e -> res, ind, gy\ngy -> 1:s -> rotor\n"
         ));
-        assert_eq!(d.states, ["p_ind' = U - R1 * p_ind / L1 - r * p_rotor / m", "p_rotor' = p_ind * r / L1"]);
-        assert_eq!(d.arrs, ["ARR1@e: U - R1 * i - L1 * der(i, 1) - r * w", "ARR2@s: r * i - m * der(w, 1)"]);
+        assert_eq!(
+            d.states,
+            [
+                "p_ind' = U - R1 * p_ind / L1 - r * p_rotor / m",
+                "p_rotor' = p_ind * r / L1"
+            ]
+        );
+        assert_eq!(
+            d.arrs,
+            [
+                "ARR1@e: U - R1 * i - L1 * der(i, 1) - r * w",
+                "ARR2@s: r * i - m * der(w, 1)"
+            ]
+        );
     }
 
     #[test]
@@ -221,7 +244,11 @@ mod tests {
         ));
         assert_eq!(
             d.states,
-            ["p_m1' = U - q_k / C1", "q_k' = p_m1 / m - p_m2 / L1", "p_m2' = q_k / C1"]
+            [
+                "p_m1' = U - q_k / C1",
+                "q_k' = p_m1 / m - p_m2 / L1",
+                "p_m2' = q_k / C1"
+            ]
         );
         assert_eq!(
             d.arrs,

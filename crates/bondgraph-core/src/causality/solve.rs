@@ -4,10 +4,12 @@
 //!
 //! The order follows SCAP: sources and inverted detectors, with what junctions, TF and GY
 //! propagate from them, first; then storage in the preferred causality; then resistors. In
-//! diagnosis, the balance of a junction that carries a detector is solved only after that (it
-//! is the junction the detector makes over-determined, so it should become the ARR when it
-//! can), and storage goes into integral causality only as a last resort. Every step is
-//! O(degree), so the whole is linear in the size of the graph.
+//! diagnosis the balance of a junction that carries a detector comes next: it is the junction
+//! the detector makes over-determined, so it becomes the ARR whenever the rest of the graph
+//! allows, and is solved for an unknown (as the reference paper does for the motor torque)
+//! only before the last resort, storage in integral causality. Integral causality is last
+//! because an ARR with `int(..)` holds only for known initial energy (zero, here), which a
+//! residual on a running machine cannot assume. Each step is O(degree of the equation).
 
 use std::collections::VecDeque;
 

@@ -80,12 +80,19 @@ fn junction_of(model: &BondGraph, node: NodeId) -> NodeId {
     if is_junction(node) {
         return node;
     }
+    let ends = |b: crate::graph::BondId| {
+        let (t, h) = model.ends(b);
+        if t == node {
+            h
+        } else {
+            t
+        }
+    };
     model
-        .bonds()
-        .filter_map(|b| {
-            let (t, h) = model.ends(b);
-            (t == node || h == node).then(|| if t == node { h } else { t })
-        })
+        .bonds_at(node, petgraph::Direction::Incoming)
+        .into_iter()
+        .chain(model.bonds_at(node, petgraph::Direction::Outgoing))
+        .map(ends)
         .find(|&n| is_junction(n))
         .unwrap_or(node)
 }

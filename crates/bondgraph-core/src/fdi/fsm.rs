@@ -1,6 +1,6 @@
 //! The fault signature matrix: which component's equations each ARR was derived from.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 
 use super::arr::Diagnosis;
 use crate::graph::{
@@ -55,8 +55,9 @@ pub struct Component {
 pub struct Row {
     /// The component.
     pub component: Component,
-    /// One entry per ARR: whether a fault of the component can show in that residual.
-    pub signature: Vec<bool>,
+    /// The ARRs (by index) in which a fault of the component can show, in increasing order.
+    /// Sparse, because in a large model each component shows in a few ARRs of many.
+    pub marks: Vec<usize>,
     /// Detectable: some residual is sensitive.
     pub detectable: bool,
     /// Isolable: detectable, with a signature no other component has.
@@ -186,68 +187,88 @@ fn deep_lets(model: &BondGraph, expr: &SignalExpr) -> BTreeSet<LetId> {
     out
 }
 
+impl Row {
+    /// The dense signature over `n` residuals.
+    pub fn signature(&self, n: usize) -> Vec<bool> {
+        let mut out = vec![false; n];
+        for &k in &self.marks {
+            if let Some(slot) = out.get_mut(k) {
+                *slot = true;
+            }
+        }
+        out
+    }
+}
+
 impl Fsm {
-    /// The matrix of a diagnosed model.
+    /// The matrix of a diagnosed model, in time linear in the total size of the ARRs' cones.
     pub fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
-        // What each simplified residual still contains.
-        let contents: Vec<(BTreeSet<NodeId>, BTreeSet<ParamId>)> = diagnosis
-            .arrs
-            .iter()
-            .map(|arr| {
-                let (mut sensors, mut params) = (BTreeSet::new(), BTreeSet::new());
-                for leaf in diagnosis.causal.system.pool.leaves(arr.residual) {
-                    match leaf {
-                        Leaf::Sensor(s, _) => {
-                            sensors.insert(s);
-                        }
-                        Leaf::Param(p) => {
-                            params.insert(p);
-                        }
-                        _ => {}
+        let components = components(model);
+        let mut node_row: HashMap<NodeId, usize> = HashMap::new();
+        let mut let_row: HashMap<LetId, usize> = HashMap::new();
+        for (i, c) in components.iter().enumerate() {
+            if let Some(n) = c.node {
+                node_row.insert(n, i);
+            }
+            if let Some(l) = c.modulation {
+                let_row.insert(l, i);
+            }
+        }
+        let mut marks: Vec<Vec<usize>> = vec![Vec::new(); components.len()];
+        for (k, arr) in diagnosis.arrs.iter().enumerate() {
+            // What the simplified residual still contains.
+            let (mut sensors, mut params) = (BTreeSet::new(), BTreeSet::new());
+            for leaf in diagnosis.causal.system.pool.leaves(arr.residual) {
+                match leaf {
+                    Leaf::Sensor(s, _) => {
+                        sensors.insert(s);
+                    }
+                    Leaf::Param(p) => {
+                        params.insert(p);
+                    }
+                    _ => {}
+                }
+            }
+            // A component with parameters of its own is marked only where one of them
+            // survives simplification: a term that cancels cannot show a fault.
+            let survives = |c: &Component| {
+                c.parameters.is_empty() || c.parameters.iter().any(|p| params.contains(p))
+            };
+            let mut rows: BTreeSet<usize> = BTreeSet::new();
+            for n in &arr.nodes {
+                if let Some(&r) = node_row.get(n) {
+                    if matches!(components[r].kind, ComponentKind::Element(_)) {
+                        rows.insert(r);
                     }
                 }
-                (sensors, params)
-            })
-            .collect();
-        let mut rows: Vec<Row> = components(model)
-            .into_iter()
-            .map(|component| {
-                let signature: Vec<bool> = diagnosis
-                    .arrs
-                    .iter()
-                    .zip(&contents)
-                    .map(|(arr, (sensors, params))| {
-                        let structural =
-                            match (component.kind, component.node, component.modulation) {
-                                (ComponentKind::Detector(_), Some(n), _) => sensors.contains(&n),
-                                (_, Some(n), _) => arr.nodes.contains(&n),
-                                (_, None, Some(l)) => arr.lets.contains(&l),
-                                _ => false,
-                            };
-                        // A component with parameters of its own is marked only where one of
-                        // them survives simplification: a term that cancels cannot show a fault.
-                        structural
-                            && (component.parameters.is_empty()
-                                || component.parameters.iter().any(|p| params.contains(p)))
-                    })
-                    .collect();
-                let detectable = signature.iter().any(|&b| b);
-                Row {
-                    component,
-                    signature,
-                    detectable,
-                    isolable: false,
+            }
+            rows.extend(arr.lets.iter().filter_map(|l| let_row.get(l)));
+            rows.extend(sensors.iter().filter_map(|s| node_row.get(s)));
+            for r in rows {
+                if survives(&components[r]) {
+                    marks[r].push(k);
                 }
+            }
+        }
+        let mut count: HashMap<&[usize], usize> = HashMap::new();
+        for m in &marks {
+            *count.entry(m.as_slice()).or_default() += 1;
+        }
+        let isolable: Vec<bool> = marks
+            .iter()
+            .map(|m| !m.is_empty() && count.get(m.as_slice()) == Some(&1))
+            .collect();
+        let rows = components
+            .into_iter()
+            .zip(marks)
+            .zip(isolable)
+            .map(|((component, marks), isolable)| Row {
+                detectable: !marks.is_empty(),
+                isolable,
+                component,
+                marks,
             })
             .collect();
-        let signatures: Vec<Vec<bool>> = rows.iter().map(|r| r.signature.clone()).collect();
-        for (i, row) in rows.iter_mut().enumerate() {
-            let unique = signatures
-                .iter()
-                .enumerate()
-                .all(|(j, s)| j == i || *s != row.signature);
-            row.isolable = row.detectable && unique;
-        }
         Fsm {
             residuals: (1..=diagnosis.arrs.len())
                 .map(|i| format!("r{i}"))

@@ -73,7 +73,17 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
     }
     let pool = &mut causal.system.pool;
     // Modulations may read detectors; replace measured signals by the outputs they measure.
+    // Rounds until nothing changes: as many as the longest chain of detectors read by
+    // modulations, usually none at all.
     for _ in 0..=outputs.len() {
+        let reads = |pool: &Pool, e: ExprId| {
+            pool.leaves(e)
+                .iter()
+                .any(|l| matches!(l, Leaf::Sensor(_, 0)))
+        };
+        if !outputs.iter().any(|(_, e)| reads(pool, *e)) {
+            break;
+        }
         let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
         for (_, e) in outputs.iter_mut() {
             *e = measured(pool, *e, &map);

@@ -26,12 +26,20 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
 
     /// d/dt of `root`, or `None` if a leaf has no derivative under the rule.
     pub fn of(&mut self, pool: &mut Pool, root: ExprId) -> Option<ExprId> {
+        // Only nodes not yet differentiated are visited: differentiating a growing expression
+        // again and again costs what is new in it, not its whole size.
         let mut order = Vec::new();
-        pool.visit_reachable(&[root], |id, _| order.push(id));
-        for id in order {
-            if self.memo.contains_key(&id) {
+        let mut seen = std::collections::HashSet::new();
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            if self.memo.contains_key(&id) || !seen.insert(id) {
                 continue;
             }
+            order.push(id);
+            stack.extend(super::pool::children(pool.node(id)));
+        }
+        order.sort_unstable();
+        for id in order {
             let d = self.node(pool, id)?;
             self.memo.insert(id, d);
         }

@@ -1,6 +1,6 @@
 //! Nodes of the expression DAG and their hash-consing constructors.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use crate::expr::{BinOp, Func};
 use crate::graph::{InputId, NodeId, ParamId};
@@ -242,20 +242,22 @@ impl Pool {
     }
 
     /// Calls `f` on every node reachable from `roots`, children before parents, once each.
+    /// Costs O(r log r) for r reachable nodes, whatever the size of the pool.
     pub fn visit_reachable(&self, roots: &[ExprId], mut f: impl FnMut(ExprId, Node)) {
-        let mut seen = vec![false; self.nodes.len()];
+        let mut seen: HashSet<ExprId> = HashSet::new();
         let mut stack: Vec<ExprId> = roots.to_vec();
+        let mut found = Vec::new();
         while let Some(id) = stack.pop() {
-            if std::mem::replace(&mut seen[id.0 as usize], true) {
+            if !seen.insert(id) {
                 continue;
             }
+            found.push(id);
             stack.extend(children(self.node(id)));
         }
         // Ids are created children first, so id order is a topological order.
-        for (i, node) in self.nodes.iter().enumerate() {
-            if seen[i] {
-                f(ExprId(i as u32), *node);
-            }
+        found.sort_unstable();
+        for id in found {
+            f(id, self.node(id));
         }
     }
 
