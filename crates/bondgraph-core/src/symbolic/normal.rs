@@ -10,7 +10,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use super::pool::{ExprId, Node, Pool};
+use super::pool::{ExprId, Leaf, Node, Pool};
 use crate::expr::BinOp;
 
 /// The most terms a product may expand to before it is kept whole.
@@ -32,6 +32,14 @@ fn constant(c: f64) -> Poly {
     let mut p = Poly::new();
     if c != 0.0 {
         p.insert(Monomial::new(), c);
+    }
+    p
+}
+
+fn constant_poly(m: Monomial, c: f64) -> Poly {
+    let mut p = Poly::new();
+    if c != 0.0 {
+        p.insert(m, c);
     }
     p
 }
@@ -121,11 +129,32 @@ impl Simplifier {
                 let (a, b) = (self.simplify(pool, a), self.simplify(pool, b));
                 atom(pool.call(f, &[a, b]))
             }
-            Node::Int(a) => {
-                let a = self.simplify(pool, a);
-                atom(pool.int(a))
-            }
+            Node::Int(a) => self.integral(pool, a),
         }
+    }
+
+    /// int(Σ c·P·R) = Σ c·P·int(R), P the parameters (constant in time) of a term, so that
+    /// int(y1 - N·y2) and int(y1) - N·int(y2) are one and the same.
+    fn integral(&mut self, pool: &mut Pool, a: ExprId) -> Poly {
+        let inner = self.poly(pool, a);
+        let mut out = Poly::new();
+        for (m, c) in &inner {
+            let (constant, varying): (Monomial, Monomial) = m
+                .iter()
+                .map(|(k, e)| (*k, *e))
+                .partition(|(k, _)| matches!(pool.node(*k), Node::Leaf(Leaf::Param(_))));
+            let varying_expr = if varying.is_empty() {
+                pool.leaf(Leaf::Time)
+            } else {
+                let mut single = Poly::new();
+                single.insert(varying, 1.0);
+                let body = rebuild(pool, &single);
+                pool.int(body)
+            };
+            let term = mul(&constant_poly(constant, *c), &atom(varying_expr));
+            add_into(&mut out, &term, 1.0);
+        }
+        out
     }
 
     fn binary(&mut self, pool: &mut Pool, op: BinOp, a: ExprId, b: ExprId, whole: ExprId) -> Poly {
@@ -270,7 +299,6 @@ fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
 
 #[cfg(test)]
 mod tests {
-    use super::super::Leaf;
     use super::*;
     use crate::graph::ParamId;
 
@@ -295,6 +323,24 @@ mod tests {
         let expected = s.simplify(&mut p, expected);
         assert_eq!(simple, expected);
         assert!(!p.leaves(simple).contains(&Leaf::Param(ParamId(0))));
+    }
+
+    #[test]
+    fn integrals_are_linear() {
+        let mut p = Pool::default();
+        let n = p.leaf(Leaf::Param(ParamId(0)));
+        let (y1, y2) = (
+            p.leaf(Leaf::Input(crate::graph::InputId(0), 0)),
+            p.leaf(Leaf::Input(crate::graph::InputId(1), 0)),
+        );
+        let ny2 = p.mul(n, y2);
+        let d = p.sub(y1, ny2);
+        let whole = p.int(d);
+        let (i1, i2) = (p.int(y1), p.int(y2));
+        let ni2 = p.mul(n, i2);
+        let parts = p.sub(i1, ni2);
+        let mut s = Simplifier::default();
+        assert_eq!(s.simplify(&mut p, whole), s.simplify(&mut p, parts));
     }
 
     #[test]
