@@ -232,6 +232,53 @@ mod tests {
     }
 
     #[test]
+    fn a_linear_algebraic_loop_is_torn_and_solved() {
+        // U through R1 to node b; from b, R2 to ground and R3 in series with C. No storage
+        // sets the node, so the three resistors form an algebraic loop. By hand, with
+        // v the node voltage: (U - v)/R1 = v/R2 + (v - q/C1)/R3, and q' = (v - q/C1)/R3.
+        let text = format!(
+            "{HEAD}param R2 = 13\nparam R3 = 17\nSe u = U\nR r1 = R1\nR r2 = R2\nR r3 = R3\nC cap = C1\n\
+             u -> 1:a -> r1\na -> 0:b -> r2\nb -> 1:c -> r3, cap\n"
+        );
+        let (model, _) = crate::load(&text);
+        let model = model.expect("valid");
+        let a = analyse(&model);
+        assert!(a.state.problems.is_empty(), "{:?}", a.state.problems);
+        let (u, q) = (3.0, 0.7);
+        let (r1, r2, r3, c1) = (2.0, 13.0, 17.0, 3.0);
+        let v = (u / r1 + q / (c1 * r3)) / (1.0 / r1 + 1.0 / r2 + 1.0 / r3);
+        let expected = (v - q / c1) / r3;
+        let values: Vec<f64> = model.params.iter().map(|p| p.value).collect();
+        let got = crate::symbolic::Evaluator::new(&a.state.pool, |l| match l {
+            Leaf::Param(p) => values[p.0 as usize],
+            Leaf::Input(..) => u,
+            Leaf::State(_) => q,
+            _ => f64::NAN,
+        })
+        .value(a.state.states[0].rhs);
+        assert!((got - expected).abs() < 1e-12, "{got} vs {expected}");
+    }
+
+    #[test]
+    fn a_nonlinear_algebraic_loop_is_reported() {
+        let text = format!(
+            "{HEAD}Se u = U\nR r1 : f = e^3\nR r2 = R1\nR r3 = C1\nC cap = C1\n\
+             u -> 1:a -> r1\na -> 0:b -> r2\nb -> 1:c -> r3, cap\n"
+        );
+        let (model, _) = crate::load(&text);
+        let model = model.expect("valid");
+        let a = analyse(&model);
+        assert!(
+            a.state
+                .problems
+                .iter()
+                .any(|p| p.contains("algebraic loop")),
+            "{:?}",
+            a.state.problems
+        );
+    }
+
+    #[test]
     fn two_port_chain() {
         // Two masses joined by a spring, driven by a force F on the first:
         // Se F -> 1:v1 -> I(m); v1 -> 0:k -> C(stiffness 1/C1 ... written as C = C1); k -> 1:v2 -> I(L1).

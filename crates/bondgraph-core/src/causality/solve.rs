@@ -16,7 +16,7 @@ use std::collections::VecDeque;
 use super::equations::{Equation, Relation, System, VarId};
 use super::Mode;
 use crate::graph::{BondGraph, ElementKind, NodeKind};
-use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool};
+use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool, Simplifier};
 
 /// Why an equation was used to compute an unknown (lower is preferred).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -112,87 +112,253 @@ fn class_of(
     }
 }
 
-/// Orients `sys` by propagation from what is known.
+/// Orients `sys` by propagation from what is known, tearing linear algebraic loops.
 pub fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
-    let n_vars = sys.vars.len();
-    let mut var_eqs: Vec<Vec<usize>> = vec![Vec::new(); n_vars];
-    for (i, eq) in sys.equations.iter().enumerate() {
-        for v in &eq.vars {
-            var_eqs[v.0 as usize].push(i);
-        }
+    let mut solver = Solver::new(model, sys, mode);
+    for i in 0..solver.sys.equations.len() {
+        solver.settle(i);
     }
-    let mut unknown: Vec<usize> = sys.equations.iter().map(|e| e.vars.len()).collect();
-    let mut values: Vec<Option<ExprId>> = vec![None; n_vars];
-    let mut uses = vec![Use::Pending; sys.equations.len()];
-    let mut solved_by = vec![None; n_vars];
-    let mut queues: [VecDeque<usize>; 5] = Default::default();
-    // Junctions that carry a detector.
-    let mut sensed = vec![false; model.graph.node_count()];
-    for id in model.nodes() {
-        if let NodeKind::Detector(_) = model.node(id).kind {
-            for b in model.bonds_at(id, petgraph::Direction::Incoming) {
-                sensed[model.ends(b).0 .0.index()] = true;
-            }
-        }
+    solver.propagate();
+    // Each tear either solves a loop or is undone; a loop it cannot solve stays reported.
+    // Undoing costs a pass over the equations, so attempts are capped.
+    let mut tried = std::collections::BTreeSet::new();
+    while let Some(v) = solver
+        .tear_candidate(&tried)
+        .filter(|_| tried.len() < MAX_TEARS)
+    {
+        tried.insert(v);
+        solver.tear(v);
     }
-    let mut derivatives = Derivatives::new(known_signal_rule as Rule);
+    Solved {
+        values: solver.values,
+        uses: solver.uses,
+        solved_by: solver.solved_by,
+    }
+}
 
-    let enqueue =
-        |queues: &mut [VecDeque<usize>; 5], i: usize, sys: &System, values: &[Option<ExprId>]| {
-            let eq = &sys.equations[i];
-            if let Some(&v) = eq.vars.iter().find(|v| values[v.0 as usize].is_none()) {
-                if let Some(class) = class_of(model, &sensed, eq, v, mode) {
-                    queues[class as usize].push_back(i);
+/// Most tears tried on one model.
+const MAX_TEARS: usize = 1000;
+
+/// The propagation state.
+struct Solver<'a> {
+    model: &'a BondGraph,
+    sys: &'a mut System,
+    mode: Mode,
+    sensed: Vec<bool>,
+    var_eqs: Vec<Vec<usize>>,
+    unknown: Vec<usize>,
+    values: Vec<Option<ExprId>>,
+    uses: Vec<Use>,
+    solved_by: Vec<Option<usize>>,
+    queues: [VecDeque<usize>; 5],
+    derivatives: Derivatives<Rule>,
+    /// While a tear is tried: the unknowns and equations it touched, to undo it.
+    journal: Option<(Vec<usize>, Vec<usize>)>,
+}
+
+impl<'a> Solver<'a> {
+    fn new(model: &'a BondGraph, sys: &'a mut System, mode: Mode) -> Self {
+        let n_vars = sys.vars.len();
+        let mut var_eqs: Vec<Vec<usize>> = vec![Vec::new(); n_vars];
+        for (i, eq) in sys.equations.iter().enumerate() {
+            for v in &eq.vars {
+                var_eqs[v.0 as usize].push(i);
+            }
+        }
+        // Junctions that carry a detector.
+        let mut sensed = vec![false; model.graph.node_count()];
+        for id in model.nodes() {
+            if let NodeKind::Detector(_) = model.node(id).kind {
+                for b in model.bonds_at(id, petgraph::Direction::Incoming) {
+                    sensed[model.ends(b).0 .0.index()] = true;
                 }
             }
-        };
-    for i in 0..sys.equations.len() {
-        match unknown[i] {
+        }
+        Solver {
+            model,
+            unknown: sys.equations.iter().map(|e| e.vars.len()).collect(),
+            uses: vec![Use::Pending; sys.equations.len()],
+            values: vec![None; n_vars],
+            solved_by: vec![None; n_vars],
+            sys,
+            mode,
+            sensed,
+            var_eqs,
+            queues: Default::default(),
+            derivatives: Derivatives::new(known_signal_rule as Rule),
+            journal: None,
+        }
+    }
+
+    /// Queues a pending equation with one unknown, or records it as redundant with none.
+    fn settle(&mut self, i: usize) {
+        if self.uses[i] != Use::Pending {
+            return;
+        }
+        match self.unknown[i] {
             0 => {
-                uses[i] = Use::Redundant {
-                    residual: residual(sys, i, &values, &mut derivatives),
+                let r = residual(self.sys, i, &self.values, &mut self.derivatives);
+                self.set_use(i, Use::Redundant { residual: r });
+            }
+            1 => {
+                let eq = &self.sys.equations[i];
+                if let Some(&v) = eq.vars.iter().find(|v| self.values[v.0 as usize].is_none()) {
+                    if let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) {
+                        self.queues[class as usize].push_back(i);
+                    }
                 }
             }
-            1 => enqueue(&mut queues, i, sys, &values),
             _ => {}
         }
     }
-    while let Some(i) = queues.iter_mut().find_map(VecDeque::pop_front) {
-        if uses[i] != Use::Pending || unknown[i] != 1 {
-            continue;
+
+    fn set_use(&mut self, i: usize, u: Use) {
+        self.uses[i] = u;
+        if let Some((_, eqs)) = &mut self.journal {
+            eqs.push(i);
         }
-        let eq = &sys.equations[i];
-        let Some(&v) = eq.vars.iter().find(|v| values[v.0 as usize].is_none()) else {
-            continue;
-        };
-        let Some(class) = class_of(model, &sensed, eq, v, mode) else {
-            continue;
-        };
-        let value = solve_for(sys, i, v, &values, &mut derivatives);
-        values[v.0 as usize] = Some(value);
-        solved_by[v.0 as usize] = Some(i);
-        uses[i] = Use::Solves { var: v, class };
-        for &j in &var_eqs[v.0 as usize] {
-            unknown[j] -= 1;
-            if uses[j] != Use::Pending {
+    }
+
+    /// Records the value of `v` and lets the equations that use it move on.
+    fn know(&mut self, v: VarId, value: ExprId, by: Option<usize>) {
+        self.values[v.0 as usize] = Some(value);
+        self.solved_by[v.0 as usize] = by;
+        if let Some((vars, _)) = &mut self.journal {
+            vars.push(v.0 as usize);
+        }
+        for k in 0..self.var_eqs[v.0 as usize].len() {
+            let j = self.var_eqs[v.0 as usize][k];
+            self.unknown[j] -= 1;
+            self.settle(j);
+        }
+    }
+
+    fn propagate(&mut self) {
+        while let Some(i) = self.queues.iter_mut().find_map(VecDeque::pop_front) {
+            if self.uses[i] != Use::Pending || self.unknown[i] != 1 {
                 continue;
             }
-            match unknown[j] {
-                0 => {
-                    uses[j] = Use::Redundant {
-                        residual: residual(sys, j, &values, &mut derivatives),
-                    }
-                }
-                1 => enqueue(&mut queues, j, sys, &values),
-                _ => {}
-            }
+            let eq = &self.sys.equations[i];
+            let Some(&v) = eq.vars.iter().find(|v| self.values[v.0 as usize].is_none()) else {
+                continue;
+            };
+            let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) else {
+                continue;
+            };
+            let value = solve_for(self.sys, i, v, &self.values, &mut self.derivatives);
+            self.set_use(i, Use::Solves { var: v, class });
+            self.know(v, value, Some(i));
         }
     }
-    Solved {
-        values,
-        uses,
-        solved_by,
+
+    /// An unknown to tear a stalled loop at: the first unknown of the first waiting
+    /// equation that has two, never one already tried.
+    fn tear_candidate(&self, tried: &std::collections::BTreeSet<VarId>) -> Option<VarId> {
+        self.sys.equations.iter().enumerate().find_map(|(i, eq)| {
+            (self.uses[i] == Use::Pending && self.unknown[i] == 2)
+                .then(|| {
+                    eq.vars
+                        .iter()
+                        .copied()
+                        .find(|v| self.values[v.0 as usize].is_none() && !tried.contains(v))
+                })
+                .flatten()
+        })
     }
+
+    /// Assumes `v` known as a symbol, propagates, and solves for it from the first equation
+    /// that closes the loop, if that equation is linear in `v`; otherwise undoes everything.
+    fn tear(&mut self, v: VarId) {
+        self.journal = Some((Vec::new(), Vec::new()));
+        let symbol = self.sys.pool.leaf(Leaf::Var(v.0));
+        self.know(v, symbol, None);
+        self.propagate();
+        let Some((vars, eqs)) = self.journal.take() else {
+            return;
+        };
+        let closing = eqs.iter().copied().find(|&i| match self.uses[i] {
+            Use::Redundant { residual } => self.sys.pool.leaves(residual).contains(&Leaf::Var(v.0)),
+            _ => false,
+        });
+        let solution = closing.and_then(|i| match self.uses[i] {
+            Use::Redundant { residual } => linear_root(&mut self.sys.pool, residual, v),
+            _ => None,
+        });
+        match (closing, solution) {
+            (Some(i), Some(value)) => {
+                let pool = &mut self.sys.pool;
+                let mut put = |e: ExprId| {
+                    pool.substitute(e, &mut |_, leaf| (leaf == Leaf::Var(v.0)).then_some(value))
+                };
+                for &k in &vars {
+                    if let Some(e) = self.values[k] {
+                        self.values[k] = Some(put(e));
+                    }
+                }
+                for &j in &eqs {
+                    if let Use::Redundant { residual } = self.uses[j] {
+                        self.uses[j] = Use::Redundant {
+                            residual: put(residual),
+                        };
+                    }
+                }
+                self.values[v.0 as usize] = Some(value);
+                self.solved_by[v.0 as usize] = Some(i);
+                self.uses[i] = Use::Solves {
+                    var: v,
+                    class: Class::Structural,
+                };
+                self.propagate();
+            }
+            _ => self.undo(&vars, &eqs),
+        }
+    }
+
+    fn undo(&mut self, vars: &[usize], eqs: &[usize]) {
+        for &k in vars {
+            self.values[k] = None;
+            self.solved_by[k] = None;
+        }
+        for &j in eqs {
+            self.uses[j] = Use::Pending;
+        }
+        for (i, eq) in self.sys.equations.iter().enumerate() {
+            self.unknown[i] = eq
+                .vars
+                .iter()
+                .filter(|v| self.values[v.0 as usize].is_none())
+                .count();
+        }
+        self.queues = Default::default();
+    }
+}
+
+/// The root of `r`, if `r` is linear in the unknown `v`: with a = r(0) and b = r(1) − a,
+/// r is linear when r(2) = a + 2b holds in canonical form, and then v = −a/b.
+fn linear_root(pool: &mut Pool, r: ExprId, v: VarId) -> Option<ExprId> {
+    let at = |pool: &mut Pool, x: f64| {
+        let n = pool.num(x);
+        let e = pool.substitute(r, &mut |_, leaf| (leaf == Leaf::Var(v.0)).then_some(n));
+        Simplifier::default().simplify(pool, e)
+    };
+    let (a, one, two) = (at(pool, 0.0), at(pool, 1.0), at(pool, 2.0));
+    let b = pool.sub(one, a);
+    let b = Simplifier::default().simplify(pool, b);
+    if pool.as_num(b) == Some(0.0) {
+        return None;
+    }
+    let two_b = {
+        let k = pool.num(2.0);
+        pool.mul(k, b)
+    };
+    let predicted = pool.add(a, two_b);
+    let predicted = Simplifier::default().simplify(pool, predicted);
+    if predicted != two {
+        return None;
+    }
+    let na = pool.neg(a);
+    let root = pool.div(na, b);
+    Some(Simplifier::default().simplify(pool, root))
 }
 
 /// `e` with every unknown replaced by its value.
