@@ -108,8 +108,13 @@ impl Causal {
                         ..
                     },
                 ) => StorageCausality::Integral,
-                (_, Relation::Storage { .. }, Use::Redundant { .. }) => {
-                    StorageCausality::Derivative
+                // Checked both ways; the residual uses the derivative form when there is one.
+                (_, Relation::Storage { derivative, .. }, Use::Redundant { .. }) => {
+                    if derivative.is_some() {
+                        StorageCausality::Derivative
+                    } else {
+                        StorageCausality::Integral
+                    }
                 }
                 _ => StorageCausality::Unassigned,
             };

@@ -46,7 +46,7 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
         .collect();
     if !unsolved.is_empty() {
         problems.push(format!(
-            "these unknowns form an algebraic loop that is not solved: {}",
+            "these unknowns cannot be computed (an unsolved algebraic loop, or an under-determined part): {}",
             unsolved.join(", ")
         ));
     }
