@@ -2,7 +2,7 @@
 
 use crate::causality::{assign, Causal, Mode, StorageCausality, Strong};
 use crate::fdi::{diagnose, Diagnosis, Fsm};
-use crate::graph::{BondGraph, NodeId, NodeKind};
+use crate::graph::{BondGraph, NodeId};
 use crate::sim::{state_space, StateSpace};
 
 /// The causality of one mode, as a report names it.
@@ -67,7 +67,7 @@ impl Analysis<'_> {
         let strong = self
             .model
             .nodes()
-            .filter(|&n| matches!(self.model.node(n).kind, NodeKind::Junction(_)))
+            .filter(|&n| self.model.node(n).is_junction())
             .map(|n| (n, causal.strong_bond(self.model, n)))
             .collect();
         CausalityReport {

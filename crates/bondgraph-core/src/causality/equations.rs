@@ -360,10 +360,9 @@ impl Builder<'_> {
         if self.mode != Mode::Diagnosis {
             return;
         }
-        let Some(&bond) = self.model.bonds_at(node, Incoming).first() else {
+        let Some(junction) = self.model.detector_junction(node) else {
             return;
         };
-        let (junction, _) = self.model.ends(bond);
         let var = self.var(Var::Common(junction));
         let value = self.sys.pool.leaf(Leaf::Sensor(node, 0));
         self.push(node, Relation::Assign { var, value }, Vec::new());

@@ -72,8 +72,9 @@ impl Causal {
         if owner == tail || owner == head {
             Some(owner)
         } else {
-            let junction = |n: NodeId| matches!(model.node(n).kind, NodeKind::Junction(_));
-            [tail, head].into_iter().find(|&n| junction(n))
+            [tail, head]
+                .into_iter()
+                .find(|&n| model.node(n).is_junction())
         }
     }
 
@@ -128,6 +129,14 @@ impl Causal {
         (0..self.system.vars.len())
             .filter(|&i| self.solved.values[i].is_none())
             .map(|i| VarId(i as u32))
+            .collect()
+    }
+
+    /// The unknowns that could not be computed, as a reader names them (`e3`, `f7`…).
+    pub fn unsolved_names(&self, model: &BondGraph) -> Vec<String> {
+        self.unsolved()
+            .iter()
+            .map(|v| self.system.vars[v.0 as usize].describe(model))
             .collect()
     }
 

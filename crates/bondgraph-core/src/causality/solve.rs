@@ -167,12 +167,8 @@ impl<'a> Solver<'a> {
         }
         // Junctions that carry a detector.
         let mut sensed = vec![false; model.graph.node_count()];
-        for id in model.nodes() {
-            if let NodeKind::Detector(_) = model.node(id).kind {
-                for b in model.bonds_at(id, petgraph::Direction::Incoming) {
-                    sensed[model.ends(b).0 .0.index()] = true;
-                }
-            }
+        for junction in model.nodes().filter_map(|id| model.detector_junction(id)) {
+            sensed[junction.0.index()] = true;
         }
         Solver {
             model,

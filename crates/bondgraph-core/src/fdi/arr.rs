@@ -76,7 +76,7 @@ pub fn diagnose(model: &BondGraph) -> Diagnosis {
 
 /// `node` if it is a junction, else the first junction it is bonded to.
 fn junction_of(model: &BondGraph, node: NodeId) -> NodeId {
-    let is_junction = |n: NodeId| matches!(model.node(n).kind, NodeKind::Junction(_));
+    let is_junction = |n: NodeId| model.node(n).is_junction();
     if is_junction(node) {
         return node;
     }
@@ -136,12 +136,9 @@ fn attribute_sensors(model: &BondGraph, causal: &Causal, arrs: &mut [Arr]) {
                 .filter(|n| matches!(model.node(**n).kind, NodeKind::Detector(_))),
         );
         // The detector on the ARR's own junction first, then any other it uses.
-        let own = used.iter().find(|s| {
-            model
-                .bonds_at(**s, petgraph::Direction::Incoming)
-                .iter()
-                .any(|b| model.ends(*b).0 == arr.junction)
-        });
+        let own = used
+            .iter()
+            .find(|s| model.detector_junction(**s) == Some(arr.junction));
         arr.sensor = own
             .filter(|s| !taken.contains(*s))
             .or_else(|| used.iter().find(|s| !taken.contains(*s)))
@@ -155,11 +152,7 @@ fn attribute_sensors(model: &BondGraph, causal: &Causal, arrs: &mut [Arr]) {
 
 fn problems(model: &BondGraph, causal: &Causal, found: usize) -> Vec<String> {
     let mut out = Vec::new();
-    let unsolved: Vec<String> = causal
-        .unsolved()
-        .iter()
-        .map(|v| causal.system.vars[v.0 as usize].describe(model))
-        .collect();
+    let unsolved = causal.unsolved_names(model);
     if !unsolved.is_empty() {
         out.push(format!(
             "these unknowns cannot be computed from known signals (an algebraic loop, or a part no detector observes): {}",

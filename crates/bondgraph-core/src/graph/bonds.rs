@@ -8,7 +8,7 @@ use std::collections::HashMap;
 
 use petgraph::graph::DiGraph;
 
-use super::model::{Bond, BondKind, JunctionKind, Node, NodeId, NodeKind};
+use super::model::{Bond, BondKind, Node, NodeId, NodeKind};
 use super::scope::{Lookup, Scope};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::syntax::ast::{Chain, Ident, NodeRef};
@@ -160,7 +160,7 @@ fn bond_kind(
 }
 
 fn is_junction(graph: &DiGraph<Node, Bond>, id: NodeId) -> bool {
-    matches!(graph[id.0].kind, NodeKind::Junction(_))
+    graph[id.0].is_junction()
 }
 
 fn not_a_junction(graph: &DiGraph<Node, Bond>, detector: NodeId, span: Span) -> Diagnostic {
@@ -254,12 +254,4 @@ fn number<'d>(drafts: &'d [Draft], diagnostics: &mut Diagnostics) -> Vec<(&'d Dr
             (draft, n)
         })
         .collect()
-}
-
-/// The junction kind of a node, if it is one.
-pub(crate) fn junction_kind(node: &Node) -> Option<JunctionKind> {
-    match node.kind {
-        NodeKind::Junction(k) => Some(k),
-        _ => None,
-    }
 }

@@ -301,6 +301,21 @@ pub struct Node {
     pub span: Span,
 }
 
+impl Node {
+    /// The junction kind, if this node is a junction.
+    pub fn junction_kind(&self) -> Option<JunctionKind> {
+        match self.kind {
+            NodeKind::Junction(k) => Some(k),
+            _ => None,
+        }
+    }
+
+    /// Whether this node is a 0- or 1-junction.
+    pub fn is_junction(&self) -> bool {
+        self.junction_kind().is_some()
+    }
+}
+
 /// Whether a bond carries power or only information.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum BondKind {
@@ -377,6 +392,18 @@ impl BondGraph {
             .collect();
         bonds.sort();
         bonds
+    }
+
+    /// The junction a detector is attached to (`None` for other nodes, or an unattached one).
+    pub fn detector_junction(&self, detector: NodeId) -> Option<NodeId> {
+        if !matches!(self.node(detector).kind, NodeKind::Detector(_)) {
+            return None;
+        }
+        let bond = self
+            .bonds_at(detector, Direction::Incoming)
+            .into_iter()
+            .next()?;
+        Some(self.ends(bond).0)
     }
 
     /// The name of a signal.

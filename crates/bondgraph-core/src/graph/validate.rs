@@ -2,7 +2,6 @@
 
 use petgraph::Direction::{Incoming, Outgoing};
 
-use super::bonds::junction_kind;
 use super::model::{BondGraph, BondId, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 
@@ -75,7 +74,7 @@ fn junction(model: &BondGraph, id: NodeId, ports: &Ports, diagnostics: &mut Diag
         .collect();
     if power.len() < 2 {
         let node = model.node(id);
-        let kind = junction_kind(node).map_or("", |k| k.symbol());
+        let kind = node.junction_kind().map_or("", |k| k.symbol());
         diagnostics.push(with_bonds(
             Diagnostic::error(
                 Code::PortCount,
@@ -203,7 +202,7 @@ fn detector(
     };
     let (junction, _) = model.ends(bond);
     let junction_node = model.node(junction);
-    if junction_kind(junction_node) != Some(kind.junction()) {
+    if junction_node.junction_kind() != Some(kind.junction()) {
         let (reads, common) = match kind {
             DetectorKind::De => ("an effort", "a 0-junction"),
             DetectorKind::Df => ("a flow", "a 1-junction"),

@@ -39,11 +39,7 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
         .iter()
         .map(|r| format!("`{}`: {}", model.node(r.element).name, r.reason))
         .collect();
-    let unsolved: Vec<String> = causal
-        .unsolved()
-        .iter()
-        .map(|v| causal.system.vars[v.0 as usize].describe(model))
-        .collect();
+    let unsolved = causal.unsolved_names(model);
     if !unsolved.is_empty() {
         problems.push(format!(
             "these unknowns cannot be computed (an unsolved algebraic loop, or an under-determined part): {}",
@@ -61,11 +57,8 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
     let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
     for id in model.nodes() {
         if let NodeKind::Detector(_) = model.node(id).kind {
-            let junction = model
-                .bonds_at(id, petgraph::Direction::Incoming)
-                .first()
-                .map(|b| model.ends(*b).0);
-            let value = junction
+            let value = model
+                .detector_junction(id)
                 .and_then(|j| causal.value(Var::Common(j)))
                 .unwrap_or(nan);
             outputs.push((id, value));
