@@ -11,10 +11,12 @@
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
+use bondgraph_core::expr::BinOp;
 use bondgraph_core::fdi::{diagnose, Fsm};
+use bondgraph_core::generate::mass_spring_chain_varied;
 use bondgraph_core::graph::{BondGraph, NodeId};
 use bondgraph_core::sim::state_space;
-use bondgraph_core::symbolic::{Derivatives, Evaluator, ExprId, Leaf, Node, Pool};
+use bondgraph_core::symbolic::{Derivatives, Evaluator, ExprId, Leaf, Node, Pool, Simplifier};
 
 /// Inputs: u_k(t) = scale · (1 + 0.5 sin(ω_k t + k)), with exact derivatives of any order.
 fn input(k: u32, n: u32, t: f64, scale: f64) -> f64 {
@@ -42,9 +44,24 @@ struct Plant {
     integrals: Vec<ExprId>,
     /// The residuals; `Leaf::Var(p)` stands for parameter `p` at its nominal value.
     residuals: Vec<ExprId>,
+    /// The terms of each residual's top-level sum: round-off is relative to their size.
+    terms: Vec<Vec<ExprId>>,
 }
 
-fn plant(model: &BondGraph) -> (Plant, Vec<ExprId>) {
+/// The terms of `e` read as a sum (signs dropped: only their size matters). A canonical
+/// sum is a chain as long as its terms, so this walks it with a stack of its own.
+fn terms(pool: &Pool, e: ExprId, out: &mut Vec<ExprId>) {
+    let mut stack = vec![e];
+    while let Some(e) = stack.pop() {
+        match pool.node(e) {
+            Node::Binary(BinOp::Add | BinOp::Sub, a, b) => stack.extend([a, b]),
+            Node::Neg(a) => stack.push(a),
+            _ => out.push(e),
+        }
+    }
+}
+
+fn plant(model: &BondGraph, canonical: bool) -> (Plant, Vec<ExprId>) {
     let ss = state_space(model);
     assert!(ss.problems.is_empty(), "{}: {:?}", model.name, ss.problems);
     let diagnosis = diagnose(model);
@@ -65,7 +82,9 @@ fn plant(model: &BondGraph) -> (Plant, Vec<ExprId>) {
             &diagnosis.causal.system.pool,
             arr.residual,
             &mut |p, leaf| match leaf {
-                Leaf::Sensor(s, n) => output_derivative(p, &rhs, &outputs, &mut derived, s, n),
+                Leaf::Sensor(s, n) => {
+                    output_derivative(p, &rhs, &outputs, &mut derived, (s, n), canonical)
+                }
                 Leaf::Param(id) => p.leaf(Leaf::Var(id.0)),
                 other => p.leaf(other),
             },
@@ -81,12 +100,21 @@ fn plant(model: &BondGraph) -> (Plant, Vec<ExprId>) {
         }
     });
     let arr_exprs = residuals.clone();
+    let terms = residuals
+        .iter()
+        .map(|&r| {
+            let mut out = Vec::new();
+            terms(&pool, r, &mut out);
+            out
+        })
+        .collect();
     (
         Plant {
             pool,
             rhs,
             integrals,
             residuals,
+            terms,
         },
         arr_exprs,
     )
@@ -97,8 +125,8 @@ fn output_derivative(
     rhs: &[ExprId],
     outputs: &HashMap<NodeId, ExprId>,
     derived: &mut HashMap<(NodeId, u32), ExprId>,
-    sensor: NodeId,
-    n: u32,
+    (sensor, n): (NodeId, u32),
+    canonical: bool,
 ) -> ExprId {
     if let Some(&e) = derived.get(&(sensor, n)) {
         return e;
@@ -106,16 +134,25 @@ fn output_derivative(
     let e = if n == 0 {
         outputs[&sensor]
     } else {
-        let lower = output_derivative(pool, rhs, outputs, derived, sensor, n - 1);
+        let lower = output_derivative(pool, rhs, outputs, derived, (sensor, n - 1), canonical);
         let mut d = Derivatives::new(|p: &mut Pool, leaf: Leaf| match leaf {
             Leaf::State(k) => Some(rhs[k as usize]),
             Leaf::Input(u, m) => Some(p.leaf(Leaf::Input(u, m + 1))),
             Leaf::Param(_) | Leaf::Var(_) => Some(p.num(0.0)),
             Leaf::Time => Some(p.num(1.0)),
-            Leaf::Sensor(..) => None,
+            Leaf::Sensor(..) | Leaf::Tear(..) => None,
         });
-        d.of(pool, lower)
-            .expect("outputs are functions of states and inputs")
+        let e = d
+            .of(pool, lower)
+            .expect("outputs are functions of states and inputs");
+        // For a linear plant the canonical form is a short sum over the states, and keeps
+        // the next derivative from growing by the product rule; for a nonlinear one it is
+        // larger than the DAG it comes from.
+        if canonical {
+            Simplifier::default().simplify(pool, e)
+        } else {
+            e
+        }
     };
     derived.insert((sensor, n), e);
     e
@@ -138,7 +175,7 @@ impl Run<'_> {
             Leaf::Var(p) => self.nominal[p as usize],
             Leaf::Input(u, n) => input(u.0, n, t, self.input_scale),
             Leaf::Time => t,
-            Leaf::Sensor(..) => f64::NAN,
+            Leaf::Sensor(..) | Leaf::Tear(..) => f64::NAN,
         }
     }
 
@@ -165,13 +202,23 @@ impl Run<'_> {
         out
     }
 
+    /// Each residual, over the size of its largest term when that exceeds 1: a residual
+    /// with terms of 1e6 vanishes to round-off at 1e-10, not at 1e-16.
     fn residuals(&self, x: &[f64], t: f64) -> Vec<f64> {
         let mut ev =
             Evaluator::new(&self.plant.pool, self.leaf(x, t)).with_integrals(self.integrals(x));
-        self.plant.residuals.iter().map(|&r| ev.value(r)).collect()
+        self.plant
+            .residuals
+            .iter()
+            .zip(&self.plant.terms)
+            .map(|(&r, terms)| {
+                let size = terms.iter().map(|&e| ev.value(e).abs()).fold(1.0, f64::max);
+                ev.value(r) / size
+            })
+            .collect()
     }
 
-    /// Largest |residual| of each ARR along an RK4 trajectory from `x0`.
+    /// Largest relative |residual| of each ARR along an RK4 trajectory from `x0`.
     fn worst(&self, x0: &[f64], steps: usize, h: f64) -> Vec<f64> {
         let mut x: Vec<f64> = x0.to_vec();
         x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
@@ -212,9 +259,31 @@ fn models() -> Vec<PathBuf> {
 fn residuals_vanish_on_the_model_and_move_with_the_parameters_the_fsm_names() {
     for path in models() {
         let text = std::fs::read_to_string(&path).expect("model");
-        let (model, diagnostics) = bondgraph_core::load(&text);
-        let model = model.unwrap_or_else(|| panic!("{}: {diagnostics:?}", path.display()));
-        let (plant, _) = plant(&model);
+        let name = path.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+        validate(&text, scales(name), false);
+    }
+}
+
+/// Chains whose ARRs are freed of torn unknowns by elimination over d/dt (the force between
+/// two measured masses is never measured): each ARR must hold exactly, and a fault in one
+/// stage must move exactly the ARRs of the detectors around it.
+///
+/// Ignored in the default run: simulating the plant with the exact output derivatives of
+/// order ~10 that these ARRs need takes minutes here (the cost is in this harness's
+/// evaluation, not in bgc). Run it with `cargo test --release -- --ignored`.
+#[test]
+#[ignore = "minutes of simulation; run with --release -- --ignored"]
+fn local_arrs_of_chains_vanish_and_each_stage_moves_the_arrs_around_it() {
+    validate(&mass_spring_chain_varied(7, 3), (1.0, 0.5), true);
+}
+
+/// Simulates `text`'s model healthy and with each parameter +20%, checking every residual.
+/// `linear` says the plant is linear, so its output derivatives are kept in canonical form.
+fn validate(text: &str, (input_scale, state_scale): (f64, f64), linear: bool) {
+    {
+        let (model, diagnostics) = bondgraph_core::load(text);
+        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
+        let (plant, _) = plant(&model, linear);
         assert_eq!(
             plant.residuals.len(),
             model.counts().detectors,
@@ -224,7 +293,6 @@ fn residuals_vanish_on_the_model_and_move_with_the_parameters_the_fsm_names() {
         let diagnosis = diagnose(&model);
         let fsm = Fsm::new(&model, &diagnosis);
         let nominal: Vec<f64> = model.params.iter().map(|p| p.value).collect();
-        let (input_scale, state_scale) = scales(&model.name);
         let n = plant.rhs.len();
         let initial: Vec<Vec<f64>> = (0..3)
             .map(|seed| {

@@ -20,6 +20,7 @@ pub fn text(model: &BondGraph, states: &[StateEquation], leaf: Leaf) -> String {
             .map_or_else(|| format!("x{k}"), |s| s.name.clone()),
         Leaf::Time => "t".to_string(),
         Leaf::Var(v) => format!("unknown{v}"),
+        Leaf::Tear(v, n) => derivative(&format!("unknown{v}"), n),
     }
 }
 
@@ -85,6 +86,7 @@ pub fn latex(model: &BondGraph, states: &[StateEquation], leaf: Leaf) -> String 
         Leaf::State(_) => latex_name(&text(model, states, leaf)),
         Leaf::Time => "t".to_string(),
         Leaf::Var(v) => format!("u_{{{v}}}"),
+        Leaf::Tear(v, n) => latex_derivative(&format!("u{v}"), n),
     }
 }
 

@@ -3,7 +3,7 @@
 use crate::causality::{assign, Causal, Mode, StorageCausality, Strong};
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::{BondGraph, NodeId};
-use crate::sim::{state_space, StateSpace};
+use crate::sim::{state_space_of, StateSpace};
 
 /// The causality of one mode, as a report names it.
 pub struct CausalityReport {
@@ -34,7 +34,7 @@ pub struct Analysis<'m> {
 /// Runs the whole pipeline on a valid model.
 pub fn analyse(model: &BondGraph) -> Analysis<'_> {
     let integral = assign(model, Mode::Integral);
-    let state = state_space(model);
+    let state = state_space_of(model, &integral);
     let diagnosis = diagnose(model);
     let fsm = Fsm::new(model, &diagnosis);
     Analysis {

@@ -52,6 +52,19 @@ pub enum Use {
     },
 }
 
+/// An unknown computed from a measured junction's balance, held as the symbol
+/// [`Leaf::Tear`] downstream, so that each ARR holds only what its own part of the graph says
+/// (see [`crate::fdi::eliminate`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Torn {
+    /// The unknown.
+    pub var: VarId,
+    /// The balance that computes it.
+    pub equation: usize,
+    /// Its value over known signals and earlier torn unknowns.
+    pub value: ExprId,
+}
+
 /// The oriented system.
 pub struct Solved {
     /// Each unknown's expression over known signals, when it could be computed.
@@ -60,6 +73,8 @@ pub struct Solved {
     pub uses: Vec<Use>,
     /// The equation that computes each unknown.
     pub solved_by: Vec<Option<usize>>,
+    /// The unknowns held as symbols, in the order they were computed.
+    pub torn: Vec<Torn>,
 }
 
 fn class_of(
@@ -133,6 +148,7 @@ pub fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
         values: solver.values,
         uses: solver.uses,
         solved_by: solver.solved_by,
+        torn: solver.torn,
     }
 }
 
@@ -150,6 +166,7 @@ struct Solver<'a> {
     values: Vec<Option<ExprId>>,
     uses: Vec<Use>,
     solved_by: Vec<Option<usize>>,
+    torn: Vec<Torn>,
     queues: [VecDeque<usize>; 5],
     derivatives: Derivatives<Rule>,
     /// While a tear is tried: the unknowns and equations it touched, to undo it.
@@ -176,6 +193,7 @@ impl<'a> Solver<'a> {
             uses: vec![Use::Pending; sys.equations.len()],
             values: vec![None; n_vars],
             solved_by: vec![None; n_vars],
+            torn: Vec::new(),
             sys,
             mode,
             sensed,
@@ -241,7 +259,15 @@ impl<'a> Solver<'a> {
             let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) else {
                 continue;
             };
-            let value = solve_for(self.sys, i, v, &self.values, &mut self.derivatives);
+            let mut value = solve_for(self.sys, i, v, &self.values, &mut self.derivatives);
+            if class == Class::SensorBalance {
+                self.torn.push(Torn {
+                    var: v,
+                    equation: i,
+                    value,
+                });
+                value = self.sys.pool.leaf(Leaf::Tear(v.0, 0));
+            }
             self.set_use(i, Use::Solves { var: v, class });
             self.know(v, value, Some(i));
         }
@@ -291,6 +317,9 @@ impl<'a> Solver<'a> {
                         self.values[k] = Some(put(e));
                     }
                 }
+                for t in &mut self.torn {
+                    t.value = put(t.value);
+                }
                 for &j in &eqs {
                     if let Use::Redundant { residual } = self.uses[j] {
                         self.uses[j] = Use::Redundant {
@@ -318,6 +347,8 @@ impl<'a> Solver<'a> {
         for &j in eqs {
             self.uses[j] = Use::Pending;
         }
+        self.torn
+            .retain(|t| self.values[t.var.0 as usize].is_some());
         for (i, eq) in self.sys.equations.iter().enumerate() {
             self.unknown[i] = eq
                 .vars

@@ -3,9 +3,11 @@
 
 use std::collections::BTreeSet;
 
+use super::eliminate::eliminate;
+use crate::causality::equations::VarId;
 use crate::causality::{assign, Causal, Mode};
 use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
-use crate::symbolic::{ExprId, Leaf, Simplifier};
+use crate::symbolic::{ExprId, Leaf};
 
 /// One ARR: `residual = 0` while the machine is healthy.
 #[derive(Clone, Debug)]
@@ -38,35 +40,42 @@ pub struct Diagnosis {
 
 /// Derives the ARRs of `model`.
 pub fn diagnose(model: &BondGraph) -> Diagnosis {
-    let causal = assign(model, Mode::Diagnosis);
-    let mut arrs: Vec<Arr> = causal
-        .redundant()
+    let mut causal = assign(model, Mode::Diagnosis);
+    let redundant = causal.redundant();
+    let eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
+    let torn: BTreeSet<VarId> = causal.solved.torn.iter().map(|t| t.var).collect();
+    let mut arrs: Vec<Arr> = eliminated
+        .relations
         .into_iter()
-        .map(|(eq, residual)| {
-            let (nodes, lets) = cone(&causal, eq);
-            let origin = causal.system.equations[eq].owner;
+        .map(|relation| {
+            let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
+            for &eq in &relation.equations {
+                cone(&causal, &torn, eq, &mut nodes, &mut lets);
+            }
+            let origin = causal.system.equations[relation.origin].owner;
             Arr {
                 name: String::new(),
                 origin,
                 junction: junction_of(model, origin),
                 sensor: None,
-                residual,
+                residual: relation.expr,
                 nodes,
                 lets,
             }
         })
         .collect();
     arrs.sort_by_key(|a| a.origin);
-    let mut causal = causal;
-    let mut simplifier = Simplifier::default();
-    for arr in &mut arrs {
-        arr.residual = simplifier.simplify(&mut causal.system.pool, arr.residual);
-    }
     attribute_sensors(model, &causal, &mut arrs);
     for (i, arr) in arrs.iter_mut().enumerate() {
         arr.name = format!("ARR{}", i + 1);
     }
-    let problems = problems(model, &causal, arrs.len());
+    let mut problems = problems(model, &causal, arrs.len());
+    for u in eliminated.problems {
+        problems.push(format!(
+            "{} enters the relations that hold it nonlinearly, once its value is no longer explicit: they are not reported",
+            causal.system.vars[u as usize].describe(model)
+        ));
+    }
     Diagnosis {
         causal,
         arrs,
@@ -97,19 +106,25 @@ fn junction_of(model: &BondGraph, node: NodeId) -> NodeId {
         .unwrap_or(node)
 }
 
-/// The nodes and `let`s of every equation a redundant equation depends on.
-fn cone(causal: &Causal, start: usize) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
+/// Adds the nodes and `let`s of every equation that equation `start` depends on, up to the
+/// torn unknowns: what computed those belongs to the relations they were eliminated with.
+fn cone(
+    causal: &Causal,
+    torn: &BTreeSet<VarId>,
+    start: usize,
+    nodes: &mut BTreeSet<NodeId>,
+    lets: &mut BTreeSet<LetId>,
+) {
     let eqs = &causal.system.equations;
-    let mut seen = vec![false; eqs.len()];
+    let mut seen = BTreeSet::new();
     let mut stack = vec![start];
-    let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
     while let Some(i) = stack.pop() {
-        if std::mem::replace(&mut seen[i], true) {
+        if !seen.insert(i) {
             continue;
         }
         nodes.insert(eqs[i].owner);
         lets.extend(eqs[i].lets.iter().copied());
-        for v in &eqs[i].vars {
+        for v in eqs[i].vars.iter().filter(|v| !torn.contains(v)) {
             if let Some(j) = causal.solved.solved_by[v.0 as usize] {
                 if j != i {
                     stack.push(j);
@@ -117,7 +132,6 @@ fn cone(causal: &Causal, start: usize) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
             }
         }
     }
-    (nodes, lets)
 }
 
 /// Each ARR gets one detector it uses, the first in declaration order not already taken.
@@ -166,4 +180,44 @@ fn problems(model: &BondGraph, causal: &Causal, found: usize) -> Vec<String> {
         ));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::generate::{mass_spring_chain, mass_spring_chain_varied};
+
+    /// In a chain measured every 5th mass, each ARR relates a detector to its neighbours
+    /// only, with derivatives of bounded order, however long the chain: the forces between
+    /// measured masses are eliminated locally, not carried from one end.
+    #[test]
+    fn the_arrs_of_a_long_chain_are_local_and_of_bounded_order() {
+        for text in [mass_spring_chain(41, 5), mass_spring_chain_varied(21, 5)] {
+            let (model, diagnostics) = crate::load(&text);
+            let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
+            let d = diagnose(&model);
+            assert!(d.problems.is_empty(), "{:?}", d.problems);
+            assert_eq!(d.arrs.len(), model.counts().detectors);
+            let index = |s: NodeId| {
+                let name = &model.node(s).name;
+                name[1..].parse::<usize>().expect("detectors are y<stage>") / 5
+            };
+            for arr in &d.arrs {
+                let own = index(arr.sensor.expect("attributed"));
+                let mut top = 0;
+                for leaf in d.causal.system.pool.leaves(arr.residual) {
+                    if let Leaf::Sensor(s, n) = leaf {
+                        let k = index(s);
+                        assert!(
+                            k + 1 >= own && k <= own + 1,
+                            "{} (at detector {own}) reads detector {k}",
+                            arr.name
+                        );
+                        top = top.max(n);
+                    }
+                }
+                assert!(top <= 20, "{} needs derivatives of order {top}", arr.name);
+            }
+        }
+    }
 }

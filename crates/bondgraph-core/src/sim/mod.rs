@@ -3,7 +3,7 @@
 use std::collections::HashMap;
 
 use crate::causality::equations::Var;
-use crate::causality::{assign, Mode};
+use crate::causality::{assign, Causal, Mode};
 use crate::graph::{BondGraph, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
 
@@ -32,7 +32,12 @@ pub struct StateSpace {
 
 /// Derives the state equations of `model`.
 pub fn state_space(model: &BondGraph) -> StateSpace {
-    let mut causal = assign(model, Mode::Integral);
+    state_space_of(model, &assign(model, Mode::Integral))
+}
+
+/// The state equations of `model` from its equations in integral causality.
+pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
+    let mut pool = causal.system.pool.clone();
     let mut problems: Vec<String> = causal
         .system
         .refusals
@@ -53,7 +58,7 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
             model.node(owner).name
         ));
     }
-    let nan = causal.system.pool.num(f64::NAN);
+    let nan = pool.num(f64::NAN);
     let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
     for id in model.nodes() {
         if let NodeKind::Detector(_) = model.node(id).kind {
@@ -64,7 +69,7 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
             outputs.push((id, value));
         }
     }
-    let pool = &mut causal.system.pool;
+    let pool = &mut pool;
     // Modulations may read detectors; replace measured signals by the outputs they measure.
     // Rounds until nothing changes: as many as the longest chain of detectors read by
     // modulations, usually none at all.
@@ -122,7 +127,7 @@ pub fn state_space(model: &BondGraph) -> StateSpace {
         );
     }
     StateSpace {
-        pool: causal.system.pool,
+        pool: std::mem::take(pool),
         states,
         outputs,
         problems,

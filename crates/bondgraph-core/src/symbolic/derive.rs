@@ -1,6 +1,6 @@
 //! d/dt of expressions, with the chain rule through every function of the language.
 
-use std::collections::HashMap;
+use super::hash::{FastMap, FastSet};
 
 use super::pool::{ExprId, Leaf, Node, Pool};
 use crate::expr::{BinOp, Func};
@@ -11,7 +11,7 @@ use crate::expr::{BinOp, Func};
 /// derivative is a new known signal; for a simulation, a state's derivative is its state
 /// equation. `leaf` returns `None` for a leaf it cannot differentiate.
 pub struct Derivatives<F> {
-    memo: HashMap<ExprId, ExprId>,
+    memo: FastMap<ExprId, ExprId>,
     leaf: F,
 }
 
@@ -19,9 +19,14 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
     /// Derivatives with the given rule for leaves.
     pub fn new(leaf: F) -> Self {
         Derivatives {
-            memo: HashMap::new(),
+            memo: FastMap::default(),
             leaf,
         }
+    }
+
+    /// d/dt of a leaf under the rule.
+    pub fn of_leaf(&mut self, pool: &mut Pool, leaf: Leaf) -> Option<ExprId> {
+        (self.leaf)(pool, leaf)
     }
 
     /// d/dt of `root`, or `None` if a leaf has no derivative under the rule.
@@ -29,7 +34,7 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
         // Only nodes not yet differentiated are visited: differentiating a growing expression
         // again and again costs what is new in it, not its whole size.
         let mut order = Vec::new();
-        let mut seen = std::collections::HashSet::new();
+        let mut seen = FastSet::default();
         let mut stack = vec![root];
         while let Some(id) = stack.pop() {
             if self.memo.contains_key(&id) || !seen.insert(id) {
@@ -163,12 +168,14 @@ fn outer_derivative(p: &mut Pool, f: Func, a: ExprId, fa: ExprId) -> ExprId {
 }
 
 /// The usual rule for known signals: parameters are constant, the derivative of a measured or
-/// input signal is its next derivative, dt/dt = 1. States and unknowns have no rule.
+/// input signal is its next derivative, as is a torn unknown's; dt/dt = 1. States and
+/// unknowns have no rule.
 pub fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
     match leaf {
         Leaf::Param(_) => Some(p.num(0.0)),
         Leaf::Input(u, n) => Some(p.leaf(Leaf::Input(u, n + 1))),
         Leaf::Sensor(s, n) => Some(p.leaf(Leaf::Sensor(s, n + 1))),
+        Leaf::Tear(v, n) => Some(p.leaf(Leaf::Tear(v, n + 1))),
         Leaf::Time => Some(p.num(1.0)),
         Leaf::State(_) | Leaf::Var(_) => None,
     }

@@ -1,5 +1,6 @@
 //! Numeric evaluation of expressions.
 
+use super::hash::FastMap;
 use super::pool::{ExprId, Leaf, Node, Pool};
 use std::collections::HashMap;
 
@@ -9,8 +10,9 @@ use crate::expr::BinOp;
 pub struct Evaluator<'p, F> {
     pool: &'p Pool,
     leaf: F,
-    values: Vec<f64>,
-    done: Vec<bool>,
+    /// Values of the nodes evaluated so far: sparse, so that an evaluator costs what it
+    /// reaches, not the size of its pool.
+    values: FastMap<ExprId, f64>,
     integrals: HashMap<ExprId, f64>,
 }
 
@@ -20,8 +22,7 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
         Evaluator {
             pool,
             leaf,
-            values: vec![0.0; pool.len()],
-            done: vec![false; pool.len()],
+            values: FastMap::default(),
             integrals: HashMap::new(),
         }
     }
@@ -36,12 +37,12 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
     pub fn value(&mut self, root: ExprId) -> f64 {
         let mut order = Vec::new();
         self.pool.visit_reachable(&[root], |id, node| {
-            if !self.done[id.0 as usize] {
+            if !self.values.contains_key(&id) {
                 order.push((id, node));
             }
         });
         for (id, node) in order {
-            let v = |x: ExprId| self.values[x.0 as usize];
+            let v = |x: ExprId| self.values.get(&x).copied().unwrap_or(f64::NAN);
             let value = match node {
                 Node::Num(bits) => f64::from_bits(bits),
                 Node::Leaf(l) => (self.leaf)(l),
@@ -60,9 +61,8 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
                 Node::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
                 Node::Int(_) => self.integrals.get(&id).copied().unwrap_or(f64::NAN),
             };
-            self.values[id.0 as usize] = value;
-            self.done[id.0 as usize] = true;
+            self.values.insert(id, value);
         }
-        self.values[root.0 as usize]
+        self.values.get(&root).copied().unwrap_or(f64::NAN)
     }
 }

@@ -1,17 +1,19 @@
 //! The symbolic expression IR: a hash-consed DAG, so shared subexpressions stay shared.
 //!
 //! [`pool`] holds the nodes and the constructors (which fold constants and drop neutral
-//! elements), [`derive`] is d/dt with the chain rule, [`eval`] evaluates numerically and
-//! [`print`] writes expressions as text.
+//! elements), [`derive`] is d/dt with the chain rule, [`eval`] evaluates numerically,
+//! [`normal`] puts expressions in a canonical form, [`linear`] reads them as linear in chosen
+//! leaves, and [`print`] writes them as text.
 
 mod derive;
 mod eval;
+pub mod hash;
 mod normal;
 mod pool;
 mod print;
 
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::Evaluator;
-pub use normal::{Simplifier, MAX_TERMS};
+pub use normal::{Polynomial, Simplifier, MAX_TERMS};
 pub use pool::{ExprId, Leaf, Node, Pool};
 pub use print::Printer;

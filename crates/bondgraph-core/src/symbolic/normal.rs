@@ -8,7 +8,10 @@
 //! ([`MAX_TERMS`]): a product that would grow past it is kept as an atom, so simplification
 //! always terminates in time linear in the result.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
+use std::rc::Rc;
+
+use super::hash::FastMap;
 
 use super::pool::{ExprId, Leaf, Node, Pool};
 use crate::expr::BinOp;
@@ -16,16 +19,18 @@ use crate::expr::BinOp;
 /// The most terms a product may expand to before it is kept whole.
 pub const MAX_TERMS: usize = 256;
 
-/// Atoms with their (non-zero) integer exponents.
-type Monomial = BTreeMap<ExprId, i32>;
+/// Atoms with their (non-zero) integer exponents, sorted by atom: a sorted vector orders
+/// like a map of the same pairs and is much cheaper to copy and compare.
+type Monomial = Vec<(ExprId, i32)>;
 /// Monomials with their (non-zero) coefficients.
 type Poly = BTreeMap<Monomial, f64>;
 
 /// Simplifies expressions of one pool, memoising what it has seen.
 #[derive(Default)]
 pub struct Simplifier {
-    memo: HashMap<ExprId, ExprId>,
-    polys: HashMap<ExprId, Poly>,
+    memo: FastMap<ExprId, ExprId>,
+    /// Shared, so that reading a cached polynomial does not copy it.
+    polys: FastMap<ExprId, Rc<Poly>>,
 }
 
 fn constant(c: f64) -> Poly {
@@ -45,8 +50,7 @@ fn constant_poly(m: Monomial, c: f64) -> Poly {
 }
 
 fn atom(id: ExprId) -> Poly {
-    let mut m = Monomial::new();
-    m.insert(id, 1);
+    let m = vec![(id, 1)];
     let mut p = Poly::new();
     p.insert(m, 1.0);
     p
@@ -54,23 +58,53 @@ fn atom(id: ExprId) -> Poly {
 
 fn add_into(acc: &mut Poly, other: &Poly, scale: f64) {
     for (m, c) in other {
-        let entry = acc.entry(m.clone()).or_insert(0.0);
-        *entry += scale * c;
-        if *entry == 0.0 {
-            acc.remove(m);
+        accumulate(acc, m.clone(), scale * c);
+    }
+}
+
+/// Adds `c·m` to `acc`, dropping the term if it cancels.
+fn accumulate(acc: &mut Poly, m: Monomial, c: f64) {
+    use std::collections::btree_map::Entry;
+    match acc.entry(m) {
+        Entry::Occupied(mut o) => {
+            *o.get_mut() += c;
+            if *o.get() == 0.0 {
+                o.remove();
+            }
+        }
+        Entry::Vacant(v) => {
+            if c != 0.0 {
+                v.insert(c);
+            }
         }
     }
 }
 
 fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
-    let mut out = a.clone();
-    for (atom, e) in b {
-        let entry = out.entry(*atom).or_insert(0);
-        *entry += e;
-        if *entry == 0 {
-            out.remove(atom);
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let ((x, ex), (y, ey)) = (a[i], b[j]);
+        match x.cmp(&y) {
+            std::cmp::Ordering::Less => {
+                out.push((x, ex));
+                i += 1;
+            }
+            std::cmp::Ordering::Greater => {
+                out.push((y, ey));
+                j += 1;
+            }
+            std::cmp::Ordering::Equal => {
+                if ex + ey != 0 {
+                    out.push((x, ex + ey));
+                }
+                i += 1;
+                j += 1;
+            }
         }
     }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
     out
 }
 
@@ -78,15 +112,107 @@ fn mul(a: &Poly, b: &Poly) -> Poly {
     let mut out = Poly::new();
     for (ma, ca) in a {
         for (mb, cb) in b {
-            let m = mul_monomials(ma, mb);
-            let entry = out.entry(m.clone()).or_insert(0.0);
-            *entry += ca * cb;
-            if *entry == 0.0 {
-                out.remove(&m);
-            }
+            accumulate(&mut out, mul_monomials(ma, mb), ca * cb);
         }
     }
     out
+}
+
+/// An expression in canonical form, as a polynomial in atoms, for algebra that should not
+/// leave it (the elimination of torn unknowns adds, multiplies and differentiates these).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Polynomial(Poly);
+
+impl Polynomial {
+    /// The expression, in canonical order.
+    pub fn expr(&self, pool: &mut Pool) -> ExprId {
+        rebuild(pool, &self.0)
+    }
+
+    /// `self + scale·other`.
+    pub fn plus(&self, other: &Polynomial, scale: f64) -> Polynomial {
+        let mut out = self.clone();
+        out.add_scaled(other, scale);
+        out
+    }
+
+    /// `self += scale·other`.
+    pub fn add_scaled(&mut self, other: &Polynomial, scale: f64) {
+        add_into(&mut self.0, &other.0, scale);
+    }
+
+    /// `self · other`, fully expanded.
+    pub fn times(&self, other: &Polynomial) -> Polynomial {
+        Polynomial(mul(&self.0, &other.0))
+    }
+
+    /// Whether it is zero.
+    pub fn is_zero(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// Its single term as `c·m`, if it has one.
+    fn monomial(&self) -> Option<(&Monomial, f64)> {
+        let mut terms = self.0.iter();
+        let (m, c) = terms.next()?;
+        terms.next().is_none().then_some((m, *c))
+    }
+
+    /// `self / other` when `other` is a single term (so the quotient is exact).
+    pub fn over_monomial(&self, other: &Polynomial) -> Option<Polynomial> {
+        let (m, c) = other.monomial()?;
+        let inverse: Monomial = m.iter().map(|&(a, e)| (a, -e)).collect();
+        let mut p = Poly::new();
+        p.insert(inverse, 1.0 / c);
+        Some(self.times(&Polynomial(p)))
+    }
+
+    /// Every atom it holds.
+    pub fn atoms(&self) -> impl Iterator<Item = ExprId> + '_ {
+        self.0.keys().flat_map(|m| m.iter().map(|&(a, _)| a))
+    }
+
+    /// The polynomial read as `Σₖ cₖ·xₖ + rest`, where `var` tells which leaf atoms are the
+    /// `xₖ` (and gives k): `c₀..c_top` and `rest`, or `None` if some `xₖ` enters otherwise than
+    /// linearly (a power, a product of two, or inside another atom) or none occurs.
+    pub fn split_linear(
+        &self,
+        pool: &Pool,
+        var: impl Fn(Leaf) -> Option<u32>,
+    ) -> Option<(Vec<Polynomial>, Polynomial)> {
+        let mut parts: BTreeMap<Option<u32>, Poly> = BTreeMap::new();
+        let mut inside: FastMap<ExprId, bool> = FastMap::default();
+        for (m, c) in &self.0 {
+            let mut order = None;
+            let mut rest = Monomial::with_capacity(m.len());
+            for &(a, e) in m {
+                let k = match pool.node(a) {
+                    Node::Leaf(l) => var(l),
+                    _ => {
+                        let holds = *inside.entry(a).or_insert_with(|| {
+                            pool.leaves(a).into_iter().any(|l| var(l).is_some())
+                        });
+                        if holds {
+                            return None;
+                        }
+                        None
+                    }
+                };
+                match k {
+                    Some(_) if e != 1 || order.is_some() => return None,
+                    Some(k) => order = Some(k),
+                    None => rest.push((a, e)),
+                }
+            }
+            parts.entry(order).or_default().insert(rest, *c);
+        }
+        let top = parts.keys().filter_map(|k| *k).max()?;
+        let coefficients = (0..=top)
+            .map(|k| Polynomial(parts.remove(&Some(k)).unwrap_or_default()))
+            .collect();
+        let rest = Polynomial(parts.remove(&None).unwrap_or_default());
+        Some((coefficients, rest))
+    }
 }
 
 impl Simplifier {
@@ -101,13 +227,72 @@ impl Simplifier {
         out
     }
 
-    fn poly(&mut self, pool: &mut Pool, id: ExprId) -> Poly {
+    /// The canonical form of `root` as a polynomial.
+    pub fn polynomial(&mut self, pool: &mut Pool, root: ExprId) -> Polynomial {
+        Polynomial(Poly::clone(&self.poly(pool, root)))
+    }
+
+    /// d/dt of a polynomial, term by term: an atom's derivative comes from `rule` when it
+    /// is a leaf (a measured signal's is its next derivative, a single atom), from
+    /// `derivatives` otherwise; `None` if some atom has none.
+    pub fn derivative<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>>(
+        &mut self,
+        pool: &mut Pool,
+        p: &Polynomial,
+        derivatives: &mut super::Derivatives<F>,
+    ) -> Option<Polynomial> {
+        let mut of_atom: FastMap<ExprId, Rc<Poly>> = FastMap::default();
+        let mut out = Poly::new();
+        for (m, &c) in &p.0 {
+            for (i, &(a, e)) in m.iter().enumerate() {
+                let da = match of_atom.get(&a) {
+                    Some(da) => Rc::clone(da),
+                    None => {
+                        let d = match pool.node(a) {
+                            Node::Leaf(l) => derivatives.of_leaf(pool, l)?,
+                            _ => derivatives.of(pool, a)?,
+                        };
+                        let da = self.poly(pool, d);
+                        of_atom.insert(a, Rc::clone(&da));
+                        da
+                    }
+                };
+                if da.is_empty() {
+                    continue;
+                }
+                // c·e·a^(e−1)·(the other atoms)·da
+                let mut rest = m.clone();
+                if e == 1 {
+                    rest.remove(i);
+                } else {
+                    rest[i].1 = e - 1;
+                }
+                let mut terms = da.iter();
+                if let (Some((dm, dc)), None) = (terms.next(), terms.next()) {
+                    // A measured signal's derivative is one atom: no product to expand.
+                    let m = if rest.is_empty() {
+                        dm.clone()
+                    } else {
+                        mul_monomials(&rest, dm)
+                    };
+                    accumulate(&mut out, m, c * f64::from(e) * dc);
+                    continue;
+                }
+                for (dm, dc) in da.iter() {
+                    accumulate(&mut out, mul_monomials(&rest, dm), c * f64::from(e) * dc);
+                }
+            }
+        }
+        Some(Polynomial(out))
+    }
+
+    fn poly(&mut self, pool: &mut Pool, id: ExprId) -> Rc<Poly> {
         // Shared subexpressions are expanded once.
         if let Some(p) = self.polys.get(&id) {
-            return p.clone();
+            return Rc::clone(p);
         }
-        let p = self.poly_uncached(pool, id);
-        self.polys.insert(id, p.clone());
+        let p = Rc::new(self.poly_uncached(pool, id));
+        self.polys.insert(id, Rc::clone(&p));
         p
     }
 
@@ -116,7 +301,7 @@ impl Simplifier {
             Node::Num(bits) => constant(f64::from_bits(bits)),
             Node::Leaf(_) => atom(id),
             Node::Neg(a) => {
-                let mut p = self.poly(pool, a);
+                let mut p = Poly::clone(&self.poly(pool, a));
                 p.values_mut().for_each(|c| *c = -*c);
                 p
             }
@@ -138,10 +323,10 @@ impl Simplifier {
     fn integral(&mut self, pool: &mut Pool, a: ExprId) -> Poly {
         let inner = self.poly(pool, a);
         let mut out = Poly::new();
-        for (m, c) in &inner {
+        for (m, c) in inner.iter() {
             let (constant, varying): (Monomial, Monomial) = m
                 .iter()
-                .map(|(k, e)| (*k, *e))
+                .copied()
                 .partition(|(k, _)| matches!(pool.node(*k), Node::Leaf(Leaf::Param(_))));
             let varying_expr = if varying.is_empty() {
                 pool.leaf(Leaf::Time)
@@ -160,7 +345,7 @@ impl Simplifier {
     fn binary(&mut self, pool: &mut Pool, op: BinOp, a: ExprId, b: ExprId, whole: ExprId) -> Poly {
         match op {
             BinOp::Add | BinOp::Sub => {
-                let mut p = self.poly(pool, a);
+                let mut p = Poly::clone(&self.poly(pool, a));
                 let q = self.poly(pool, b);
                 add_into(&mut p, &q, if op == BinOp::Add { 1.0 } else { -1.0 });
                 p
@@ -178,7 +363,7 @@ impl Simplifier {
                 let inverse = reciprocal(pool, &q);
                 match inverse {
                     Some(inv) => mul(&p, &inv),
-                    None => p, // division by zero: keep the numerator, flagged by NaN below
+                    None => Poly::clone(&p), // division by zero: keep the numerator, flagged by NaN below
                 }
             }
             BinOp::Pow => {
@@ -192,8 +377,7 @@ impl Simplifier {
                     Some(e) if base.len() > 1 => {
                         let (lead, sum) = normalised_sum(pool, &base);
                         let n = e as i32;
-                        let mut m = Monomial::new();
-                        m.insert(sum, n);
+                        let m = vec![(sum, n)];
                         let mut p = Poly::new();
                         p.insert(m, lead.powi(n));
                         p
@@ -202,7 +386,7 @@ impl Simplifier {
                         let n = e as i32;
                         let mut out = constant(1.0);
                         let factor = if n >= 0 {
-                            Some(base)
+                            Some(Poly::clone(&base))
                         } else {
                             reciprocal(pool, &base)
                         };
@@ -246,8 +430,7 @@ fn reciprocal(pool: &mut Pool, q: &Poly) -> Option<Poly> {
         }
         _ => {
             let (lead, sum) = normalised_sum(pool, q);
-            let mut m = Monomial::new();
-            m.insert(sum, -1);
+            let m = vec![(sum, -1)];
             let mut p = Poly::new();
             p.insert(m, 1.0 / lead);
             Some(p)
@@ -274,7 +457,7 @@ fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
         let magnitude = pool.num(c.abs());
         let mut numerator: Option<ExprId> = (c.abs() != 1.0).then_some(magnitude);
         let mut denominator: Option<ExprId> = None;
-        for (&a, &e) in m {
+        for &(a, e) in m {
             let exp = pool.num(f64::from(e.abs()));
             let factor = pool.pow(a, exp);
             let slot = if e > 0 {

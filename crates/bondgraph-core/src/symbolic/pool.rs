@@ -1,6 +1,6 @@
 //! Nodes of the expression DAG and their hash-consing constructors.
 
-use std::collections::{HashMap, HashSet};
+use super::hash::{FastMap, FastSet};
 
 use crate::expr::{BinOp, Func};
 use crate::graph::{InputId, NodeId, ParamId};
@@ -22,6 +22,9 @@ pub enum Leaf {
     State(u32),
     /// An unknown of an equation system, by index, until it is substituted away.
     Var(u32),
+    /// The `n`-th time derivative of an unknown held as a symbol (a differential tear, by
+    /// the index of the unknown), until the ARRs are freed of it.
+    Tear(u32, u32),
     /// Time.
     Time,
 }
@@ -49,7 +52,7 @@ pub enum Node {
 #[derive(Default, Clone, Debug)]
 pub struct Pool {
     nodes: Vec<Node>,
-    index: HashMap<Node, ExprId>,
+    index: FastMap<Node, ExprId>,
 }
 
 impl Pool {
@@ -244,7 +247,7 @@ impl Pool {
     /// Calls `f` on every node reachable from `roots`, children before parents, once each.
     /// Costs O(r log r) for r reachable nodes, whatever the size of the pool.
     pub fn visit_reachable(&self, roots: &[ExprId], mut f: impl FnMut(ExprId, Node)) {
-        let mut seen: HashSet<ExprId> = HashSet::new();
+        let mut seen: FastSet<ExprId> = FastSet::default();
         let mut stack: Vec<ExprId> = roots.to_vec();
         let mut found = Vec::new();
         while let Some(id) = stack.pop() {
@@ -280,7 +283,8 @@ impl Pool {
     ) -> ExprId {
         let mut order = Vec::new();
         self.visit_reachable(&[root], |id, _| order.push(id));
-        let mut map: HashMap<ExprId, ExprId> = HashMap::with_capacity(order.len());
+        let mut map: FastMap<ExprId, ExprId> =
+            FastMap::with_capacity_and_hasher(order.len(), Default::default());
         for id in order {
             let m = |x: ExprId| map.get(&x).copied().unwrap_or(x);
             let new = match self.node(id) {
@@ -323,7 +327,8 @@ impl Pool {
     ) -> ExprId {
         let mut order = Vec::new();
         other.visit_reachable(&[root], |id, node| order.push((id, node)));
-        let mut map: HashMap<ExprId, ExprId> = HashMap::with_capacity(order.len());
+        let mut map: FastMap<ExprId, ExprId> =
+            FastMap::with_capacity_and_hasher(order.len(), Default::default());
         for (id, node) in order {
             let m = |x: ExprId| map[&x];
             let new = match node {
