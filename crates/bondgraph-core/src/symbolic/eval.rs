@@ -1,6 +1,6 @@
 //! Numeric evaluation of expressions.
 
-use super::hash::FastMap;
+use super::hash::{FastMap, FastSet};
 use super::pool::{ExprId, Leaf, Node, Pool};
 use std::collections::HashMap;
 
@@ -35,13 +35,22 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
 
     /// The value of `root`.
     pub fn value(&mut self, root: ExprId) -> f64 {
+        // Only what is not yet evaluated is visited: evaluating many roots that share parts
+        // (the terms of one residual) costs what is new in each.
         let mut order = Vec::new();
-        self.pool.visit_reachable(&[root], |id, node| {
-            if !self.values.contains_key(&id) {
-                order.push((id, node));
+        let mut seen: FastSet<ExprId> = FastSet::default();
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            if self.values.contains_key(&id) || !seen.insert(id) {
+                continue;
             }
-        });
-        for (id, node) in order {
+            order.push(id);
+            stack.extend(super::pool::children(self.pool.node(id)));
+        }
+        // Children have smaller ids than their parents.
+        order.sort_unstable();
+        for id in order {
+            let node = self.pool.node(id);
             let v = |x: ExprId| self.values.get(&x).copied().unwrap_or(f64::NAN);
             let value = match node {
                 Node::Num(bits) => f64::from_bits(bits),
