@@ -80,11 +80,7 @@ struct Eliminator<'p> {
 /// Eliminates the `torn` unknowns from their definitions and the `redundant` equations
 /// (equation index, residual), in the order they were torn.
 pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) -> Eliminated {
-    let mut e = Eliminator {
-        pool,
-        simplifier: Simplifier::default(),
-        derivatives: Derivatives::new(known_signal_rule as Rule),
-    };
+    let mut e = Eliminator::new(pool);
     let mut items: Vec<Option<Item>> = Vec::with_capacity(torn.len() + redundant.len());
     for t in torn {
         let u = e.pool.leaf(Leaf::Tear(t.var.0, 0));
@@ -143,7 +139,15 @@ pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) 
     }
 }
 
-impl Eliminator<'_> {
+impl<'p> Eliminator<'p> {
+    fn new(pool: &'p mut Pool) -> Self {
+        Eliminator {
+            pool,
+            simplifier: Simplifier::default(),
+            derivatives: Derivatives::new(known_signal_rule as Rule),
+        }
+    }
+
     fn item(
         &mut self,
         expr: ExprId,
@@ -406,46 +410,42 @@ mod tests {
     use super::*;
     use crate::graph::{NodeId, ParamId};
 
-    fn setup() -> (Pool, Simplifier) {
-        (Pool::default(), Simplifier::default())
+    fn sensor(pool: &mut Pool, i: usize, n: u32) -> ExprId {
+        pool.leaf(Leaf::Sensor(NodeId(petgraph::graph::NodeIndex::new(i)), n))
+    }
+
+    /// The relation left when `pivot = 0` removes the torn unknown 0 from `target = 0`.
+    fn combined(pool: &mut Pool, pivot: ExprId, target: ExprId) -> ExprId {
+        let mut e = Eliminator::new(pool);
+        let (pa, pt) = (
+            e.simplifier.polynomial(e.pool, pivot),
+            e.simplifier.polynomial(e.pool, target),
+        );
+        let (la, lt) = (
+            e.linear(&pa, 0).expect("linear"),
+            e.linear(&pt, 0).expect("linear"),
+        );
+        e.combine(&la, &lt).expect("combines").expr(e.pool)
     }
 
     /// `k·u' + u − y1 = 0` and `u' − y2 = 0` give `−y1' + y2 + k·y2' = 0`: from the second
     /// u' = y2, from the first u = y1 − k·y2, so y2 = u' = y1' − k·y2'.
     #[test]
     fn a_pivot_removes_the_unknown_by_operators_in_d() {
-        let (mut pool, mut s) = setup();
+        let mut pool = Pool::default();
         let k = pool.leaf(Leaf::Param(ParamId(0)));
         let (u, du) = (pool.leaf(Leaf::Tear(0, 0)), pool.leaf(Leaf::Tear(0, 1)));
-        let y = |p: &mut Pool, i: u32, n: u32| {
-            p.leaf(Leaf::Sensor(
-                NodeId(petgraph::graph::NodeIndex::new(i as usize)),
-                n,
-            ))
-        };
-        let (y1, y2) = (y(&mut pool, 1, 0), y(&mut pool, 2, 0));
+        let (y1, y2) = (sensor(&mut pool, 1, 0), sensor(&mut pool, 2, 0));
         let kdu = pool.mul(k, du);
         let a = pool.add(kdu, u);
         let a = pool.sub(a, y1);
         let t = pool.sub(du, y2);
-        let mut e = Eliminator {
-            simplifier: Simplifier::default(),
-            derivatives: Derivatives::new(known_signal_rule as Rule),
-            pool: &mut pool,
-        };
-        let (pa, pt) = (
-            e.simplifier.polynomial(e.pool, a),
-            e.simplifier.polynomial(e.pool, t),
-        );
-        let (la, lt) = (
-            e.linear(&pa, 0).expect("linear"),
-            e.linear(&pt, 0).expect("linear"),
-        );
-        let out = e.combine(&la, &lt).expect("combines").expr(e.pool);
-        let (dy1, dy2) = (y(&mut pool, 1, 1), y(&mut pool, 2, 1));
+        let out = combined(&mut pool, a, t);
+        let (dy1, dy2) = (sensor(&mut pool, 1, 1), sensor(&mut pool, 2, 1));
         let kdy2 = pool.mul(k, dy2);
         let want = pool.sub(y2, dy1);
         let want = pool.add(want, kdy2);
+        let mut s = Simplifier::default();
         assert_eq!(s.simplify(&mut pool, out), s.simplify(&mut pool, want));
     }
 
@@ -453,28 +453,15 @@ mod tests {
     /// give `y2 − y1 = 0`, of order 0, not `k·(y2' − y1')`.
     #[test]
     fn equal_operators_are_dropped_not_multiplied() {
-        let (mut pool, mut s) = setup();
+        let mut pool = Pool::default();
         let k = pool.leaf(Leaf::Param(ParamId(0)));
         let du = pool.leaf(Leaf::Tear(0, 1));
-        let y1 = pool.leaf(Leaf::Sensor(NodeId(petgraph::graph::NodeIndex::new(1)), 0));
-        let y2 = pool.leaf(Leaf::Sensor(NodeId(petgraph::graph::NodeIndex::new(2)), 0));
+        let (y1, y2) = (sensor(&mut pool, 1, 0), sensor(&mut pool, 2, 0));
         let kdu = pool.mul(k, du);
         let (a, t) = (pool.sub(kdu, y1), pool.sub(kdu, y2));
-        let mut e = Eliminator {
-            simplifier: Simplifier::default(),
-            derivatives: Derivatives::new(known_signal_rule as Rule),
-            pool: &mut pool,
-        };
-        let (pa, pt) = (
-            e.simplifier.polynomial(e.pool, a),
-            e.simplifier.polynomial(e.pool, t),
-        );
-        let (la, lt) = (
-            e.linear(&pa, 0).expect("linear"),
-            e.linear(&pt, 0).expect("linear"),
-        );
-        let out = e.combine(&la, &lt).expect("combines").expr(e.pool);
+        let out = combined(&mut pool, a, t);
         let want = pool.sub(y2, y1);
+        let mut s = Simplifier::default();
         assert_eq!(s.simplify(&mut pool, out), s.simplify(&mut pool, want));
     }
 
@@ -482,16 +469,12 @@ mod tests {
     /// constant coefficients: such unknowns are substituted, never pivoted on.
     #[test]
     fn time_varying_or_nonlinear_uses_are_not_linear() {
-        let (mut pool, _) = setup();
+        let mut pool = Pool::default();
         let u = pool.leaf(Leaf::Tear(0, 0));
-        let y1 = pool.leaf(Leaf::Sensor(NodeId(petgraph::graph::NodeIndex::new(1)), 0));
+        let y1 = sensor(&mut pool, 1, 0);
         let two = pool.num(2.0);
         let cases = [pool.mul(y1, u), pool.pow(u, two)];
-        let mut e = Eliminator {
-            simplifier: Simplifier::default(),
-            derivatives: Derivatives::new(known_signal_rule as Rule),
-            pool: &mut pool,
-        };
+        let mut e = Eliminator::new(&mut pool);
         for case in cases {
             let p = e.simplifier.polynomial(e.pool, case);
             assert!(e.linear(&p, 0).is_none());

@@ -1,6 +1,6 @@
 //! d/dt of expressions, with the chain rule through every function of the language.
 
-use super::hash::{FastMap, FastSet};
+use super::hash::FastMap;
 
 use super::pool::{ExprId, Leaf, Node, Pool};
 use crate::expr::{BinOp, Func};
@@ -31,20 +31,8 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
 
     /// d/dt of `root`, or `None` if a leaf has no derivative under the rule.
     pub fn of(&mut self, pool: &mut Pool, root: ExprId) -> Option<ExprId> {
-        // Only nodes not yet differentiated are visited: differentiating a growing expression
-        // again and again costs what is new in it, not its whole size.
-        let mut order = Vec::new();
-        let mut seen = FastSet::default();
-        let mut stack = vec![root];
-        while let Some(id) = stack.pop() {
-            if self.memo.contains_key(&id) || !seen.insert(id) {
-                continue;
-            }
-            order.push(id);
-            stack.extend(super::pool::children(pool.node(id)));
-        }
-        order.sort_unstable();
-        for id in order {
+        // Only nodes not yet differentiated are visited.
+        for id in pool.reachable_unless(root, |id| self.memo.contains_key(&id)) {
             let d = self.node(pool, id)?;
             self.memo.insert(id, d);
         }

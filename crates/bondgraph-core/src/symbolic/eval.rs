@@ -1,6 +1,6 @@
 //! Numeric evaluation of expressions.
 
-use super::hash::{FastMap, FastSet};
+use super::hash::FastMap;
 use super::pool::{ExprId, Leaf, Node, Pool};
 use std::collections::HashMap;
 
@@ -37,18 +37,9 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
     pub fn value(&mut self, root: ExprId) -> f64 {
         // Only what is not yet evaluated is visited: evaluating many roots that share parts
         // (the terms of one residual) costs what is new in each.
-        let mut order = Vec::new();
-        let mut seen: FastSet<ExprId> = FastSet::default();
-        let mut stack = vec![root];
-        while let Some(id) = stack.pop() {
-            if self.values.contains_key(&id) || !seen.insert(id) {
-                continue;
-            }
-            order.push(id);
-            stack.extend(super::pool::children(self.pool.node(id)));
-        }
-        // Children have smaller ids than their parents.
-        order.sort_unstable();
+        let order = self
+            .pool
+            .reachable_unless(root, |id| self.values.contains_key(&id));
         for id in order {
             let node = self.pool.node(id);
             let v = |x: ExprId| self.values.get(&x).copied().unwrap_or(f64::NAN);

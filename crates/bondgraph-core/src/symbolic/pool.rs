@@ -264,6 +264,25 @@ impl Pool {
         }
     }
 
+    /// The nodes reachable from `root` without passing through a node `done` accepts,
+    /// children before parents: a memoised pass over a growing expression costs what is new
+    /// in it, not its whole size.
+    pub fn reachable_unless(&self, root: ExprId, done: impl Fn(ExprId) -> bool) -> Vec<ExprId> {
+        let mut order = Vec::new();
+        let mut seen: FastSet<ExprId> = FastSet::default();
+        let mut stack = vec![root];
+        while let Some(id) = stack.pop() {
+            if done(id) || !seen.insert(id) {
+                continue;
+            }
+            order.push(id);
+            stack.extend(children(self.node(id)));
+        }
+        // Ids are created children first, so id order is a topological order.
+        order.sort_unstable();
+        order
+    }
+
     /// Every leaf reachable from `root`, in id order.
     pub fn leaves(&self, root: ExprId) -> Vec<Leaf> {
         let mut out = Vec::new();
