@@ -1,5 +1,6 @@
 //! The pipeline on generated chains of N mass-spring-damper stages with a velocity detector on
-//! every 5th mass: causality alone, and text to ARRs and FSM, for N = 100, 1,000 and 10,000.
+//! every 5th mass: causality alone, and text to ARRs and FSM, for N = 100, 1,000 and 10,000;
+//! then the e-graph's rewriting of every expression for display.
 //!
 //! In this chain the force between two measured masses is never measured. The balance of each
 //! measured mass is therefore torn, and the ARRs are freed of the torn forces by elimination
@@ -11,7 +12,8 @@ use std::hint::black_box;
 use bondgraph_core::analysis::analyse;
 use bondgraph_core::causality::{assign, Mode};
 use bondgraph_core::generate::mass_spring_chain;
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use bondgraph_core::symbolic::rewrite::Limits;
+use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
 
 fn causality(c: &mut Criterion) {
     let mut group = c.benchmark_group("causality");
@@ -47,5 +49,27 @@ fn full_pipeline(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, causality, full_pipeline);
+/// How expressions are written (egg, default limits): every state equation, output and ARR of
+/// the chain. Each expression gets its own bounded search, so the cost is linear in their
+/// number; 10,000 stages are left out to keep the run short (about 100 times 100 stages).
+fn simplify(c: &mut Criterion) {
+    let mut group = c.benchmark_group("simplify");
+    group.sample_size(10);
+    for stages in [10usize, 100, 1_000] {
+        let text = mass_spring_chain(stages, 5);
+        let (model, _) = bondgraph_core::load(&text);
+        let model = model.expect("generated chains are valid");
+        group.throughput(Throughput::Elements(stages as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &model, |b, model| {
+            b.iter_batched(
+                || analyse(model),
+                |mut analysis| black_box(analysis.simplify(Limits::default()).len()),
+                BatchSize::LargeInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, causality, full_pipeline, simplify);
 criterion_main!(benches);

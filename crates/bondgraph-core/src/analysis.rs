@@ -4,6 +4,7 @@ use crate::causality::{assign, Causal, Mode, StorageCausality, Strong};
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::{BondGraph, NodeId};
 use crate::sim::{state_space_of, StateSpace};
+use crate::symbolic::rewrite::{Limits, Rewriter, Stop};
 
 /// The causality of one mode, as a report names it.
 pub struct CausalityReport {
@@ -46,7 +47,48 @@ pub fn analyse(model: &BondGraph) -> Analysis<'_> {
     }
 }
 
+/// An expression shown in its canonical form because the search for a simpler one was cut
+/// short by the clock or never started.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unsimplified {
+    /// What the expression is: `ARR2`, `der(p_Lm)`, the output `y1`.
+    pub what: String,
+    /// Why: [`Stop::TimeLimit`] or [`Stop::TooLarge`].
+    pub stop: Stop,
+}
+
 impl Analysis<'_> {
+    /// Rewrites every expression the emitters show (state equations, detector outputs,
+    /// ARRs) into the cheapest form egg finds within `limits`. The FSM and the derivations
+    /// are already done on the canonical forms; only how each expression is written changes.
+    pub fn simplify(&mut self, limits: Limits) -> Vec<Unsimplified> {
+        let rewriter = Rewriter::new(limits);
+        let mut skipped = Vec::new();
+        let mut choose = |pool: &mut _, root, what: &dyn Fn() -> String| {
+            let r = rewriter.cheapest(pool, root);
+            if matches!(r.stop, Stop::TimeLimit | Stop::TooLarge) {
+                skipped.push(Unsimplified {
+                    what: what(),
+                    stop: r.stop,
+                });
+            }
+            r.expr
+        };
+        let state = &mut self.state;
+        for s in &mut state.states {
+            s.rhs = choose(&mut state.pool, s.rhs, &|| format!("der({})", s.name));
+        }
+        for (sensor, e) in &mut state.outputs {
+            let name = &self.model.node(*sensor).name;
+            *e = choose(&mut state.pool, *e, &|| format!("the output {name}"));
+        }
+        let pool = &mut self.diagnosis.causal.system.pool;
+        for arr in &mut self.diagnosis.arrs {
+            arr.residual = choose(pool, arr.residual, &|| arr.name.clone());
+        }
+        skipped
+    }
+
     /// The causality report of a mode.
     pub fn causality(&self, mode: Mode) -> CausalityReport {
         let (causal, problems) = match mode {

@@ -32,6 +32,20 @@ impl BinOp {
         }
     }
 
+    /// The least binding strength the (left, right) operands need to be written without
+    /// parentheses. `a + (b - c)` reads as `a + b - c` and `a * (b / c)` as `a * b / c`, so
+    /// `+` and `*` accept their own kind on the right; `-` and `/` do not, and `^` groups
+    /// to the right.
+    pub fn operand_precedence(self) -> (u8, u8) {
+        match self {
+            BinOp::Add => (1, 1),
+            BinOp::Sub => (1, 2),
+            BinOp::Mul => (2, 2),
+            BinOp::Div => (2, 3),
+            BinOp::Pow => (5, 4),
+        }
+    }
+
     /// Binding strength: higher binds tighter.
     pub fn precedence(self) -> u8 {
         match self {

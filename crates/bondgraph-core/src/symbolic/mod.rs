@@ -2,8 +2,8 @@
 //!
 //! [`pool`] holds the nodes and the constructors (which fold constants and drop neutral
 //! elements), [`derive`] is d/dt with the chain rule, [`eval`] evaluates numerically,
-//! [`normal`] puts expressions in a canonical form, [`linear`] reads them as linear in chosen
-//! leaves, and [`print`] writes them as text.
+//! [`normal`] puts expressions in a canonical form, [`rewrite`] chooses the cheapest way to
+//! write them (egg), and [`print`] writes them as text.
 
 mod derive;
 mod eval;
@@ -11,6 +11,7 @@ pub mod hash;
 mod normal;
 mod pool;
 mod print;
+pub mod rewrite;
 
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::Evaluator;

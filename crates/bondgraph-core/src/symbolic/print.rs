@@ -12,7 +12,7 @@ pub struct Printer<'p, F> {
 }
 
 /// Binding strength of a printed node: 1 sums, 2 products, 3 unary minus, 4 powers, 5 atoms.
-fn precedence(node: Node) -> u8 {
+pub(crate) fn precedence(node: Node) -> u8 {
     match node {
         Node::Binary(op, ..) => op.precedence(),
         Node::Neg(_) => 3,
@@ -50,12 +50,7 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
                 self.text_into(out, a, 3);
             }
             Node::Binary(op, a, b) => {
-                let p = op.precedence();
-                let (lp, rp) = if op == BinOp::Pow {
-                    (p + 1, p)
-                } else {
-                    (p, p + 1)
-                };
+                let (lp, rp) = op.operand_precedence();
                 self.text_into(out, a, lp);
                 let _ = write!(out, " {} ", op.symbol());
                 self.text_into(out, b, rp);
@@ -125,14 +120,14 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
                 out.push('}');
             }
             Node::Binary(op, a, b) => {
-                let p = op.precedence();
-                self.latex_into(out, a, p);
+                let (lp, rp) = op.operand_precedence();
+                self.latex_into(out, a, lp);
                 out.push_str(match op {
                     BinOp::Add => " + ",
                     BinOp::Sub => " - ",
                     _ => " \\, ",
                 });
-                self.latex_into(out, b, p + 1);
+                self.latex_into(out, b, rp);
             }
             Node::Call1(Func::Sqrt, a) => {
                 out.push_str("\\sqrt{");
