@@ -102,3 +102,36 @@ fn output_goes_to_the_file_given_with_o() {
     std::fs::remove_dir_all(&dir).ok();
     assert!(root().join("models/backlash_bench.bg").exists());
 }
+
+/// The e-graph only changes how expressions are written: `--canonical` shows the expanded
+/// forms, and an expression over `--egg-nodes` is shown canonical with a warning.
+#[test]
+fn simplification_limits_are_options_and_what_they_skip_is_said() {
+    let model = "models/quarter_car.bg";
+    let state = |extra: &[&str]| {
+        let mut args = vec![model, "--emit", "state"];
+        args.extend(extra);
+        bgc(&args)
+    };
+    let simplified = state(&[]);
+    let canonical = state(&["--canonical"]);
+    assert_eq!((code(&simplified), code(&canonical)), (0, 0));
+    assert!(stdout(&simplified).contains("cs * (p_body / ms - p_wheel / mu)"));
+    assert!(stdout(&canonical).contains("- p_wheel * cs / mu"));
+    assert!(stderr(&canonical).is_empty());
+
+    let tiny = state(&["--egg-nodes", "3"]);
+    assert_eq!(code(&tiny), 0);
+    assert_eq!(stdout(&tiny), stdout(&canonical));
+    assert!(
+        stderr(&tiny).contains(
+            "warning: der(p_wheel) is shown in canonical form: it is larger than --egg-nodes"
+        ),
+        "{}",
+        stderr(&tiny)
+    );
+
+    let bad = state(&["--egg-seconds", "inf"]);
+    assert_eq!(code(&bad), 2);
+    assert!(stderr(&bad).contains("--egg-seconds"), "{}", stderr(&bad));
+}

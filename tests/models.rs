@@ -14,6 +14,12 @@ fn emit(model: &str, args: &[&str]) -> String {
     full.extend(args);
     let out = bgc(&full);
     assert_eq!(code(&out), 0, "{model} {args:?}: {}", stderr(&out));
+    // No warning either: every expression of the models is simplified within the limits.
+    assert!(
+        stderr(&out).is_empty(),
+        "{model} {args:?}: {}",
+        stderr(&out)
+    );
     let again = bgc(&full);
     assert_eq!(
         out.stdout, again.stdout,

@@ -3,7 +3,11 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+use std::time::Duration;
+
+use bondgraph_core::analysis::Analysis;
 use bondgraph_core::graph::BondGraph;
+use bondgraph_core::symbolic::rewrite::{Limits, Stop};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::report;
@@ -34,6 +38,52 @@ pub struct Args {
     /// Write the output to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
+
+    #[command(flatten)]
+    simplify: SimplifyArgs,
+}
+
+/// How expressions are written: the e-graph search for their shortest form.
+#[derive(clap::Args, Debug)]
+struct SimplifyArgs {
+    /// Show expressions in canonical form (expanded sums of products), without the e-graph.
+    #[arg(long)]
+    canonical: bool,
+
+    /// Most e-nodes the simplifier may build for one expression; larger expressions are
+    /// shown in canonical form.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().nodes)]
+    egg_nodes: usize,
+
+    /// Most rounds of rewriting for one expression.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().iterations)]
+    egg_iterations: usize,
+
+    /// Wall-clock limit for one expression, in seconds; an expression that reaches it is
+    /// shown in canonical form, so the output never depends on the machine's speed.
+    #[arg(long, value_name = "SECONDS", default_value_t = Limits::default().time.as_secs_f64())]
+    egg_seconds: f64,
+}
+
+impl SimplifyArgs {
+    /// The limits asked for, or why they make no sense.
+    fn limits(&self) -> Result<Option<Limits>, Failure> {
+        if self.canonical {
+            return Ok(None);
+        }
+        let time = Duration::try_from_secs_f64(self.egg_seconds).map_err(|_| {
+            eprintln!(
+                "error: --egg-seconds wants a non-negative number of seconds, not `{}`",
+                self.egg_seconds
+            );
+            Failure::Usage
+        })?;
+        Ok(Some(Limits {
+            nodes: self.egg_nodes,
+            iterations: self.egg_iterations,
+            time,
+        }))
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -114,7 +164,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 eprintln!("error: --standalone applies to --emit latex only");
                 return Err(Failure::Usage);
             }
-            let analysis = bondgraph_core::analysis::analyse(&graph);
+            let analysis = analyse(&graph, args.emit, &args.simplify)?;
             let text = match args.emit {
                 Target::Text => bondgraph_codegen::text::emit(&analysis),
                 Target::Json => bondgraph_codegen::json::emit(&analysis),
@@ -127,6 +177,29 @@ pub fn run(args: Args) -> Result<(), Failure> {
         // clap requires MODEL when there is no subcommand.
         (None, None) => Err(Failure::Usage),
     }
+}
+
+/// Derives everything from a model and writes its expressions as `how` asks.
+fn analyse<'m>(
+    graph: &'m BondGraph,
+    target: Target,
+    how: &SimplifyArgs,
+) -> Result<Analysis<'m>, Failure> {
+    let limits = how.limits()?;
+    let mut analysis = bondgraph_core::analysis::analyse(graph);
+    if let (Some(limits), true) = (limits, target != Target::Dot) {
+        for skipped in analysis.simplify(limits) {
+            let why = match skipped.stop {
+                Stop::TooLarge => "it is larger than --egg-nodes",
+                _ => "the simplifier reached --egg-seconds",
+            };
+            eprintln!(
+                "warning: {} is shown in canonical form: {why}",
+                skipped.what
+            );
+        }
+    }
+    Ok(analysis)
 }
 
 /// Reads and validates a model, reporting every diagnostic on standard error.
