@@ -131,6 +131,16 @@ fn simplification_limits_are_options_and_what_they_skip_is_said() {
         stderr(&tiny)
     );
 
+    // The budget is shared: ARRs come first, so after the first ARR's search the state
+    // equations are left as they are.
+    let budget = bgc(&[model, "--emit", "json", "--egg-budget", "1"]);
+    assert_eq!(code(&budget), 0);
+    assert!(
+        stderr(&budget).contains("warning: 7 expressions, from ARR2 on, are shown in canonical form: --egg-budget was spent"),
+        "{}",
+        stderr(&budget)
+    );
+
     let bad = state(&["--egg-seconds", "inf"]);
     assert_eq!(code(&bad), 2);
     assert!(stderr(&bad).contains("--egg-seconds"), "{}", stderr(&bad));

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use std::time::Duration;
 
-use bondgraph_core::analysis::Analysis;
+use bondgraph_core::analysis::{Analysis, Unsimplified};
 use bondgraph_core::graph::BondGraph;
 use bondgraph_core::symbolic::rewrite::{Limits, Stop};
 use clap::{Parser, Subcommand, ValueEnum};
@@ -55,9 +55,19 @@ struct SimplifyArgs {
     #[arg(long, value_name = "N", default_value_t = Limits::default().nodes)]
     egg_nodes: usize,
 
-    /// Most rounds of rewriting for one expression.
+    /// Most rounds of rule application in one e-graph.
     #[arg(long, value_name = "N", default_value_t = Limits::default().iterations)]
     egg_iterations: usize,
+
+    /// Most e-graphs grown one after the other for one expression, each from the best form
+    /// of the one before.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().rounds)]
+    egg_rounds: usize,
+
+    /// Most e-nodes for all the expressions of the model together; expressions met after it
+    /// is spent are shown in canonical form.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().budget)]
+    egg_budget: usize,
 
     /// Wall-clock limit for one expression, in seconds; an expression that reaches it is
     /// shown in canonical form, so the output never depends on the machine's speed.
@@ -81,6 +91,8 @@ impl SimplifyArgs {
         Ok(Some(Limits {
             nodes: self.egg_nodes,
             iterations: self.egg_iterations,
+            rounds: self.egg_rounds,
+            budget: self.egg_budget,
             time,
         }))
     }
@@ -188,18 +200,32 @@ fn analyse<'m>(
     let limits = how.limits()?;
     let mut analysis = bondgraph_core::analysis::analyse(graph);
     if let (Some(limits), true) = (limits, target != Target::Dot) {
-        for skipped in analysis.simplify(limits) {
-            let why = match skipped.stop {
-                Stop::TooLarge => "it is larger than --egg-nodes",
-                _ => "the simplifier reached --egg-seconds",
-            };
-            eprintln!(
-                "warning: {} is shown in canonical form: {why}",
-                skipped.what
-            );
-        }
+        warn_unsimplified(&analysis.simplify(limits));
     }
     Ok(analysis)
+}
+
+/// Names what the simplifier skipped and why; what the budget left out, in one line.
+fn warn_unsimplified(skipped: &[Unsimplified]) {
+    let over_budget: Vec<&str> = skipped
+        .iter()
+        .filter(|s| s.stop == Stop::Budget)
+        .map(|s| s.what.as_str())
+        .collect();
+    for s in skipped.iter().filter(|s| s.stop != Stop::Budget) {
+        let why = match s.stop {
+            Stop::TooLarge => "it is larger than --egg-nodes",
+            _ => "the simplifier reached --egg-seconds",
+        };
+        eprintln!("warning: {} is shown in canonical form: {why}", s.what);
+    }
+    if let [first, ..] = over_budget.as_slice() {
+        eprintln!(
+            "warning: {} expressions, from {first} on, are shown in canonical form: \
+             --egg-budget was spent on the ones before",
+            over_budget.len()
+        );
+    }
 }
 
 /// Reads and validates a model, reporting every diagnostic on standard error.

@@ -53,19 +53,28 @@ pub fn analyse(model: &BondGraph) -> Analysis<'_> {
 pub struct Unsimplified {
     /// What the expression is: `ARR2`, `der(p_Lm)`, the output `y1`.
     pub what: String,
-    /// Why: [`Stop::TimeLimit`] or [`Stop::TooLarge`].
+    /// Why: [`Stop::TimeLimit`], [`Stop::TooLarge`] or [`Stop::Budget`].
     pub stop: Stop,
 }
 
 impl Analysis<'_> {
-    /// Rewrites every expression the emitters show (state equations, detector outputs,
-    /// ARRs) into the cheapest form egg finds within `limits`. The FSM and the derivations
-    /// are already done on the canonical forms; only how each expression is written changes.
+    /// Rewrites every expression the emitters show (ARRs first, then state equations and
+    /// detector outputs) into the cheapest form egg finds within `limits`. The FSM and the
+    /// derivations are already done on the canonical forms; only how each is written changes.
     pub fn simplify(&mut self, limits: Limits) -> Vec<Unsimplified> {
         let rewriter = Rewriter::new(limits);
+        let mut spent = 0usize;
         let mut skipped = Vec::new();
         let mut choose = |pool: &mut _, root, what: &dyn Fn() -> String| {
+            if spent >= limits.budget {
+                skipped.push(Unsimplified {
+                    what: what(),
+                    stop: Stop::Budget,
+                });
+                return root;
+            }
             let r = rewriter.cheapest(pool, root);
+            spent = spent.saturating_add(r.nodes);
             if matches!(r.stop, Stop::TimeLimit | Stop::TooLarge) {
                 skipped.push(Unsimplified {
                     what: what(),
@@ -74,6 +83,10 @@ impl Analysis<'_> {
             }
             r.expr
         };
+        let pool = &mut self.diagnosis.causal.system.pool;
+        for arr in &mut self.diagnosis.arrs {
+            arr.residual = choose(pool, arr.residual, &|| arr.name.clone());
+        }
         let state = &mut self.state;
         for s in &mut state.states {
             s.rhs = choose(&mut state.pool, s.rhs, &|| format!("der({})", s.name));
@@ -81,10 +94,6 @@ impl Analysis<'_> {
         for (sensor, e) in &mut state.outputs {
             let name = &self.model.node(*sensor).name;
             *e = choose(&mut state.pool, *e, &|| format!("the output {name}"));
-        }
-        let pool = &mut self.diagnosis.causal.system.pool;
-        for arr in &mut self.diagnosis.arrs {
-            arr.residual = choose(pool, arr.residual, &|| arr.name.clone());
         }
         skipped
     }

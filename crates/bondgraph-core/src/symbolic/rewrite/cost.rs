@@ -12,6 +12,9 @@ use crate::symbolic::hash::FastSet;
 pub struct Cost {
     /// Atoms, numbers, signs, operators, calls and pairs of parentheses, once each.
     pub length: usize,
+    /// Products whose left operand is in parentheses: `a * (b + c)` reads better than
+    /// `(b + c) * a`, so of two forms equally long the one with fewer is kept.
+    disorder: usize,
     /// Nodes the canonical form does not have: of two forms equally long, the one closer
     /// to the canonical order is kept.
     novelty: usize,
@@ -61,32 +64,44 @@ impl CostFunction<Math> for Readable {
 
     fn cost<C: FnMut(Id) -> Cost>(&mut self, enode: &Math, mut costs: C) -> Cost {
         let mut novelty = usize::from(!self.original.contains(enode));
-        // An operand below the binding strength its place needs is put in parentheses.
-        let mut operand = |id: Id, needs: u8, fraction_continues: bool| {
+        let mut disorder = 0usize;
+        // An operand's length, with parentheses when it binds below what its place needs;
+        // a quotient continued by `*` or `/` is counted as if it had them.
+        let mut operand = |id: Id, needs: u8, continued: bool| {
             let c = costs(id);
             novelty = novelty.saturating_add(c.novelty);
-            let hidden = fraction_continues && c.quotient;
-            c.length
-                .saturating_add(usize::from(c.binds < needs || hidden))
+            disorder = disorder.saturating_add(c.disorder);
+            let parenthesised = c.binds < needs;
+            let length = c
+                .length
+                .saturating_add(usize::from(parenthesised || (continued && c.quotient)));
+            (length, parenthesised)
         };
         let (length, binds) = match enode {
             Math::Num(c) if c.value() < 0.0 => (2, 3),
             Math::Num(_) | Math::Atom(_) => (1, 5),
-            Math::Neg([a]) => (1 + operand(*a, 3, false), 3),
+            Math::Neg([a]) => (1 + operand(*a, 3, false).0, 3),
             Math::Binary(op, [a, b]) => {
                 let (left, right) = op.operand_precedence();
-                let continues = matches!(op, BinOp::Mul | BinOp::Div);
-                let length = operand(*a, left, continues).saturating_add(operand(*b, right, false));
-                (length.saturating_add(1), op.precedence())
+                let continued = matches!(op, BinOp::Mul | BinOp::Div);
+                let (a, parenthesised) = operand(*a, left, continued);
+                let (b, _) = operand(*b, right, false);
+                if *op == BinOp::Mul && parenthesised {
+                    disorder = disorder.saturating_add(1);
+                }
+                (a.saturating_add(b).saturating_add(1), op.precedence())
             }
-            Math::Call1(_, [a]) => (1 + operand(*a, 0, false), 5),
+            Math::Call1(_, [a]) => (1 + operand(*a, 0, false).0, 5),
             Math::Call2(_, [a, b]) => {
-                let args = operand(*a, 0, false).saturating_add(operand(*b, 0, false));
+                let args = operand(*a, 0, false)
+                    .0
+                    .saturating_add(operand(*b, 0, false).0);
                 (args.saturating_add(1), 5)
             }
         };
         Cost {
             length,
+            disorder,
             novelty,
             binds,
             quotient: matches!(enode, Math::Binary(BinOp::Div, _)),

@@ -14,7 +14,7 @@ mod cost;
 mod language;
 mod rules;
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use egg::{CostFunction, Extractor, Rewrite, Runner, StopReason};
 
@@ -28,10 +28,15 @@ use rules::ConstantFold;
 pub struct Limits {
     /// E-nodes in the e-graph; also the largest expression (in DAG nodes) that is tried.
     pub nodes: usize,
-    /// Rounds of rule application.
+    /// Rounds of rule application in one e-graph.
     pub iterations: usize,
-    /// Wall-clock time, a safety net only: a search it stops is discarded.
+    /// E-graphs grown one after the other, each from the best form of the one before.
+    pub rounds: usize,
+    /// Wall-clock time for all rounds, a safety net only: a search it stops is discarded.
     pub time: Duration,
+    /// E-nodes for all the expressions of one model together, so that a model of thousands
+    /// of expressions is written in bounded time; later expressions are shown as they are.
+    pub budget: usize,
 }
 
 impl Default for Limits {
@@ -39,7 +44,9 @@ impl Default for Limits {
         Limits {
             nodes: 5_000,
             iterations: 30,
+            rounds: 4,
             time: Duration::from_secs(10),
+            budget: 2_000_000,
         }
     }
 }
@@ -57,6 +64,8 @@ pub enum Stop {
     TimeLimit,
     /// The expression alone exceeds the node limit; it was not tried.
     TooLarge,
+    /// Earlier expressions of the model spent the e-node budget; it was not tried.
+    Budget,
 }
 
 /// The written form chosen for one expression.
@@ -70,6 +79,8 @@ pub struct Rewritten {
     pub after: usize,
     /// How the search ended.
     pub stop: Stop,
+    /// E-nodes built, over all rounds.
+    pub nodes: usize,
 }
 
 /// Chooses written forms under fixed limits, with its rules parsed once.
@@ -81,6 +92,7 @@ pub struct Rewriter {
 impl Rewriter {
     /// A rewriter with the given limits.
     pub fn new(limits: Limits) -> Self {
+        // The budget is spent by whoever runs many expressions (`Analysis::simplify`).
         Rewriter {
             rules: rules::rules(),
             limits,
@@ -88,46 +100,96 @@ impl Rewriter {
     }
 
     /// The cheapest form of `root` found within the limits, built in `pool`.
+    ///
+    /// The search runs in rounds: each starts a fresh e-graph from the previous round's best
+    /// form, so a node limit that stops one round early (commutativity and associativity fill
+    /// it fast) does not stop the regrouping. Rounds end when one saturates or gains nothing.
     pub fn cheapest(&self, pool: &mut Pool, root: ExprId) -> Rewritten {
-        let (expr, atoms) = to_egg(pool, root);
-        let before = Readable::plain().cost_rec(&expr).length;
-        let unchanged = |stop| Rewritten {
-            expr: root,
+        let start = Instant::now();
+        let before = length(pool, root);
+        let mut best = root;
+        let mut stop = Stop::Saturated;
+        let mut nodes = 0usize;
+        for _ in 0..self.limits.rounds.max(1) {
+            let time = self.limits.time.saturating_sub(start.elapsed());
+            let round = self.round(pool, best, time);
+            stop = round.stop;
+            nodes = nodes.saturating_add(round.nodes);
+            if stop == Stop::TimeLimit {
+                best = root;
+                break;
+            }
+            let improved = round.expr != best;
+            best = round.expr;
+            if !improved || stop == Stop::Saturated {
+                break;
+            }
+        }
+        let after = length(pool, best);
+        if after >= before {
+            best = root;
+        }
+        Rewritten {
+            expr: best,
             before,
-            after: before,
+            after: after.min(before),
             stop,
-        };
+            nodes,
+        }
+    }
+
+    /// One e-graph: `root` and what the rules reach from it within the limits, and its
+    /// shortest form if that is shorter than `root`.
+    fn round(&self, pool: &mut Pool, root: ExprId, time: Duration) -> Round {
+        let (expr, atoms) = to_egg(pool, root);
         if expr.len() > self.limits.nodes {
-            return unchanged(Stop::TooLarge);
+            return Round::unchanged(root, Stop::TooLarge, 0);
         }
         let runner = Runner::<Math, ConstantFold, ()>::default()
             .with_node_limit(self.limits.nodes)
             .with_iter_limit(self.limits.iterations)
-            .with_time_limit(self.limits.time)
+            .with_time_limit(time)
             .with_expr(&expr)
             .run(&self.rules);
         let stop = match runner.stop_reason {
             Some(StopReason::NodeLimit(_)) => Stop::NodeLimit,
             Some(StopReason::IterationLimit(_)) => Stop::IterationLimit,
-            Some(StopReason::TimeLimit(_)) => return unchanged(Stop::TimeLimit),
+            Some(StopReason::TimeLimit(_)) => Stop::TimeLimit,
             _ => Stop::Saturated,
         };
+        let nodes = runner.egraph.total_number_of_nodes();
         let Some(&top) = runner.roots.first() else {
-            return unchanged(stop);
+            return Round::unchanged(root, stop, nodes);
         };
         let readable = Readable::new(&runner.egraph, &expr);
         let (cost, best) = Extractor::new(&runner.egraph, readable).find_best(top);
-        let after = cost.length;
-        if after >= before {
-            return unchanged(stop);
+        if cost.length >= Readable::plain().cost_rec(&expr).length {
+            return Round::unchanged(root, stop, nodes);
         }
-        Rewritten {
+        Round {
             expr: from_egg(pool, &best, &atoms),
-            before,
-            after,
             stop,
+            nodes,
         }
     }
+}
+
+/// What one round of [`Rewriter::cheapest`] gives.
+struct Round {
+    expr: ExprId,
+    stop: Stop,
+    nodes: usize,
+}
+
+impl Round {
+    fn unchanged(expr: ExprId, stop: Stop, nodes: usize) -> Self {
+        Round { expr, stop, nodes }
+    }
+}
+
+/// The length of `root` as printed, by [`Readable`].
+fn length(pool: &Pool, root: ExprId) -> usize {
+    Readable::plain().cost_rec(&to_egg(pool, root).0).length
 }
 
 #[cfg(test)]
@@ -263,6 +325,7 @@ mod tests {
             nodes,
             iterations,
             time,
+            ..Limits::default()
         };
         let r = Rewriter::new(tight(3, 30, Duration::from_secs(10))).cheapest(&mut pool, e);
         assert_eq!((r.stop, r.expr), (Stop::TooLarge, e));

@@ -68,6 +68,7 @@ pub fn rules() -> Vec<Rewrite<Math, ConstantFold>> {
         rewrite!("add-commute"; "(+ ?a ?b)" => "(+ ?b ?a)"),
         rewrite!("mul-commute"; "(* ?a ?b)" => "(* ?b ?a)"),
         rewrite!("neg-neg"; "(neg (neg ?a))" => "?a"),
+        rewrite!("sub-swap"; "(- ?a ?b)" => "(neg (- ?b ?a))"),
         rewrite!("factor"; "(+ (* ?a ?b) (* ?a ?c))" => "(* ?a (+ ?b ?c))"),
         rewrite!("factor-one"; "(+ ?a (* ?a ?c))" => "(* ?a (+ 1 ?c))"),
         rewrite!("collect"; "(+ ?a ?a)" => "(* 2 ?a)"),
