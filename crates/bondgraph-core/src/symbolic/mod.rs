@@ -1,8 +1,8 @@
 //! The symbolic expression IR: a hash-consed DAG, so shared subexpressions stay shared.
 //!
-//! [`pool`] holds the nodes and the constructors (which fold constants and drop neutral
-//! elements), [`derive`] is d/dt with the chain rule, [`eval`] evaluates numerically,
-//! [`normal`] puts expressions in a canonical form, [`rewrite`] chooses the cheapest way to
+//! `pool` holds the nodes and the constructors (which fold constants and drop neutral
+//! elements), [`derive`] is d/dt with the chain rule, `eval` evaluates numerically,
+//! `normal` puts expressions in a canonical form, [`rewrite`] chooses the cheapest way to
 //! write them (egg), and [`print`] writes them as text.
 
 mod derive;

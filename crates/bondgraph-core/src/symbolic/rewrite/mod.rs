@@ -4,8 +4,8 @@
 //! The pipeline computes with canonical forms ([`super::Simplifier`]): expanded sums of
 //! products in a fixed order, which make equal expressions equal nodes. They are not how
 //! a person writes an equation, so before an expression is shown it goes through an
-//! e-graph: [`rules`] regroups it (factors, common denominators, like terms, constants),
-//! and [`cost::Readable`] picks the form with the fewest symbols. The search stops at
+//! e-graph: `rules` regroups it (factors, common denominators, like terms, constants),
+//! and the cost function of `cost` picks the form with the fewest symbols. The search stops at
 //! explicit limits; its result is used only when it is strictly cheaper than the
 //! canonical form, and never when it was cut short by the clock, so the output does not
 //! depend on the speed of the machine.
@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 use egg::{CostFunction, Extractor, Rewrite, Runner, StopReason};
 
 use super::pool::{ExprId, Pool};
-pub use cost::{Cost, Readable};
+use cost::Readable;
 use language::{from_egg, to_egg, Math};
 use rules::ConstantFold;
 
@@ -73,7 +73,7 @@ pub enum Stop {
 pub struct Rewritten {
     /// The expression to show: the cheapest found, or the input if nothing was cheaper.
     pub expr: ExprId,
-    /// Length of the input, by [`Readable`].
+    /// Printed length of the input: atoms, numbers, signs, operators, calls, parentheses.
     pub before: usize,
     /// Length of `expr`.
     pub after: usize,
@@ -187,7 +187,7 @@ impl Round {
     }
 }
 
-/// The length of `root` as printed, by [`Readable`].
+/// The printed length of `root`.
 fn length(pool: &Pool, root: ExprId) -> usize {
     Readable::plain().cost_rec(&to_egg(pool, root).0).length
 }
