@@ -115,6 +115,7 @@ pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) 
         if !e.eliminate_one(&mut items, &holders, u) {
             problems.push(u);
         }
+        e.simplifier.forget_polynomials();
         for &i in &holders {
             let Some(item) = &mut items[i] else { continue };
             item.torn = e.torn_in(&item.poly);

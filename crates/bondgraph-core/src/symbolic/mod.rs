@@ -8,6 +8,7 @@
 mod derive;
 mod eval;
 pub mod hash;
+mod monomial;
 mod normal;
 mod pool;
 mod print;

@@ -13,17 +13,65 @@ use std::rc::Rc;
 
 use super::hash::FastMap;
 
+use super::monomial::Monomial;
 use super::pool::{ExprId, Leaf, Node, Pool};
 use crate::expr::BinOp;
 
 /// The most terms a product may expand to before it is kept whole.
 pub const MAX_TERMS: usize = 256;
 
-/// Atoms with their (non-zero) integer exponents, sorted by atom: a sorted vector orders
-/// like a map of the same pairs and is much cheaper to copy and compare.
-type Monomial = Vec<(ExprId, i32)>;
-/// Monomials with their (non-zero) coefficients.
-type Poly = BTreeMap<Monomial, f64>;
+/// Monomials with their (non-zero) coefficients, sorted by monomial, each monomial once.
+///
+/// A sorted vector rather than a map: a polynomial is built whole (sort, then combine) or
+/// merged with another, never edited term by term, and the cache holds hundreds of
+/// thousands of them, which a vector stores in one allocation.
+#[derive(Clone, Debug, Default, PartialEq)]
+struct Poly(Vec<(Monomial, f64)>);
+
+impl Poly {
+    /// The sum of `terms`, in any order: like monomials are added in the order given (so
+    /// the result does not depend on how they were sorted), and zero sums dropped.
+    fn from_terms(mut terms: Vec<(Monomial, f64)>) -> Poly {
+        terms.sort_by(|a, b| a.0.cmp(&b.0)); // stable: like terms keep their order
+        let mut out: Vec<(Monomial, f64)> = Vec::with_capacity(terms.len());
+        for (m, c) in terms {
+            match out.last_mut() {
+                Some(last) if last.0 == m => last.1 += c,
+                _ => {
+                    if out.last().is_some_and(|l| l.1 == 0.0) {
+                        out.pop();
+                    }
+                    out.push((m, c));
+                }
+            }
+        }
+        if out.last().is_some_and(|l| l.1 == 0.0) {
+            out.pop();
+        }
+        Poly(out)
+    }
+
+    /// `c·m`, or zero.
+    fn single(m: Monomial, c: f64) -> Poly {
+        Poly(if c != 0.0 { vec![(m, c)] } else { Vec::new() })
+    }
+
+    fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    fn iter(&self) -> impl Iterator<Item = (&Monomial, &f64)> {
+        self.0.iter().map(|(m, c)| (m, c))
+    }
+
+    fn scale(&mut self, factor: f64) {
+        self.0.iter_mut().for_each(|(_, c)| *c *= factor);
+    }
+}
 
 /// Simplifies expressions of one pool, memoising what it has seen.
 #[derive(Default)]
@@ -34,54 +82,45 @@ pub struct Simplifier {
 }
 
 fn constant(c: f64) -> Poly {
-    let mut p = Poly::new();
-    if c != 0.0 {
-        p.insert(Monomial::new(), c);
-    }
-    p
+    Poly::single(Monomial::new(), c)
 }
 
 fn constant_poly(m: Monomial, c: f64) -> Poly {
-    let mut p = Poly::new();
-    if c != 0.0 {
-        p.insert(m, c);
-    }
-    p
+    Poly::single(m, c)
 }
 
 fn atom(id: ExprId) -> Poly {
-    let m = vec![(id, 1)];
-    let mut p = Poly::new();
-    p.insert(m, 1.0);
-    p
+    Poly::single([(id, 1)].into_iter().collect(), 1.0)
 }
 
+/// `acc += scale·other`, merging the two sorted term lists.
 fn add_into(acc: &mut Poly, other: &Poly, scale: f64) {
-    for (m, c) in other {
-        accumulate(acc, m.clone(), scale * c);
+    let mine = std::mem::take(&mut acc.0);
+    let mut out = Vec::with_capacity(mine.len() + other.len());
+    let mut theirs = other.0.iter().peekable();
+    for (m, c) in mine {
+        while let Some((n, d)) = theirs.next_if(|(n, _)| *n < m) {
+            push_nonzero(&mut out, n.clone(), scale * d);
+        }
+        match theirs.next_if(|(n, _)| *n == m) {
+            Some((_, d)) => push_nonzero(&mut out, m, c + scale * d),
+            None => out.push((m, c)),
+        }
     }
+    for (n, d) in theirs {
+        push_nonzero(&mut out, n.clone(), scale * d);
+    }
+    acc.0 = out;
 }
 
-/// Adds `c·m` to `acc`, dropping the term if it cancels.
-fn accumulate(acc: &mut Poly, m: Monomial, c: f64) {
-    use std::collections::btree_map::Entry;
-    match acc.entry(m) {
-        Entry::Occupied(mut o) => {
-            *o.get_mut() += c;
-            if *o.get() == 0.0 {
-                o.remove();
-            }
-        }
-        Entry::Vacant(v) => {
-            if c != 0.0 {
-                v.insert(c);
-            }
-        }
+fn push_nonzero(out: &mut Vec<(Monomial, f64)>, m: Monomial, c: f64) {
+    if c != 0.0 {
+        out.push((m, c));
     }
 }
 
 fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
-    let mut out = Vec::with_capacity(a.len() + b.len());
+    let mut out = Monomial::with_capacity(a.len() + b.len());
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         let ((x, ex), (y, ey)) = (a[i], b[j]);
@@ -103,19 +142,19 @@ fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
             }
         }
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
+    out.extend(a[i..].iter().copied());
+    out.extend(b[j..].iter().copied());
     out
 }
 
 fn mul(a: &Poly, b: &Poly) -> Poly {
-    let mut out = Poly::new();
-    for (ma, ca) in a {
-        for (mb, cb) in b {
-            accumulate(&mut out, mul_monomials(ma, mb), ca * cb);
+    let mut terms = Vec::with_capacity(a.len() * b.len());
+    for (ma, ca) in a.iter() {
+        for (mb, cb) in b.iter() {
+            terms.push((mul_monomials(ma, mb), ca * cb));
         }
     }
-    out
+    Poly::from_terms(terms)
 }
 
 /// An expression in canonical form, as a polynomial in atoms, for algebra that should not
@@ -153,23 +192,22 @@ impl Polynomial {
 
     /// Its single term as `c·m`, if it has one.
     fn monomial(&self) -> Option<(&Monomial, f64)> {
-        let mut terms = self.0.iter();
-        let (m, c) = terms.next()?;
-        terms.next().is_none().then_some((m, *c))
+        match self.0 .0.as_slice() {
+            [(m, c)] => Some((m, *c)),
+            _ => None,
+        }
     }
 
     /// `self / other` when `other` is a single term (so the quotient is exact).
     pub fn over_monomial(&self, other: &Polynomial) -> Option<Polynomial> {
         let (m, c) = other.monomial()?;
         let inverse: Monomial = m.iter().map(|&(a, e)| (a, -e)).collect();
-        let mut p = Poly::new();
-        p.insert(inverse, 1.0 / c);
-        Some(self.times(&Polynomial(p)))
+        Some(self.times(&Polynomial(Poly::single(inverse, 1.0 / c))))
     }
 
     /// Every atom it holds.
     pub fn atoms(&self) -> impl Iterator<Item = ExprId> + '_ {
-        self.0.keys().flat_map(|m| m.iter().map(|&(a, _)| a))
+        self.0.iter().flat_map(|(m, _)| m.iter().map(|&(a, _)| a))
     }
 
     /// The polynomial read as `Σₖ cₖ·xₖ + rest`, where `var` tells which leaf atoms are the
@@ -180,12 +218,12 @@ impl Polynomial {
         pool: &Pool,
         var: impl Fn(Leaf) -> Option<u32>,
     ) -> Option<(Vec<Polynomial>, Polynomial)> {
-        let mut parts: BTreeMap<Option<u32>, Poly> = BTreeMap::new();
+        let mut parts: BTreeMap<Option<u32>, Vec<(Monomial, f64)>> = BTreeMap::new();
         let mut inside: FastMap<ExprId, bool> = FastMap::default();
-        for (m, c) in &self.0 {
+        for (m, c) in self.0.iter() {
             let mut order = None;
             let mut rest = Monomial::with_capacity(m.len());
-            for &(a, e) in m {
+            for &(a, e) in m.iter() {
                 let k = match pool.node(a) {
                     Node::Leaf(l) => var(l),
                     _ => {
@@ -204,13 +242,13 @@ impl Polynomial {
                     None => rest.push((a, e)),
                 }
             }
-            parts.entry(order).or_default().insert(rest, *c);
+            parts.entry(order).or_default().push((rest, *c));
         }
         let top = parts.keys().filter_map(|k| *k).max()?;
-        let coefficients = (0..=top)
-            .map(|k| Polynomial(parts.remove(&Some(k)).unwrap_or_default()))
-            .collect();
-        let rest = Polynomial(parts.remove(&None).unwrap_or_default());
+        // Taking x_k out of sorted monomials can reorder them: sort again.
+        let mut part = |k| Polynomial(Poly::from_terms(parts.remove(&k).unwrap_or_default()));
+        let coefficients = (0..=top).map(|k| part(Some(k))).collect();
+        let rest = part(None);
         Some((coefficients, rest))
     }
 }
@@ -225,6 +263,11 @@ impl Simplifier {
         let out = rebuild(pool, &poly);
         self.memo.insert(root, out);
         out
+    }
+
+    /// Forgets the polynomials of the nodes seen so far (not the simplified forms).
+    pub fn forget_polynomials(&mut self) {
+        self.polys = FastMap::default();
     }
 
     /// The canonical form of `root` as a polynomial.
@@ -242,8 +285,8 @@ impl Simplifier {
         derivatives: &mut super::Derivatives<F>,
     ) -> Option<Polynomial> {
         let mut of_atom: FastMap<ExprId, Rc<Poly>> = FastMap::default();
-        let mut out = Poly::new();
-        for (m, &c) in &p.0 {
+        let mut out = Vec::new();
+        for (m, &c) in p.0.iter() {
             for (i, &(a, e)) in m.iter().enumerate() {
                 let da = match of_atom.get(&a) {
                     Some(da) => Rc::clone(da),
@@ -275,15 +318,15 @@ impl Simplifier {
                     } else {
                         mul_monomials(&rest, dm)
                     };
-                    accumulate(&mut out, m, c * f64::from(e) * dc);
+                    out.push((m, c * f64::from(e) * dc));
                     continue;
                 }
                 for (dm, dc) in da.iter() {
-                    accumulate(&mut out, mul_monomials(&rest, dm), c * f64::from(e) * dc);
+                    out.push((mul_monomials(&rest, dm), c * f64::from(e) * dc));
                 }
             }
         }
-        Some(Polynomial(out))
+        Some(Polynomial(Poly::from_terms(out)))
     }
 
     fn poly(&mut self, pool: &mut Pool, id: ExprId) -> Rc<Poly> {
@@ -302,7 +345,7 @@ impl Simplifier {
             Node::Leaf(_) => atom(id),
             Node::Neg(a) => {
                 let mut p = Poly::clone(&self.poly(pool, a));
-                p.values_mut().for_each(|c| *c = -*c);
+                p.scale(-1.0);
                 p
             }
             Node::Binary(op, a, b) => self.binary(pool, op, a, b, id),
@@ -322,7 +365,7 @@ impl Simplifier {
     /// int(y1 - N·y2) and int(y1) - N·int(y2) are one and the same.
     fn integral(&mut self, pool: &mut Pool, a: ExprId) -> Poly {
         let inner = self.poly(pool, a);
-        let mut out = Poly::new();
+        let mut terms = Vec::with_capacity(inner.len());
         for (m, c) in inner.iter() {
             let (constant, varying): (Monomial, Monomial) = m
                 .iter()
@@ -331,25 +374,18 @@ impl Simplifier {
             let varying_expr = if varying.is_empty() {
                 pool.leaf(Leaf::Time)
             } else {
-                let mut single = Poly::new();
-                single.insert(varying, 1.0);
-                let body = rebuild(pool, &single);
+                let body = rebuild(pool, &Poly::single(varying, 1.0));
                 pool.int(body)
             };
             let term = mul(&constant_poly(constant, *c), &atom(varying_expr));
-            add_into(&mut out, &term, 1.0);
+            terms.extend(term.0);
         }
-        out
+        Poly::from_terms(terms)
     }
 
     fn binary(&mut self, pool: &mut Pool, op: BinOp, a: ExprId, b: ExprId, whole: ExprId) -> Poly {
         match op {
-            BinOp::Add | BinOp::Sub => {
-                let mut p = Poly::clone(&self.poly(pool, a));
-                let q = self.poly(pool, b);
-                add_into(&mut p, &q, if op == BinOp::Add { 1.0 } else { -1.0 });
-                p
-            }
+            BinOp::Add | BinOp::Sub => self.sum(pool, whole),
             BinOp::Mul => {
                 let (p, q) = (self.poly(pool, a), self.poly(pool, b));
                 if p.len() * q.len() > MAX_TERMS {
@@ -377,10 +413,7 @@ impl Simplifier {
                     Some(e) if base.len() > 1 => {
                         let (lead, sum) = normalised_sum(pool, &base);
                         let n = e as i32;
-                        let m = vec![(sum, n)];
-                        let mut p = Poly::new();
-                        p.insert(m, lead.powi(n));
-                        p
+                        Poly::single([(sum, n)].into_iter().collect(), lead.powi(n))
                     }
                     Some(e) => {
                         let n = e as i32;
@@ -407,6 +440,35 @@ impl Simplifier {
         }
     }
 
+    /// A chain of `+` and `-` as one sum. A canonical form is rebuilt as a left-nested
+    /// chain, so caching the polynomial of every prefix `t1 + … + tk` would store n²/2
+    /// terms for n; the prefixes are walked through instead (unless already cached).
+    fn sum(&mut self, pool: &mut Pool, whole: ExprId) -> Poly {
+        let mut operands = Vec::new();
+        let mut node = whole;
+        loop {
+            match pool.node(node) {
+                Node::Binary(op @ (BinOp::Add | BinOp::Sub), a, b)
+                    if node == whole || !self.polys.contains_key(&node) =>
+                {
+                    operands.push((b, if op == BinOp::Add { 1.0 } else { -1.0 }));
+                    node = a;
+                }
+                _ => {
+                    operands.push((node, 1.0));
+                    break;
+                }
+            }
+        }
+        // From the leftmost operand on, so like terms add up in the order they always did.
+        let mut terms = Vec::new();
+        for (operand, sign) in operands.into_iter().rev() {
+            let p = self.poly(pool, operand);
+            terms.extend(p.iter().map(|(m, &c)| (m.clone(), sign * c)));
+        }
+        Poly::from_terms(terms)
+    }
+
     /// A node kept whole (too large to expand), with its operands simplified.
     fn opaque(&mut self, pool: &mut Pool, id: ExprId) -> Poly {
         let Node::Binary(op, a, b) = pool.node(id) else {
@@ -424,25 +486,20 @@ fn reciprocal(pool: &mut Pool, q: &Poly) -> Option<Poly> {
         1 => {
             let (m, c) = q.iter().next()?;
             let inv: Monomial = m.iter().map(|(a, e)| (*a, -e)).collect();
-            let mut p = Poly::new();
-            p.insert(inv, 1.0 / c);
-            Some(p)
+            Some(Poly::single(inv, 1.0 / c))
         }
         _ => {
             let (lead, sum) = normalised_sum(pool, q);
-            let m = vec![(sum, -1)];
-            let mut p = Poly::new();
-            p.insert(m, 1.0 / lead);
-            Some(p)
+            Some(Poly::single([(sum, -1)].into_iter().collect(), 1.0 / lead))
         }
     }
 }
 
 /// A sum as `lead · S` with S's leading coefficient 1, so 2a + 2b and a + b share the atom S.
 fn normalised_sum(pool: &mut Pool, q: &Poly) -> (f64, ExprId) {
-    let lead = q.values().next().copied().unwrap_or(1.0);
+    let lead = q.iter().next().map_or(1.0, |(_, c)| *c);
     let mut scaled = q.clone();
-    scaled.values_mut().for_each(|c| *c /= lead);
+    scaled.0.iter_mut().for_each(|(_, c)| *c /= lead);
     (lead, rebuild(pool, &scaled))
 }
 
@@ -457,7 +514,7 @@ fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
         let magnitude = pool.num(c.abs());
         let mut numerator: Option<ExprId> = (c.abs() != 1.0).then_some(magnitude);
         let mut denominator: Option<ExprId> = None;
-        for &(a, e) in m {
+        for &(a, e) in m.iter() {
             let exp = pool.num(f64::from(e.abs()));
             let factor = pool.pow(a, exp);
             let slot = if e > 0 {
