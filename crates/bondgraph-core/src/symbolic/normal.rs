@@ -11,10 +11,10 @@
 use std::collections::BTreeMap;
 use std::rc::Rc;
 
-use super::hash::FastMap;
+use super::hash::{FastMap, FastSet};
 
 use super::monomial::Monomial;
-use super::pool::{ExprId, Leaf, Node, Pool};
+use super::pool::{children, ExprId, Leaf, Node, Pool};
 use crate::expr::BinOp;
 
 /// The most terms a product may expand to before it is kept whole.
@@ -334,9 +334,46 @@ impl Simplifier {
         if let Some(p) = self.polys.get(&id) {
             return Rc::clone(p);
         }
+        // Children before parents, so that each node finds what it needs cached: a product
+        // of ten thousand factors is expanded in a loop, not in ten thousand nested calls.
+        let ready = children(pool.node(id)).all(|c| self.polys.contains_key(&c));
+        if !ready {
+            for x in self.needed_below(pool, id) {
+                let p = Rc::new(self.poly_uncached(pool, x));
+                self.polys.insert(x, p);
+            }
+        }
         let p = Rc::new(self.poly_uncached(pool, id));
         self.polys.insert(id, Rc::clone(&p));
         p
+    }
+
+    /// The uncached nodes below `id` whose polynomials it needs, children first. The inner
+    /// links of a chain of `+` and `-` are left out: [`Simplifier::sum`] walks through them.
+    fn needed_below(&self, pool: &Pool, id: ExprId) -> Vec<ExprId> {
+        let is_sum = |x: ExprId| matches!(pool.node(x), Node::Binary(BinOp::Add | BinOp::Sub, ..));
+        let mut out = Vec::new();
+        let mut seen: FastSet<ExprId> = FastSet::default();
+        let mut stack = vec![(id, true)];
+        while let Some((x, link)) = stack.pop() {
+            if !seen.insert(x) {
+                continue;
+            }
+            if !link {
+                out.push(x);
+            }
+            let node = pool.node(x);
+            let left = match node {
+                Node::Binary(BinOp::Add | BinOp::Sub, a, _) => Some(a),
+                _ => None,
+            };
+            for c in children(node).filter(|c| !self.polys.contains_key(c)) {
+                stack.push((c, left == Some(c) && is_sum(c)));
+            }
+        }
+        // Ids are created children first, so id order is a topological order.
+        out.sort_unstable();
+        out
     }
 
     fn poly_uncached(&mut self, pool: &mut Pool, id: ExprId) -> Poly {

@@ -49,11 +49,19 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
                 out.push('-');
                 self.text_into(out, a, 3);
             }
-            Node::Binary(op, a, b) => {
-                let (lp, rp) = op.operand_precedence();
+            Node::Binary(BinOp::Pow, a, b) => {
+                let (lp, rp) = BinOp::Pow.operand_precedence();
                 self.text_into(out, a, lp);
-                let _ = write!(out, " {} ", op.symbol());
+                out.push_str(" ^ ");
                 self.text_into(out, b, rp);
+            }
+            Node::Binary(op, ..) => {
+                let (first, rest) = self.chain(id, |o| o.precedence() == op.precedence());
+                self.text_into(out, first, op.operand_precedence().0);
+                for (op, b) in rest {
+                    let _ = write!(out, " {} ", op.symbol());
+                    self.text_into(out, b, op.operand_precedence().1);
+                }
             }
             Node::Call1(f, a) => {
                 let _ = write!(out, "{}(", f.name());
@@ -119,15 +127,20 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
                 self.latex_into(out, b, 0);
                 out.push('}');
             }
-            Node::Binary(op, a, b) => {
-                let (lp, rp) = op.operand_precedence();
-                self.latex_into(out, a, lp);
-                out.push_str(match op {
-                    BinOp::Add => " + ",
-                    BinOp::Sub => " - ",
-                    _ => " \\, ",
+            Node::Binary(op, ..) => {
+                // Sums, and products without a fraction: a fraction is drawn by itself.
+                let (first, rest) = self.chain(id, |o| {
+                    o == op || (o.precedence() == 1 && op.precedence() == 1)
                 });
-                self.latex_into(out, b, rp);
+                self.latex_into(out, first, op.operand_precedence().0);
+                for (op, b) in rest {
+                    out.push_str(match op {
+                        BinOp::Add => " + ",
+                        BinOp::Sub => " - ",
+                        _ => " \\, ",
+                    });
+                    self.latex_into(out, b, op.operand_precedence().1);
+                }
             }
             Node::Call1(Func::Sqrt, a) => {
                 out.push_str("\\sqrt{");
@@ -165,6 +178,25 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
     }
 }
 
+impl<F> Printer<'_, F> {
+    /// The operands of a left-nested chain of operators that `joins` accepts, leftmost
+    /// first, with the operator before each of the others. A canonical sum of ten thousand
+    /// terms is a chain ten thousand deep: walked here, not recursed into.
+    fn chain(&self, id: ExprId, joins: impl Fn(BinOp) -> bool) -> (ExprId, Vec<(BinOp, ExprId)>) {
+        let mut rest = Vec::new();
+        let mut left = id;
+        while let Node::Binary(op, a, b) = self.pool.node(left) {
+            if !joins(op) || op == BinOp::Pow {
+                break;
+            }
+            rest.push((op, b));
+            left = a;
+        }
+        rest.reverse();
+        (left, rest)
+    }
+}
+
 fn latex_function(f: Func) -> &'static str {
     match f {
         Func::Exp => "\\exp",
@@ -179,5 +211,37 @@ fn latex_function(f: Func) -> &'static str {
         Func::Atan => "\\arctan",
         Func::Min => "\\min",
         Func::Max => "\\max",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::ParamId;
+
+    /// A canonical sum of many distinct terms is a left-nested chain as deep as it is long;
+    /// printing it must not recurse that deep (a test thread has a small stack).
+    #[test]
+    fn a_sum_of_a_hundred_thousand_terms_prints_without_deep_recursion() {
+        let mut pool = Pool::default();
+        let n = 100_000u32;
+        let terms: Vec<(bool, ExprId)> = (0..n)
+            .map(|i| (i % 2 == 0, pool.leaf(Leaf::Param(ParamId(i)))))
+            .collect();
+        let sum = pool.signed_sum(&terms);
+        let product = (0..n).fold(pool.num(2.0), |acc, i| {
+            let x = pool.leaf(Leaf::Param(ParamId(i)));
+            pool.mul(acc, x)
+        });
+        let printer = Printer::new(&pool, |l| match l {
+            Leaf::Param(p) => format!("p{}", p.0),
+            _ => String::new(),
+        });
+        let text = printer.text(sum);
+        assert!(text.starts_with("p0 - p1 + p2 - p3"));
+        assert!(text.ends_with("+ p99998 - p99999"));
+        assert!(printer.text(product).starts_with("2 * p0 * p1 * p2"));
+        assert!(printer.latex(sum).ends_with("+ p99998 - p99999"));
+        assert!(printer.latex(product).starts_with("2 \\, p0 \\, p1"));
     }
 }
