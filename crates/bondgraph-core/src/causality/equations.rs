@@ -1,7 +1,7 @@
 //! The equations of a bond graph, as relations between bond variables that can be solved in
 //! chosen directions: what causality assignment orients.
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 
 use petgraph::Direction::{Incoming, Outgoing};
 
@@ -172,7 +172,7 @@ struct Builder<'m> {
     model: &'m BondGraph,
     mode: Mode,
     sys: System,
-    /// Each `let` as an expression, with the `let`s it uses.
+    /// Each `let` as an expression, with the `let`s it names itself.
     lets: Vec<Option<(ExprId, Vec<LetId>)>>,
 }
 
@@ -210,7 +210,7 @@ impl Builder<'_> {
     }
 
     /// An expression over signals as a pool expression; `port` gives the leaf of a port
-    /// variable; the `let`s used are added to `used`.
+    /// variable; the `let`s it names are added to `used`.
     fn expr(
         &mut self,
         expr: &SignalExpr,
@@ -227,9 +227,8 @@ impl Builder<'_> {
                 Signal::Time => p.leaf(Leaf::Time),
                 Signal::Port(v) => port(v).unwrap_or_else(|| p.num(f64::NAN)),
                 Signal::Let(id) => match &self.lets[id.0 as usize] {
-                    Some((e, inner)) => {
+                    Some((e, _)) => {
                         used.push(id);
-                        used.extend(inner);
                         *e
                     }
                     None => p.num(f64::NAN),
@@ -263,6 +262,21 @@ impl Builder<'_> {
                 self.sys.pool.int(a)
             }
         }
+    }
+
+    /// `direct` with every `let` they use in turn, sorted. Each `let` keeps only the ones
+    /// it names itself, so a chain of n `let`s costs n here, not n² stored.
+    fn through(&self, direct: Vec<LetId>) -> Vec<LetId> {
+        let mut seen = BTreeSet::new();
+        let mut stack = direct;
+        while let Some(l) = stack.pop() {
+            if seen.insert(l) {
+                if let Some((_, named)) = &self.lets[l.0 as usize] {
+                    stack.extend(named.iter().copied());
+                }
+            }
+        }
+        seen.into_iter().collect()
     }
 
     fn push(&mut self, owner: NodeId, relation: Relation, lets: Vec<LetId>) {
@@ -301,6 +315,7 @@ impl Builder<'_> {
         }
         vars.sort();
         vars.dedup();
+        let lets = self.through(lets);
         self.sys.equations.push(Equation {
             owner,
             relation,

@@ -73,12 +73,29 @@ pub struct Fsm {
     pub rows: Vec<Row>,
 }
 
-fn params_of(model: &BondGraph, expr: &SignalExpr, deep: bool, out: &mut BTreeSet<ParamId>) {
+/// The parameters each `let` uses, directly or through other `let`s, computed once in
+/// dependency order (so a chain of `let`s costs its length, not its length squared).
+fn let_parameters(model: &BondGraph) -> Vec<BTreeSet<ParamId>> {
+    let mut deep: Vec<BTreeSet<ParamId>> = vec![BTreeSet::new(); model.lets.len()];
+    for &l in &model.let_order {
+        let mut own = BTreeSet::new();
+        params_of(&model.lets[l.0 as usize].value, Some(&deep), &mut own);
+        deep[l.0 as usize] = own;
+    }
+    deep
+}
+
+/// The parameters `expr` names, and with `deep` those of the `let`s it uses.
+fn params_of(expr: &SignalExpr, deep: Option<&[BTreeSet<ParamId>]>, out: &mut BTreeSet<ParamId>) {
     expr.for_each_leaf(&mut |s| match *s {
         Signal::Param(p) => {
             out.insert(p);
         }
-        Signal::Let(l) if deep => params_of(model, &model.lets[l.0 as usize].value, true, out),
+        Signal::Let(l) => {
+            if let Some(set) = deep.and_then(|d| d.get(l.0 as usize)) {
+                out.extend(set.iter().copied());
+            }
+        }
         _ => {}
     });
 }
@@ -114,12 +131,13 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
     let mut out = Vec::new();
     let mut element_params = BTreeSet::new();
     let mut modulating = BTreeSet::new();
+    let deep = let_parameters(model);
     for id in model.nodes() {
         let node = model.node(id);
         if let NodeKind::Element(kind, law) = &node.kind {
             let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
-            params_of(model, law.expr(), false, &mut direct);
-            params_of(model, law.expr(), true, &mut all);
+            params_of(law.expr(), None, &mut direct);
+            params_of(law.expr(), Some(&deep), &mut all);
             element_params.extend(direct.iter().copied());
             modulating.extend(deep_lets(model, law.expr()));
             let signals = if kind.is_source() || matches!(kind, ElementKind::MTF | ElementKind::MGY)
@@ -142,8 +160,8 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
     for l in modulating {
         let value = &model.lets[l.0 as usize].value;
         let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
-        params_of(model, value, false, &mut direct);
-        params_of(model, value, true, &mut all);
+        params_of(value, None, &mut direct);
+        params_of(value, Some(&deep), &mut all);
         let own: Vec<ParamId> = direct.difference(&element_params).copied().collect();
         if own.is_empty() {
             continue;
