@@ -32,6 +32,25 @@ impl BinOp {
         }
     }
 
+    /// Every operator.
+    pub const ALL: [BinOp; 5] = [BinOp::Add, BinOp::Sub, BinOp::Mul, BinOp::Div, BinOp::Pow];
+
+    /// The operator written `symbol`, if any.
+    pub fn from_symbol(symbol: &str) -> Option<BinOp> {
+        BinOp::ALL.into_iter().find(|b| b.symbol() == symbol)
+    }
+
+    /// Its value at `a`, `b`.
+    pub fn apply(self, a: f64, b: f64) -> f64 {
+        match self {
+            BinOp::Add => a + b,
+            BinOp::Sub => a - b,
+            BinOp::Mul => a * b,
+            BinOp::Div => a / b,
+            BinOp::Pow => a.powf(b),
+        }
+    }
+
     /// The least binding strength the (left, right) operands need to be written without
     /// parentheses. `a + (b - c)` reads as `a + b - c` and `a * (b / c)` as `a * b / c`, so
     /// `+` and `*` accept their own kind on the right; `-` and `/` do not, and `^` groups

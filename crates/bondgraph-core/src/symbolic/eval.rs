@@ -4,8 +4,6 @@ use super::hash::FastMap;
 use super::pool::{ExprId, Leaf, Node, Pool};
 use std::collections::HashMap;
 
-use crate::expr::BinOp;
-
 /// Evaluates expressions of one pool with leaf values from a closure, memoising shared nodes.
 pub struct Evaluator<'p, F> {
     pool: &'p Pool,
@@ -47,16 +45,7 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
                 Node::Num(bits) => f64::from_bits(bits),
                 Node::Leaf(l) => (self.leaf)(l),
                 Node::Neg(a) => -v(a),
-                Node::Binary(op, a, b) => {
-                    let (a, b) = (v(a), v(b));
-                    match op {
-                        BinOp::Add => a + b,
-                        BinOp::Sub => a - b,
-                        BinOp::Mul => a * b,
-                        BinOp::Div => a / b,
-                        BinOp::Pow => a.powf(b),
-                    }
-                }
+                Node::Binary(op, a, b) => op.apply(v(a), v(b)),
                 Node::Call1(f, a) => f.apply(&[v(a)]),
                 Node::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
                 Node::Int(_) => self.integrals.get(&id).copied().unwrap_or(f64::NAN),

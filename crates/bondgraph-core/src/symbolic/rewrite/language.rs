@@ -130,10 +130,11 @@ impl FromOp for Math {
     type Error = UnknownOperator;
 
     fn from_op(op: &str, children: Vec<Id>) -> Result<Self, UnknownOperator> {
-        let binary = [BinOp::Add, BinOp::Sub, BinOp::Mul, BinOp::Div, BinOp::Pow]
-            .into_iter()
-            .find(|b| b.symbol() == op);
-        let node = match (children.as_slice(), binary, Func::from_name(op)) {
+        let node = match (
+            children.as_slice(),
+            BinOp::from_symbol(op),
+            Func::from_name(op),
+        ) {
             ([], ..) => match (f64::from_str(op), op.strip_prefix("atom")) {
                 (Ok(x), _) => Some(Math::Num(Constant::new(x))),
                 (_, Some(n)) => n.parse().ok().map(Math::Atom),

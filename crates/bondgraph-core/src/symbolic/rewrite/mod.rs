@@ -231,18 +231,11 @@ mod tests {
     }
 
     fn build(pool: &mut Pool, op: &str, args: &[ExprId]) -> ExprId {
-        let binary = |op| {
-            [BinOp::Add, BinOp::Sub, BinOp::Mul, BinOp::Div, BinOp::Pow]
-                .into_iter()
-                .find(|b: &BinOp| b.symbol() == op)
-        };
-        match (op, args) {
-            ("neg", &[a]) => pool.neg(a),
-            ("int", &[a]) => pool.int(a),
-            (op, &[a, b]) if binary(op).is_some() => {
-                pool.binary(binary(op).unwrap_or(BinOp::Add), a, b)
-            }
-            (f, args) => pool.call(Func::from_name(f).unwrap_or(Func::Exp), args),
+        match (op, args, BinOp::from_symbol(op)) {
+            ("neg", &[a], _) => pool.neg(a),
+            ("int", &[a], _) => pool.int(a),
+            (_, &[a, b], Some(bin)) => pool.binary(bin, a, b),
+            (f, args, _) => pool.call(Func::from_name(f).unwrap_or(Func::Exp), args),
         }
     }
 

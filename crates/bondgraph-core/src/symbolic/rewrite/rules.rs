@@ -8,7 +8,6 @@
 use egg::{merge_option, rewrite, Analysis, DidMerge, EGraph, Id, Rewrite};
 
 use super::language::{Constant, Math};
-use crate::expr::BinOp;
 
 /// The e-graph of one expression.
 pub type Graph = EGraph<Math, ConstantFold>;
@@ -26,16 +25,7 @@ impl Analysis<Math> for ConstantFold {
             Math::Num(c) => c.value(),
             Math::Atom(_) => return None,
             Math::Neg([a]) => -x(a)?,
-            Math::Binary(op, [a, b]) => {
-                let (a, b) = (x(a)?, x(b)?);
-                match op {
-                    BinOp::Add => a + b,
-                    BinOp::Sub => a - b,
-                    BinOp::Mul => a * b,
-                    BinOp::Div => a / b,
-                    BinOp::Pow => a.powf(b),
-                }
-            }
+            Math::Binary(op, [a, b]) => op.apply(x(a)?, x(b)?),
             Math::Call1(f, [a]) => f.apply(&[x(a)?]),
             Math::Call2(f, [a, b]) => f.apply(&[x(a)?, x(b)?]),
         };
