@@ -9,6 +9,7 @@ mod common;
 use std::path::PathBuf;
 
 use bondgraph_core::diagnostic::LineIndex;
+use bondgraph_core::{Derive, Options};
 use common::{bgc, code, names_line_and_column, root, stderr};
 
 /// SplitMix64: small, fast, good enough to pick mutations.
@@ -128,14 +129,24 @@ fn check_located(name: &str, what: &str, bytes: &[u8]) {
     let Ok(text) = std::str::from_utf8(bytes) else {
         return; // Not text: the CLI reports it; checked through the binary below.
     };
-    let (graph, diagnostics) = bondgraph_core::load(text);
+    let options = Options {
+        derive: Derive::Everything,
+        simplify: None,
+    };
+    let diagnostics = match bondgraph_core::compile(text, name, &options) {
+        Ok(out) => {
+            assert_plausible(name, what, text, &out.compiled);
+            out.compiled.diagnostics
+        }
+        Err(diagnostics) => {
+            assert!(
+                diagnostics.has_errors(),
+                "{name} ({what}): rejected without an error\n{text}"
+            );
+            diagnostics
+        }
+    };
     let index = LineIndex::new(text);
-    if graph.is_none() {
-        assert!(
-            diagnostics.has_errors(),
-            "{name} ({what}): rejected without an error\n{text}"
-        );
-    }
     for d in diagnostics.iter() {
         let ok = d.span.start <= d.span.end
             && d.span.end <= text.len()
@@ -148,6 +159,32 @@ fn check_located(name: &str, what: &str, bytes: &[u8]) {
         );
         let at = index.line_col(text, d.span.start);
         assert!(at.line >= 1 && at.col >= 1);
+    }
+}
+
+/// Words that must never reach an output: non-numbers and the solver's names.
+const IMPLAUSIBLE: [&str; 5] = ["NaN", "inf", "unknown", "Var(", "Tear("];
+
+/// Every emitter's output on a valid mutant holds nothing implausible.
+fn assert_plausible(name: &str, what: &str, text: &str, c: &bondgraph_core::Compiled) {
+    use bondgraph_codegen::{dot, json, latex, text as summary};
+    for output in [
+        summary::emit(c),
+        json::emit(c),
+        latex::emit(c, true),
+        dot::emit(c),
+        summary::causality(c),
+    ] {
+        for word in IMPLAUSIBLE {
+            // Names the user chose may contain these letters; only bare words count.
+            let bare = output
+                .split(|ch: char| !ch.is_alphanumeric() && ch != '(' && ch != '_')
+                .any(|w| w == word);
+            assert!(
+                !bare,
+                "{name} ({what}): output holds `{word}`\n{text}\n{output}"
+            );
+        }
     }
 }
 
@@ -168,7 +205,13 @@ fn mutated_models_never_crash_the_library_and_every_error_is_located() {
                 std::panic::resume_unwind(panic);
             }
             total += 1;
-            if std::str::from_utf8(&mutant).map_or(true, |t| bondgraph_core::load(t).0.is_none()) {
+            let options = Options {
+                derive: Derive::Nothing,
+                simplify: None,
+            };
+            if std::str::from_utf8(&mutant).map_or(true, |t| {
+                bondgraph_core::compile(t, &name, &options).is_err()
+            }) {
                 rejected += 1;
             }
         }

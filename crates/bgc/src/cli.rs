@@ -5,9 +5,7 @@ use std::process::ExitCode;
 
 use std::time::Duration;
 
-use bondgraph_core::analysis::{Analysis, Unsimplified};
-use bondgraph_core::graph::BondGraph;
-use bondgraph_core::symbolic::rewrite::{Limits, Stop};
+use bondgraph_core::{Compiled, Derive, Limits, Options, Stop, Unsimplified, VerifyOptions};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::report;
@@ -23,7 +21,7 @@ pub struct Args {
     #[command(subcommand)]
     command: Option<Command>,
 
-    /// The model to read (a `.bg` file).
+    /// The model to read (a `.bg` file, or `-` for standard input).
     #[arg(value_name = "MODEL", required = true)]
     model: Option<PathBuf>,
 
@@ -69,8 +67,8 @@ struct SimplifyArgs {
     #[arg(long, value_name = "N", default_value_t = Limits::default().budget)]
     egg_budget: usize,
 
-    /// Wall-clock limit for one expression, in seconds; an expression that reaches it is
-    /// shown in canonical form, so the output never depends on the machine's speed.
+    /// Wall-clock limit for one expression's search, in seconds. Reaching it stops bgc with
+    /// an error: the clock never decides what is printed, only counts do.
     #[arg(long, value_name = "SECONDS", default_value_t = Limits::default().time.as_secs_f64())]
     egg_seconds: f64,
 }
@@ -107,6 +105,29 @@ enum Command {
         #[arg(value_name = "MODEL")]
         model: PathBuf,
         /// Write the summary to FILE instead of standard output.
+        #[arg(short, long, value_name = "FILE")]
+        output: Option<PathBuf>,
+    },
+    /// Check the model's ARRs and FSM numerically: every residual on simulated trajectories
+    /// of the model (exact derivatives along its state equations), every FSM entry with the
+    /// component faulted in the plant only. Prints a table; exits 1 on any failure.
+    Verify {
+        /// The model.
+        #[arg(value_name = "MODEL")]
+        model: PathBuf,
+        /// Amplitude of the test inputs, u_k(t) = A (1 + 0.5 sin(w_k t + k)).
+        #[arg(long, value_name = "A", default_value_t = VerifyOptions::default().input_scale)]
+        input_scale: f64,
+        /// Typical size of the initial states.
+        #[arg(long, value_name = "X", default_value_t = VerifyOptions::default().state_scale)]
+        state_scale: f64,
+        /// RK4 steps per run.
+        #[arg(long, value_name = "N", default_value_t = VerifyOptions::default().steps)]
+        steps: usize,
+        /// The step, in seconds.
+        #[arg(long, value_name = "H", default_value_t = VerifyOptions::default().step)]
+        step: f64,
+        /// Write the table to FILE instead of standard output.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },
@@ -159,50 +180,83 @@ impl Failure {
 pub fn run(args: Args) -> Result<(), Failure> {
     match (args.command, args.model) {
         (Some(Command::Check { model, output }), _) => {
-            let graph = load(&model)?;
-            write(output.as_deref(), &summary::check(&graph))
+            let c = compile(&model, Derive::Nothing, None)?;
+            write(output.as_deref(), &summary::check(&c))?;
+            succeeded(&c)
         }
         (Some(Command::Causality { model, output }), _) => {
-            let graph = load(&model)?;
-            let analysis = bondgraph_core::analysis::analyse(&graph);
-            write(
-                output.as_deref(),
-                &bondgraph_codegen::text::causality(&analysis),
-            )
+            let c = compile(&model, Derive::Everything, None)?;
+            write(output.as_deref(), &bondgraph_codegen::text::causality(&c))?;
+            succeeded(&c)
+        }
+        (
+            Some(Command::Verify {
+                model,
+                input_scale,
+                state_scale,
+                steps,
+                step,
+                output,
+            }),
+            _,
+        ) => {
+            let c = compile(&model, Derive::Everything, args.simplify.limits()?)?;
+            succeeded(&c)?;
+            let options = VerifyOptions {
+                input_scale,
+                state_scale,
+                steps,
+                step,
+                ..VerifyOptions::default()
+            };
+            let v = bondgraph_core::verify(&c, &options).map_err(|e| {
+                eprintln!("error: {}: cannot verify: {e}", c.file_name);
+                Failure::Invalid
+            })?;
+            write(output.as_deref(), &crate::summary::verification(&c, &v))?;
+            if v.passed() {
+                Ok(())
+            } else {
+                eprintln!("error: {}: verification failed", c.file_name);
+                Err(Failure::Invalid)
+            }
         }
         (None, Some(model)) => {
-            let graph = load(&model)?;
             if args.standalone && args.emit != Target::Latex {
                 eprintln!("error: --standalone applies to --emit latex only");
                 return Err(Failure::Usage);
             }
-            let analysis = analyse(&graph, args.emit, &args.simplify)?;
-            let text = match args.emit {
-                Target::Text => bondgraph_codegen::text::emit(&analysis),
-                Target::Json => bondgraph_codegen::json::emit(&analysis),
-                Target::Latex => bondgraph_codegen::latex::emit(&analysis, args.standalone),
-                Target::State => bondgraph_codegen::text::state(&analysis),
-                Target::Dot => bondgraph_codegen::dot::emit(&graph, Some(&analysis.integral)),
+            let derive = match args.emit {
+                Target::State | Target::Dot => Derive::StateEquations,
+                _ => Derive::Everything,
             };
-            write(args.output.as_deref(), &text)
+            let limits = match args.emit {
+                Target::Dot => None,
+                _ => args.simplify.limits()?,
+            };
+            let c = compile(&model, derive, limits)?;
+            let text = match args.emit {
+                Target::Text => bondgraph_codegen::text::emit(&c),
+                Target::Json => bondgraph_codegen::json::emit(&c),
+                Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
+                Target::State => bondgraph_codegen::text::state(&c),
+                Target::Dot => bondgraph_codegen::dot::emit(&c),
+            };
+            write(args.output.as_deref(), &text)?;
+            succeeded(&c)
         }
         // clap requires MODEL when there is no subcommand.
         (None, None) => Err(Failure::Usage),
     }
 }
 
-/// Derives everything from a model and writes its expressions as `how` asks.
-fn analyse<'m>(
-    graph: &'m BondGraph,
-    target: Target,
-    how: &SimplifyArgs,
-) -> Result<Analysis<'m>, Failure> {
-    let limits = how.limits()?;
-    let mut analysis = bondgraph_core::analysis::analyse(graph);
-    if let (Some(limits), true) = (limits, target != Target::Dot) {
-        warn_unsimplified(&analysis.simplify(limits));
+/// Exit 1 when some output was refused: its errors were reported.
+fn succeeded(c: &Compiled) -> Result<(), Failure> {
+    if c.has_errors() {
+        Err(Failure::Invalid)
+    } else {
+        Ok(())
     }
-    Ok(analysis)
 }
 
 /// Names what the simplifier skipped and why; what the budget left out, in one line.
@@ -213,11 +267,10 @@ fn warn_unsimplified(skipped: &[Unsimplified]) {
         .map(|s| s.what.as_str())
         .collect();
     for s in skipped.iter().filter(|s| s.stop != Stop::Budget) {
-        let why = match s.stop {
-            Stop::TooLarge => "it is larger than --egg-nodes",
-            _ => "the simplifier reached --egg-seconds",
-        };
-        eprintln!("warning: {} is shown in canonical form: {why}", s.what);
+        eprintln!(
+            "warning: {} is shown in canonical form: it is larger than --egg-nodes",
+            s.what
+        );
     }
     if let [first, ..] = over_budget.as_slice() {
         eprintln!(
@@ -228,14 +281,34 @@ fn warn_unsimplified(skipped: &[Unsimplified]) {
     }
 }
 
-/// Reads and validates a model, reporting every diagnostic on standard error.
-fn load(path: &Path) -> Result<BondGraph, Failure> {
+/// Reads a model (a file, or standard input for `-`) and compiles it, reporting every
+/// diagnostic on standard error.
+fn compile(path: &Path, derive: Derive, simplify: Option<Limits>) -> Result<Compiled, Failure> {
+    let (name, bytes) = read(path)?;
+    let options = Options { derive, simplify };
+    let out = report::compile(&name, bytes, &options).ok_or(Failure::Invalid)?;
+    warn_unsimplified(&out.unsimplified);
+    Ok(out.compiled)
+}
+
+fn read(path: &Path) -> Result<(String, Vec<u8>), Failure> {
+    use std::io::Read as _;
+    if path == Path::new("-") {
+        let mut bytes = Vec::new();
+        std::io::stdin()
+            .lock()
+            .read_to_end(&mut bytes)
+            .map_err(|e| {
+                eprintln!("error: cannot read standard input: {e}");
+                Failure::Usage
+            })?;
+        return Ok(("<stdin>".to_string(), bytes));
+    }
     let bytes = std::fs::read(path).map_err(|e| {
         eprintln!("error: cannot read `{}`: {e}", path.display());
         Failure::Usage
     })?;
-    let name = path.display().to_string();
-    report::load(&name, bytes).ok_or(Failure::Invalid)
+    Ok((path.display().to_string(), bytes))
 }
 
 fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {

@@ -3,7 +3,7 @@
 use std::fmt;
 
 use bondgraph_core::diagnostic::{self, Code, Diagnostic, Diagnostics, Severity, Span};
-use bondgraph_core::graph::BondGraph;
+use bondgraph_core::{without_bom, Options, Output};
 use miette::{LabeledSpan, MietteHandlerOpts, NamedSource, SourceSpan};
 
 /// Sets how reports look: no terminal hyperlinks (they break copy-paste and snapshots); a fixed
@@ -22,18 +22,27 @@ pub fn install_hook() {
     }));
 }
 
-/// Loads a model from raw bytes, printing every diagnostic; the graph if there was no error.
-pub fn load(name: &str, bytes: Vec<u8>) -> Option<BondGraph> {
-    let (text, diagnostics) = match String::from_utf8(bytes) {
-        Ok(text) => {
-            let (graph, diagnostics) = bondgraph_core::load(&text);
+/// Compiles a model from raw bytes, printing every diagnostic; `None` if the model is invalid.
+pub fn compile(name: &str, bytes: Vec<u8>, options: &Options) -> Option<Output> {
+    let text = match String::from_utf8(bytes) {
+        Ok(text) => text,
+        Err(e) => {
+            let (text, diagnostics) = not_text(&e);
             print(name, &text, &diagnostics);
-            return graph.filter(|_| !diagnostics.has_errors());
+            return None;
         }
-        Err(e) => not_text(&e),
     };
-    print(name, &text, &diagnostics);
-    None
+    let text = without_bom(&text);
+    match bondgraph_core::compile(text, name, options) {
+        Ok(out) => {
+            print(name, text, &out.compiled.diagnostics);
+            Some(out)
+        }
+        Err(diagnostics) => {
+            print(name, text, &diagnostics);
+            None
+        }
+    }
 }
 
 /// The diagnostic for a file that is not UTF-8, located at its first bad byte.

@@ -3,36 +3,41 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use bondgraph_core::graph::{BondGraph, NodeKind};
+use bondgraph_core::{Compiled, NodeClass, Verification};
 
 /// The summary of a model: counts by kind, then parameters and inputs.
-pub fn check(model: &BondGraph) -> String {
-    let counts = model.counts();
+pub fn check(c: &Compiled) -> String {
     let mut by_kind: BTreeMap<&str, usize> = BTreeMap::new();
-    for id in model.nodes() {
-        if let NodeKind::Element(kind, _) = model.node(id).kind {
-            *by_kind.entry(kind.name()).or_default() += 1;
+    let (mut elements, mut junctions) = (0, 0);
+    for node in c.graph.nodes.values() {
+        match node.class {
+            NodeClass::Element(kind) => {
+                elements += 1;
+                *by_kind.entry(kind).or_default() += 1;
+            }
+            NodeClass::Junction(_) => junctions += 1,
+            NodeClass::Sensor(_) => {}
         }
     }
     let kinds: Vec<String> = by_kind.iter().map(|(k, n)| format!("{k} {n}")).collect();
     let mut out = String::new();
-    let _ = writeln!(out, "model {}: valid", model.name);
-    let _ = writeln!(
-        out,
-        "  elements   {:>6}  ({})",
-        counts.elements,
-        kinds.join(", ")
-    );
-    let _ = writeln!(out, "  bonds      {:>6}", counts.bonds);
-    let _ = writeln!(out, "  junctions  {:>6}", counts.junctions);
-    let _ = writeln!(out, "  detectors  {:>6}", counts.detectors);
-    let _ = writeln!(out, "parameters ({})", model.params.len());
-    let name_width = model.params.iter().map(|p| p.name.len()).max().unwrap_or(0);
-    let values: Vec<String> = model.params.iter().map(|p| p.value.to_string()).collect();
+    let _ = writeln!(out, "model {}: valid", c.name);
+    let _ = writeln!(out, "  elements   {elements:>6}  ({})", kinds.join(", "));
+    let _ = writeln!(out, "  bonds      {:>6}", c.graph.bonds.len());
+    let _ = writeln!(out, "  junctions  {junctions:>6}");
+    let _ = writeln!(out, "  detectors  {:>6}", c.sensors.len());
+    let _ = writeln!(out, "parameters ({})", c.parameters.len());
+    let name_width = c
+        .parameters
+        .values()
+        .map(|p| p.name.len())
+        .max()
+        .unwrap_or(0);
+    let values: Vec<String> = c.parameters.values().map(|p| p.value.to_string()).collect();
     let value_width = values.iter().map(String::len).max().unwrap_or(0);
-    let units: Vec<String> = model
-        .params
-        .iter()
+    let units: Vec<String> = c
+        .parameters
+        .values()
         .map(|p| {
             p.unit
                 .as_ref()
@@ -41,7 +46,7 @@ pub fn check(model: &BondGraph) -> String {
         })
         .collect();
     let unit_width = units.iter().map(String::len).max().unwrap_or(0);
-    for ((p, value), unit) in model.params.iter().zip(&values).zip(&units) {
+    for ((p, value), unit) in c.parameters.values().zip(&values).zip(&units) {
         let line = format!(
             "  {:<name_width$} = {value:<value_width$}  {unit:<unit_width$}  {}",
             p.name,
@@ -49,7 +54,66 @@ pub fn check(model: &BondGraph) -> String {
         );
         let _ = writeln!(out, "{}", line.trim_end());
     }
-    let inputs: Vec<&str> = model.inputs.iter().map(|i| i.name.as_str()).collect();
+    let inputs: Vec<&str> = c.inputs.values().map(|i| i.name.as_str()).collect();
     let _ = writeln!(out, "inputs ({}) {}", inputs.len(), inputs.join(" "));
+    out
+}
+
+/// The table `bgc verify` prints: each ARR on the healthy plant, then each FSM entry.
+pub fn verification(c: &Compiled, v: &Verification) -> String {
+    let verdict = |pass: bool| if pass { "pass" } else { "FAIL" };
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "model {}: ARRs on the healthy plant (relative |residual|)",
+        c.name
+    );
+    for a in &v.arrs {
+        let _ = writeln!(
+            out,
+            "  {:<8} {:>10.3e}  {}",
+            a.name,
+            a.worst,
+            verdict(a.pass)
+        );
+    }
+    let width = c
+        .components
+        .values()
+        .map(|k| k.name.len())
+        .max()
+        .unwrap_or(0)
+        .max(9);
+    let _ = writeln!(
+        out,
+        "FSM entries under a fault of each component (relative |residual|)"
+    );
+    for e in &v.entries {
+        let _ = writeln!(
+            out,
+            "  {:<width$}  {:<8} {}  {:>10.3e}  {}",
+            c.components[e.component].name,
+            c.arrs[e.arr].name,
+            if e.marked { "1" } else { "0" },
+            e.worst,
+            verdict(e.pass)
+        );
+    }
+    for h in &v.unchecked {
+        let _ = writeln!(
+            out,
+            "  {:<width$}  not checked: no parameter of its own to fault in the plant",
+            c.components[*h].name
+        );
+    }
+    let failed =
+        v.arrs.iter().filter(|a| !a.pass).count() + v.entries.iter().filter(|e| !e.pass).count();
+    let _ = writeln!(
+        out,
+        "{}: {} ARRs, {} FSM entries checked, {failed} failed",
+        if failed == 0 { "passed" } else { "FAILED" },
+        v.arrs.len(),
+        v.entries.len()
+    );
     out
 }

@@ -6,54 +6,48 @@
 
 use std::fmt::Write as _;
 
-use bondgraph_core::causality::Causal;
-use bondgraph_core::graph::{BondGraph, BondKind, NodeKind};
+use bondgraph_core::{Compiled, NodeClass, Stroke};
 
-/// The model as a DOT digraph, with causal strokes when `causal` is given.
-pub fn emit(model: &BondGraph, causal: Option<&Causal>) -> String {
+/// The model as a DOT digraph, with the causal strokes of the simulation causality when it
+/// was derived.
+pub fn emit(c: &Compiled) -> String {
+    let g = &c.graph;
     let mut out = String::new();
-    let _ = writeln!(out, "digraph {} {{", quote(&model.name));
+    let _ = writeln!(out, "digraph {} {{", quote(&c.name));
     let _ = writeln!(out, "  graph [rankdir=LR, fontname=\"Helvetica\"];");
     let _ = writeln!(
         out,
         "  node [shape=plaintext, fontname=\"Helvetica\"];\n  edge [fontname=\"Helvetica\", fontsize=10];"
     );
-    for id in model.nodes() {
-        let node = model.node(id);
-        let label = match &node.kind {
-            NodeKind::Junction(kind) => kind.symbol().to_string(),
-            NodeKind::Element(kind, _) => format!("{}:{}", kind.name(), node.name),
-            NodeKind::Detector(kind) => format!("{}:{}", kind.name(), node.name),
-        };
-        let tooltip = match &node.kind {
-            NodeKind::Junction(_) => node.name.clone(),
-            NodeKind::Element(_, law) => model.show(law.expr()),
-            NodeKind::Detector(_) => node.description.clone().unwrap_or_default(),
+    for (h, node) in g.nodes.iter() {
+        let (label, tooltip) = match node.class {
+            NodeClass::Junction(symbol) => (symbol.to_string(), node.name.clone()),
+            NodeClass::Element(kind) => (format!("{kind}:{}", node.name), node.note.clone()),
+            NodeClass::Sensor(kind) => {
+                (format!("{}:{}", kind.name(), node.name), node.note.clone())
+            }
         };
         let _ = writeln!(
             out,
             "  n{} [label={}, tooltip={}];",
-            id.0.index(),
+            h.index(),
             quote(&label),
             quote(&tooltip)
         );
     }
-    for id in model.bonds() {
-        let bond = model.bond(id);
-        let (tail, head) = model.ends(id);
-        let setter = causal.and_then(|c| c.effort_setter(model, id));
-        let style = match bond.kind {
-            BondKind::Signal => "arrowhead=normal, style=dashed",
+    for bond in &g.bonds {
+        let style = match (bond.signal, bond.stroke) {
+            (true, _) => "arrowhead=normal, style=dashed",
             // The tail sets the effort: the head receives it, the stroke is at the head.
-            BondKind::Power if setter == Some(tail) => "arrowhead=teelvee",
-            BondKind::Power if setter == Some(head) => "dir=both, arrowtail=tee, arrowhead=lvee",
-            BondKind::Power => "arrowhead=lvee",
+            (false, Stroke::Head) => "arrowhead=teelvee",
+            (false, Stroke::Tail) => "dir=both, arrowtail=tee, arrowhead=lvee",
+            (false, Stroke::None) => "arrowhead=lvee",
         };
         let _ = writeln!(
             out,
             "  n{} -> n{} [label=\"{}\", {style}];",
-            tail.0.index(),
-            head.0.index(),
+            bond.tail.index(),
+            bond.head.index(),
             bond.number
         );
     }
@@ -80,14 +74,25 @@ fn quote(text: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bondgraph_core::{Derive, Options};
+
+    fn compile(text: &str, derive: Derive) -> Compiled {
+        let options = Options {
+            derive,
+            simplify: None,
+        };
+        match bondgraph_core::compile(text, "test.bg", &options) {
+            Ok(out) => out.compiled,
+            Err(d) => panic!("{d:?}"),
+        }
+    }
 
     #[test]
     fn bonds_are_half_arrows_numbered_in_power_direction() {
-        let (model, diagnostics) = bondgraph_core::load(
+        let dot = emit(&compile(
             "model rc\nparam R1 = 2\ninput U\nSe u = U\nR r = R1\nDf i on j\nu -[3]-> 1:j -> r\n",
-        );
-        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
-        let dot = emit(&model, None);
+            Derive::Nothing,
+        ));
         assert!(dot.contains("n0 [label=\"Se:u\""), "{dot}");
         assert!(
             dot.contains("n0 -> n3 [label=\"3\", arrowhead=lvee]"),
@@ -105,13 +110,10 @@ mod tests {
 
     #[test]
     fn causal_strokes_sit_where_the_effort_is_received() {
-        let (model, _) = bondgraph_core::load(
+        let dot = emit(&compile(
             "model rc\nparam R1 = 2\nparam C1 = 1\ninput U\nSe u = U\nR r = R1\nC c = C1\nu -> 1:j -> r, c\n",
-        );
-        let model = model.expect("valid");
-        let causal =
-            bondgraph_core::causality::assign(&model, bondgraph_core::causality::Mode::Integral);
-        let dot = emit(&model, Some(&causal));
+            Derive::StateEquations,
+        ));
         // Se imposes effort on the junction; C (integral) imposes effort on it too; R receives it.
         assert!(
             dot.contains("n0 -> n3 [label=\"1\", arrowhead=teelvee]"),

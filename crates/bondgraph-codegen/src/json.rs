@@ -3,9 +3,8 @@
 
 use std::fmt::Write as _;
 
-use bondgraph_core::analysis::Analysis;
-use bondgraph_core::graph::NodeKind;
-use bondgraph_core::symbolic::Printer;
+use bondgraph_core::diagnostic::Severity;
+use bondgraph_core::{Compiled, Printer, Signal};
 
 use crate::names;
 
@@ -40,86 +39,115 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
     format!("[{}]", items.into_iter().collect::<Vec<_>>().join(", "))
 }
 
-/// The analysis as JSON.
-pub fn emit(a: &Analysis<'_>) -> String {
-    let m = a.model;
-    let states = &a.state.states;
+/// The product as JSON.
+pub fn emit(c: &Compiled) -> String {
     let mut out = String::from("{\n");
-    let _ = writeln!(out, "  \"model\": {},", string(&m.name));
-    let params: Vec<String> = m
-        .params
-        .iter()
+    let _ = writeln!(out, "  \"model\": {},", string(&c.name));
+    let params: Vec<String> = c
+        .parameters
+        .values()
         .map(|p| format!("{}: {}", string(&p.name), number(p.value)))
         .collect();
     let _ = writeln!(out, "  \"parameters\": {{{}}},", params.join(", "));
     let _ = writeln!(
         out,
         "  \"inputs\": {},",
-        list(m.inputs.iter().map(|i| string(&i.name)))
+        list(c.inputs.values().map(|i| string(&i.name)))
     );
-    let sensors = m.nodes().filter_map(|n| match m.node(n).kind {
-        NodeKind::Detector(k) => Some(format!(
+    let sensors = c.sensors.values().map(|s| {
+        format!(
             "{{\"name\": {}, \"kind\": {}}}",
-            string(&m.node(n).name),
-            string(k.name())
-        )),
-        _ => None,
+            string(&s.name),
+            string(s.kind.name())
+        )
     });
     let _ = writeln!(out, "  \"sensors\": {},", list(sensors));
+    state_space(&mut out, c);
+    arrs(&mut out, c);
+    fsm(&mut out, c);
+    diagnostics(&mut out, c);
+    out.push_str("}\n");
+    out
+}
 
-    let printer = Printer::new(&a.state.pool, |l| names::text(m, states, l));
-    let eqs: Vec<String> = states
+fn state_space(out: &mut String, c: &Compiled) {
+    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
+    let Some(space) = &c.state_space else {
+        out.push_str("  \"state_equations\": null,\n  \"outputs\": null,\n");
+        return;
+    };
+    let eqs: Vec<String> = space
+        .equations
         .iter()
-        .map(|s| {
+        .map(|(k, rhs)| {
             format!(
                 "\n    {{\"state\": {}, \"rhs\": {}}}",
-                string(&s.name),
-                string(&printer.text(s.rhs))
+                string(&c.states[*k].name),
+                string(&printer.text(*rhs))
             )
         })
         .collect();
     let _ = writeln!(out, "  \"state_equations\": [{}\n  ],", eqs.join(","));
+    let outputs: Vec<String> = space
+        .outputs
+        .iter()
+        .map(|(s, e)| {
+            format!(
+                "\n    {{\"sensor\": {}, \"expr\": {}}}",
+                string(&c.sensors[*s].name),
+                string(&printer.text(*e))
+            )
+        })
+        .collect();
+    let _ = writeln!(out, "  \"outputs\": [{}\n  ],", outputs.join(","));
+}
 
-    let printer = Printer::new(&a.diagnosis.causal.system.pool, |l| {
-        names::text(m, states, l)
-    });
-    let fsm = &a.fsm;
-    let arrs: Vec<String> = a
-        .diagnosis
+fn arrs(out: &mut String, c: &Compiled) {
+    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
+    let arrs: Vec<String> = c
         .arrs
         .iter()
-        .enumerate()
-        .map(|(i, arr)| {
-            let components = fsm
-                .rows
-                .iter()
-                .filter(|r| r.marks.binary_search(&i).is_ok())
-                .map(|r| string(&r.component.name));
+        .map(|arr| {
+            let components = arr.components.iter().map(|h| string(&c.components[*h].name));
+            let reads = arr.reads.iter().map(|r| {
+                let name = match r.signal {
+                    Signal::Input(u) => &c.inputs[u].name,
+                    Signal::Sensor(s) => &c.sensors[s].name,
+                };
+                format!(
+                    "{{\"signal\": {}, \"orders\": {}, \"integral\": {}}}",
+                    string(name),
+                    list(r.orders.iter().map(u32::to_string)),
+                    r.integral
+                )
+            });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"components\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"components\": {}, \"reads\": {}}}",
                 string(&arr.name),
-                string(&m.node(arr.junction).name),
-                arr.sensor.map_or("null".to_string(), |s| string(&m.node(s).name)),
-                string(&printer.text(arr.residual)),
-                list(components)
+                string(&arr.junction),
+                arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
+                string(&printer.text(arr.expr)),
+                list(components),
+                list(reads)
             )
         })
         .collect();
     let _ = writeln!(out, "  \"arrs\": [{}\n  ],", arrs.join(","));
+}
 
-    let rows: Vec<String> = fsm
-        .rows
-        .iter()
+fn fsm(out: &mut String, c: &Compiled) {
+    let bit = |b: bool| if b { "1" } else { "0" }.to_string();
+    let rows: Vec<String> = c
+        .components
+        .values()
         .map(|r| {
-            let c = &r.component;
-            let bit = |b: bool| if b { "1" } else { "0" }.to_string();
             format!(
                 "\n      {{\"component\": {}, \"kind\": {}, \"parameters\": {}, \"signals\": {}, \"signature\": {}, \"Db\": {}, \"Ib\": {}}}",
-                string(&c.name),
-                string(c.kind.name()),
-                list(c.parameters.iter().map(|p| string(&m.params[p.0 as usize].name))),
-                list(c.signals.iter().map(|s| string(s))),
-                list(r.signature(fsm.residuals.len()).into_iter().map(bit)),
+                string(&r.name),
+                string(r.kind.name()),
+                list(r.parameters.iter().map(|p| string(&c.parameters[*p].name))),
+                list(r.signals.iter().map(|s| string(s))),
+                list(r.signature(c.arrs.len()).into_iter().map(bit)),
                 bit(r.detectable),
                 bit(r.isolable)
             )
@@ -127,12 +155,37 @@ pub fn emit(a: &Analysis<'_>) -> String {
         .collect();
     let _ = writeln!(
         out,
-        "  \"fsm\": {{\n    \"residuals\": {},\n    \"rows\": [{}\n    ]\n  }}",
-        list(fsm.residuals.iter().map(|r| string(r))),
+        "  \"fsm\": {{\n    \"residuals\": {},\n    \"rows\": [{}\n    ]\n  }},",
+        list(c.arrs.iter().map(|a| string(&a.name))),
         rows.join(",")
     );
-    out.push_str("}\n");
-    out
+}
+
+fn diagnostics(out: &mut String, c: &Compiled) {
+    let items: Vec<String> = c
+        .diagnostics
+        .iter()
+        .map(|d| {
+            let at = c.line_col(d.span);
+            let severity = match d.severity {
+                Severity::Error => "error",
+                Severity::Warning => "warning",
+            };
+            format!(
+                "\n    {{\"severity\": {}, \"code\": {}, \"message\": {}, \"line\": {}, \"column\": {}}}",
+                string(severity),
+                string(d.code.as_str()),
+                string(&d.message),
+                at.line,
+                at.col
+            )
+        })
+        .collect();
+    if items.is_empty() {
+        out.push_str("  \"diagnostics\": []\n");
+    } else {
+        let _ = writeln!(out, "  \"diagnostics\": [{}\n  ]", items.join(","));
+    }
 }
 
 #[cfg(test)]

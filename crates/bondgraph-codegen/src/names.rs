@@ -1,26 +1,24 @@
 //! How leaves of expressions are named in each output.
 
-use bondgraph_core::graph::BondGraph;
-use bondgraph_core::sim::StateEquation;
-use bondgraph_core::symbolic::Leaf;
+use bondgraph_core::{Compiled, Symbol};
 
-/// The plain-text name of a leaf: `Re`, `U0`, `der(y1)`, `der(y1, 2)`, `t`, `p_Lm`.
-pub fn text(model: &BondGraph, states: &[StateEquation], leaf: Leaf) -> String {
-    let derivative = |name: &str, n: u32| match n {
+/// `name`, `der(name)` or `der(name, n)`.
+fn derivative(name: &str, n: u32) -> String {
+    match n {
         0 => name.to_string(),
         1 => format!("der({name})"),
         n => format!("der({name}, {n})"),
-    };
-    match leaf {
-        Leaf::Param(p) => model.params[p.0 as usize].name.clone(),
-        Leaf::Input(u, n) => derivative(&model.inputs[u.0 as usize].name, n),
-        Leaf::Sensor(s, n) => derivative(&model.node(s).name, n),
-        Leaf::State(k) => states
-            .get(k as usize)
-            .map_or_else(|| format!("x{k}"), |s| s.name.clone()),
-        Leaf::Time => "t".to_string(),
-        Leaf::Var(v) => format!("unknown{v}"),
-        Leaf::Tear(v, n) => derivative(&format!("unknown{v}"), n),
+    }
+}
+
+/// The plain-text name of a leaf: `Re`, `U0`, `der(y1)`, `der(y1, 2)`, `t`, `p_Lm`.
+pub fn text(c: &Compiled, symbol: Symbol) -> String {
+    match symbol {
+        Symbol::Parameter(p) => c.parameters[p].name.clone(),
+        Symbol::Input(u, n) => derivative(&c.inputs[u].name, n),
+        Symbol::Sensor(s, n) => derivative(&c.sensors[s].name, n),
+        Symbol::State(k) => c.states[k].name.clone(),
+        Symbol::Time => "t".to_string(),
     }
 }
 
@@ -78,15 +76,13 @@ pub fn latex_derivative(name: &str, n: u32) -> String {
 }
 
 /// The LaTeX name of a leaf.
-pub fn latex(model: &BondGraph, states: &[StateEquation], leaf: Leaf) -> String {
-    match leaf {
-        Leaf::Param(p) => latex_name(&model.params[p.0 as usize].name),
-        Leaf::Input(u, n) => latex_derivative(&model.inputs[u.0 as usize].name, n),
-        Leaf::Sensor(s, n) => latex_derivative(&model.node(s).name, n),
-        Leaf::State(_) => latex_name(&text(model, states, leaf)),
-        Leaf::Time => "t".to_string(),
-        Leaf::Var(v) => format!("u_{{{v}}}"),
-        Leaf::Tear(v, n) => latex_derivative(&format!("u{v}"), n),
+pub fn latex(c: &Compiled, symbol: Symbol) -> String {
+    match symbol {
+        Symbol::Parameter(p) => latex_name(&c.parameters[p].name),
+        Symbol::Input(u, n) => latex_derivative(&c.inputs[u].name, n),
+        Symbol::Sensor(s, n) => latex_derivative(&c.sensors[s].name, n),
+        Symbol::State(k) => latex_name(&c.states[k].name),
+        Symbol::Time => "t".to_string(),
     }
 }
 

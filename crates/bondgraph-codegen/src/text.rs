@@ -2,52 +2,51 @@
 
 use std::fmt::Write as _;
 
-use bondgraph_core::analysis::{Analysis, CausalityReport};
-use bondgraph_core::causality::{Mode, StorageCausality, Strong};
-use bondgraph_core::symbolic::Printer;
+use bondgraph_core::{CausalityReport, Compiled, Mode, Printer, Setter, StorageCausality};
 
 use crate::names;
 
-/// The causality report of both modes (what `bgc causality` prints).
-pub fn causality(analysis: &Analysis<'_>) -> String {
+/// The causality report of every mode that was run (what `bgc causality` prints).
+pub fn causality(c: &Compiled) -> String {
     let mut out = String::new();
-    for mode in [Mode::Integral, Mode::Diagnosis] {
-        report(&mut out, analysis, &analysis.causality(mode));
+    for r in &c.causality {
+        report(&mut out, r);
     }
     out
 }
 
-fn report(out: &mut String, a: &Analysis<'_>, r: &CausalityReport) {
-    let m = a.model;
-    let title = match r.mode {
-        Mode::Integral => "causality: preferred integral (simulation)",
-        Mode::Diagnosis => "causality: preferred derivative, detectors inverted (diagnosis)",
+fn report(out: &mut String, r: &CausalityReport) {
+    let (title, preferred) = match r.mode {
+        Mode::Simulation => (
+            "causality: preferred integral (simulation)",
+            StorageCausality::Integral,
+        ),
+        Mode::Diagnosis => (
+            "causality: preferred derivative, detectors inverted (diagnosis)",
+            StorageCausality::Derivative,
+        ),
     };
     let _ = writeln!(out, "{title}");
-    let preferred = match r.mode {
-        Mode::Integral => StorageCausality::Integral,
-        Mode::Diagnosis => StorageCausality::Derivative,
-    };
-    for (node, c) in &r.storage {
-        let word = match c {
+    for (name, s) in &r.storage {
+        let word = match s {
             StorageCausality::Integral => "integral",
             StorageCausality::Derivative => "derivative",
             StorageCausality::Unassigned => "unassigned",
         };
-        let note = if *c == preferred {
+        let note = if *s == preferred {
             ""
         } else {
             "  (not the preferred causality)"
         };
-        let _ = writeln!(out, "  {:<10} {word}{note}", m.node(*node).name);
+        let _ = writeln!(out, "  {name:<10} {word}{note}");
     }
-    for (junction, strong) in &r.strong {
-        let what = match strong {
-            Some(Strong::Bond(b)) => format!("bond {}", m.bond(*b).number),
-            Some(Strong::Detector(d)) => format!("detector {}", m.node(*d).name),
-            None => "nothing (unsolved)".to_string(),
+    for (junction, setter) in &r.junctions {
+        let what = match setter {
+            Setter::Bond(n) => format!("bond {n}"),
+            Setter::Detector(d) => format!("detector {d}"),
+            Setter::Nothing => "nothing (unsolved)".to_string(),
         };
-        let _ = writeln!(out, "  junction {} set by {what}", m.node(*junction).name);
+        let _ = writeln!(out, "  junction {junction} set by {what}");
     }
     for p in &r.problems {
         let _ = writeln!(out, "  problem: {p}");
@@ -55,87 +54,107 @@ fn report(out: &mut String, a: &Analysis<'_>, r: &CausalityReport) {
     out.push('\n');
 }
 
-/// The state equations and the detector outputs.
-pub fn state(a: &Analysis<'_>) -> String {
-    let m = a.model;
+/// The state equations and the detector outputs, or why there are none.
+pub fn state(c: &Compiled) -> String {
     let mut out = String::new();
-    let states = &a.state.states;
-    let printer = Printer::new(&a.state.pool, |l| names::text(m, states, l));
+    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let _ = writeln!(out, "state equations");
-    for s in states {
-        let _ = writeln!(out, "  der({}) = {}", s.name, printer.text(s.rhs));
-    }
-    for (sensor, e) in &a.state.outputs {
-        let _ = writeln!(out, "  {} = {}", m.node(*sensor).name, printer.text(*e));
-    }
-    for p in &a.state.problems {
-        let _ = writeln!(out, "  problem: {p}");
+    match &c.state_space {
+        Some(space) => {
+            if space.equations.is_empty() {
+                let _ = writeln!(out, "  (none: the model stores no energy)");
+            }
+            for (k, rhs) in &space.equations {
+                let _ = writeln!(out, "  der({}) = {}", c.states[*k].name, printer.text(*rhs));
+            }
+            for (s, e) in &space.outputs {
+                let _ = writeln!(out, "  {} = {}", c.sensors[*s].name, printer.text(*e));
+            }
+        }
+        None => {
+            let _ = writeln!(
+                out,
+                "  not written: they cannot be derived (see the errors on standard error)"
+            );
+        }
     }
     out
 }
 
 /// The whole summary.
-pub fn emit(a: &Analysis<'_>) -> String {
-    let m = a.model;
+pub fn emit(c: &Compiled) -> String {
     let mut out = String::new();
-    let _ = writeln!(out, "model {}\n", m.name);
-    out.push_str(&causality(a));
-
-    out.push_str(&state(a));
+    let _ = writeln!(out, "model {}\n", c.name);
+    out.push_str(&causality(c));
+    out.push_str(&state(c));
     out.push('\n');
-    let states = &a.state.states;
+    arrs(&mut out, c);
+    out.push('\n');
+    fsm_table(&mut out, c);
+    out
+}
 
-    let printer = Printer::new(&a.diagnosis.causal.system.pool, |l| {
-        names::text(m, states, l)
-    });
+fn arrs(out: &mut String, c: &Compiled) {
+    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let _ = writeln!(out, "ARRs");
-    for arr in &a.diagnosis.arrs {
-        let sensor = arr.sensor.map_or("-", |s| m.node(s).name.as_str());
+    if c.sensors.is_empty() {
+        let _ = writeln!(
+            out,
+            "  none: the model has no detectors (add `De NAME on JUNCTION` or `Df NAME on JUNCTION`)"
+        );
+    } else if c.arrs.is_empty() {
+        let _ = writeln!(
+            out,
+            "  none: no detector makes an equation redundant (see the warnings on standard error)"
+        );
+    }
+    for arr in &c.arrs {
+        let sensor = arr.sensor.map_or("-", |s| c.sensors[s].name.as_str());
         let _ = writeln!(
             out,
             "  {} (junction {}, sensor {sensor}):\n    {} = 0",
             arr.name,
-            m.node(arr.junction).name,
-            printer.text(arr.residual)
+            arr.junction,
+            printer.text(arr.expr)
         );
     }
-    out.push('\n');
-    fsm_table(&mut out, a);
-    out
 }
 
-fn fsm_table(out: &mut String, a: &Analysis<'_>) {
-    let fsm = &a.fsm;
+fn fsm_table(out: &mut String, c: &Compiled) {
     let _ = writeln!(out, "fault signature matrix");
-    let width = fsm
-        .rows
-        .iter()
-        .map(|r| r.component.name.len())
+    if c.arrs.is_empty() {
+        let _ = writeln!(out, "  empty: no ARRs");
+        return;
+    }
+    let width = c
+        .components
+        .values()
+        .map(|r| r.name.len())
         .max()
         .unwrap_or(0)
         .max("component".len());
+    let columns: Vec<usize> = c.arrs.iter().map(|a| a.name.len().max(3)).collect();
     let mut header = format!("  {:<width$}  {:<5}  Db  Ib", "component", "kind");
-    for r in &fsm.residuals {
-        let _ = write!(header, "  {r:>3}");
+    for (arr, w) in c.arrs.iter().zip(&columns) {
+        let _ = write!(header, "  {:>w$}", arr.name);
     }
     let _ = writeln!(out, "{header}  parameters");
-    for row in &fsm.rows {
+    for row in c.components.values() {
         let flag = |b: bool| if b { "1" } else { "0" };
         let mut line = format!(
             "  {:<width$}  {:<5}  {:>2}  {:>2}",
-            row.component.name,
-            row.component.kind.name(),
+            row.name,
+            row.kind.name(),
             flag(row.detectable),
             flag(row.isolable)
         );
-        for s in row.signature(fsm.residuals.len()) {
-            let _ = write!(line, "  {:>3}", flag(s));
+        for (s, w) in row.signature(c.arrs.len()).into_iter().zip(&columns) {
+            let _ = write!(line, "  {:>w$}", flag(s));
         }
         let params: Vec<&str> = row
-            .component
             .parameters
             .iter()
-            .map(|p| a.model.params[p.0 as usize].name.as_str())
+            .map(|p| c.parameters[*p].name.as_str())
             .collect();
         let _ = writeln!(
             out,

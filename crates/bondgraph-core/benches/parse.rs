@@ -4,6 +4,7 @@
 use std::hint::black_box;
 
 use bondgraph_core::generate::mass_spring_chain;
+use bondgraph_core::{compile, Derive, Options};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
 fn parse_and_validate(c: &mut Criterion) {
@@ -13,11 +14,14 @@ fn parse_and_validate(c: &mut Criterion) {
     for stages in [333usize, 3_333, 33_333] {
         let text = mass_spring_chain(stages, 5);
         let elements = 3 * stages + 1;
-        let (graph, diagnostics) = bondgraph_core::load(&text);
-        assert!(graph.is_some(), "generated model invalid: {diagnostics:?}");
+        let options = Options {
+            derive: Derive::Nothing,
+            simplify: None,
+        };
+        assert!(compile(&text, "chain.bg", &options).is_ok());
         group.throughput(Throughput::Elements(elements as u64));
         group.bench_with_input(BenchmarkId::from_parameter(elements), &text, |b, text| {
-            b.iter(|| bondgraph_core::load(black_box(text)))
+            b.iter(|| compile(black_box(text), "chain.bg", &options).is_ok())
         });
     }
     group.finish();

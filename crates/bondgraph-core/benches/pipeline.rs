@@ -9,27 +9,36 @@
 
 use std::hint::black_box;
 
-use bondgraph_core::analysis::analyse;
-use bondgraph_core::causality::{assign, Mode};
 use bondgraph_core::generate::mass_spring_chain;
-use bondgraph_core::symbolic::rewrite::Limits;
-use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
+use bondgraph_core::{compile, Compiled, Derive, Options};
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
-fn causality(c: &mut Criterion) {
-    let mut group = c.benchmark_group("causality");
+fn run(text: &str, derive: Derive, simplify: bool) -> Compiled {
+    let options = Options {
+        derive,
+        simplify: simplify.then(Default::default),
+    };
+    match compile(text, "chain.bg", &options) {
+        Ok(out) => out.compiled,
+        Err(_) => panic!("generated chains are valid"),
+    }
+}
+
+/// Text to state equations, canonical forms (what `--emit state --canonical` needs).
+fn state_equations(c: &mut Criterion) {
+    let mut group = c.benchmark_group("state_equations");
     group.sample_size(10);
     for stages in [100usize, 1_000, 10_000] {
         let text = mass_spring_chain(stages, 5);
-        let (model, _) = bondgraph_core::load(&text);
-        let model = model.expect("generated chains are valid");
         group.throughput(Throughput::Elements(stages as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(stages), &model, |b, model| {
-            b.iter(|| black_box(assign(model, Mode::Diagnosis).redundant().len()))
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
+            b.iter(|| black_box(run(text, Derive::StateEquations, false).states.len()))
         });
     }
     group.finish();
 }
 
+/// Text to ARRs and FSM, canonical forms (`--canonical`).
 fn full_pipeline(c: &mut Criterion) {
     let mut group = c.benchmark_group("pipeline");
     group.sample_size(10);
@@ -38,38 +47,30 @@ fn full_pipeline(c: &mut Criterion) {
         group.throughput(Throughput::Elements(stages as u64));
         group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
             b.iter(|| {
-                let (model, _) = bondgraph_core::load(black_box(text));
-                let model = model.expect("generated chains are valid");
-                let analysis = analyse(&model);
-                assert_eq!(analysis.diagnosis.arrs.len(), stages.div_ceil(5));
-                black_box(analysis.fsm.rows.len())
+                let c = run(black_box(text), Derive::Everything, false);
+                assert_eq!(c.arrs.len(), stages.div_ceil(5));
+                black_box(c.components.len())
             })
         });
     }
     group.finish();
 }
 
-/// How expressions are written (egg, default limits): every state equation, output and ARR of
-/// the chain. Each expression gets its own bounded search, so the cost is linear in their
-/// number; 10,000 stages are left out to keep the run short (about 100 times 100 stages).
+/// The default run: the same, with every expression rewritten by the e-graph (default
+/// limits). Each expression gets its own bounded search, so the cost is linear in their
+/// number; 10,000 stages are left out to keep the run short.
 fn simplify(c: &mut Criterion) {
     let mut group = c.benchmark_group("simplify");
     group.sample_size(10);
     for stages in [10usize, 100, 1_000] {
         let text = mass_spring_chain(stages, 5);
-        let (model, _) = bondgraph_core::load(&text);
-        let model = model.expect("generated chains are valid");
         group.throughput(Throughput::Elements(stages as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(stages), &model, |b, model| {
-            b.iter_batched(
-                || analyse(model),
-                |mut analysis| black_box(analysis.simplify(Limits::default()).len()),
-                BatchSize::LargeInput,
-            )
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
+            b.iter(|| black_box(run(text, Derive::Everything, true).arrs.len()))
         });
     }
     group.finish();
 }
 
-criterion_group!(benches, causality, full_pipeline, simplify);
+criterion_group!(benches, state_equations, full_pipeline, simplify);
 criterion_main!(benches);

@@ -97,6 +97,22 @@ pub enum Code {
     BadValue,
     /// A model with nothing in it.
     Empty,
+    /// Two sources (or a source and a storage element) impose the same variable.
+    Conflict,
+    /// Algebraic equations that set each other and cannot be solved in closed form.
+    AlgebraicLoop,
+    /// Unknowns that nothing known determines.
+    Underdetermined,
+    /// A storage element that cannot take the causality its mode needs.
+    Causality,
+    /// A law that cannot be inverted in the direction causality needs.
+    NotInvertible,
+    /// A detector that yields no ARR, or ARRs that could not be written.
+    NoArr,
+    /// An output bgc refuses to write because it could not be derived.
+    Refused,
+    /// An expression whose expansion passes bgc's size bound.
+    TooLarge,
 }
 
 impl Code {
@@ -123,6 +139,14 @@ impl Code {
             Code::Reserved => "bg::reserved",
             Code::BadValue => "bg::bad-value",
             Code::Empty => "bg::empty",
+            Code::Conflict => "bg::causal-conflict",
+            Code::AlgebraicLoop => "bg::algebraic-loop",
+            Code::Underdetermined => "bg::under-determined",
+            Code::Causality => "bg::causality",
+            Code::NotInvertible => "bg::not-invertible",
+            Code::NoArr => "bg::no-arr",
+            Code::Refused => "bg::refused",
+            Code::TooLarge => "bg::too-large",
         }
     }
 }

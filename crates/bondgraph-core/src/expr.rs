@@ -234,13 +234,6 @@ impl<L> Expr<L> {
         }
     }
 
-    /// The leaves, left to right.
-    pub fn leaves(&self) -> Vec<&L> {
-        let mut out = Vec::new();
-        self.for_each_leaf(&mut |l| out.push(l));
-        out
-    }
-
     /// Shorthand for `a op b`.
     pub fn binary(op: BinOp, a: Expr<L>, b: Expr<L>) -> Expr<L> {
         Expr::Binary(op, Box::new(a), Box::new(b))

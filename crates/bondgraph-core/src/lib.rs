@@ -1,25 +1,39 @@
 //! bondgraph-core: the bond-graph compiler as a library.
 //!
-//! [`load`] reads a model's text into a validated [`graph::BondGraph`]: the `.bg` syntax
-//! ([`syntax`]), then lowering and checks ([`graph`]), with [`diagnostic`]s tied to source spans.
+//! One front door: [`compile`] reads a model's text and gives the [`Compiled`] product (the
+//! parameters, inputs, sensors, states, state equations, ARRs, FSM, causality reports and
+//! diagnostics), or the diagnostics of a model that is not valid. Expressions of the product
+//! are written with a [`Printer`] and evaluated with an [`Evaluator`].
 
-pub mod analysis;
-pub mod causality;
+mod causality;
+mod compile;
 pub mod diagnostic;
-pub mod expr;
-pub mod fdi;
+mod expr;
+mod fdi;
+#[doc(hidden)]
 pub mod generate;
-pub mod graph;
-pub mod sim;
-pub mod symbolic;
-pub mod syntax;
+mod graph;
+mod pipeline;
+mod product;
+mod sim;
+mod symbolic;
+mod syntax;
+mod verify;
+
+pub use compile::{compile, without_bom, Derive, Options, Output};
+pub use expr::{BinOp, Func};
+pub use pipeline::Unsimplified;
+pub use product::*;
+pub use symbolic::rewrite::{Limits, Stop};
+pub use symbolic::{Evaluator, ExprId, LeafKind, Node, Pool, Printer};
+pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};
 
 use diagnostic::Diagnostics;
 use graph::BondGraph;
 
 /// Parses, lowers and validates a model; the graph is `None` when any error was found.
 /// Diagnostics (warnings too) come sorted by position.
-pub fn load(text: &str) -> (Option<BondGraph>, Diagnostics) {
+fn load(text: &str) -> (Option<BondGraph>, Diagnostics) {
     let (file, mut diagnostics) = syntax::parse(text);
     let graph = graph::lower(&file, &mut diagnostics);
     diagnostics.sort();

@@ -29,12 +29,39 @@ pub enum Var {
 }
 
 impl Var {
-    /// The unknown as a reader of the model names it: `e3`, `f7`, or its junction.
+    /// The unknown as a reader of the model names it: "the flow of bond 3 (`res -> a`)".
     pub fn describe(self, model: &BondGraph) -> String {
+        let bond = |b: BondId| {
+            let (tail, head) = model.ends(b);
+            format!(
+                "bond {} (`{} -> {}`)",
+                model.bond(b).number,
+                model.node(tail).name,
+                model.node(head).name
+            )
+        };
         match self {
-            Var::Effort(b) => format!("e{}", model.bond(b).number),
-            Var::Flow(b) => format!("f{}", model.bond(b).number),
-            Var::Common(j) => format!("the common variable of junction `{}`", model.node(j).name),
+            Var::Effort(b) => format!("the effort of {}", bond(b)),
+            Var::Flow(b) => format!("the flow of {}", bond(b)),
+            Var::Common(j) => {
+                let node = model.node(j);
+                let what = match node.junction_kind() {
+                    Some(JunctionKind::Zero) => "effort",
+                    _ => "flow",
+                };
+                format!("the common {what} of junction `{}`", node.name)
+            }
+        }
+    }
+
+    /// The nodes this unknown belongs to, for pointing at the model's text.
+    pub fn nodes(self, model: &BondGraph) -> Vec<NodeId> {
+        match self {
+            Var::Effort(b) | Var::Flow(b) => {
+                let (tail, head) = model.ends(b);
+                vec![tail, head]
+            }
+            Var::Common(j) => vec![j],
         }
     }
 }

@@ -5,6 +5,7 @@
 //! sources of their measured signal: for ARRs). See [`solve`] for the order of assignment.
 
 pub mod equations;
+pub mod report;
 pub mod solve;
 
 use equations::{Relation, System, Var, VarId};
@@ -129,14 +130,6 @@ impl Causal {
         (0..self.system.vars.len())
             .filter(|&i| self.solved.values[i].is_none())
             .map(|i| VarId(i as u32))
-            .collect()
-    }
-
-    /// The unknowns that could not be computed, as a reader names them (`e3`, `f7`…).
-    pub fn unsolved_names(&self, model: &BondGraph) -> Vec<String> {
-        self.unsolved()
-            .iter()
-            .map(|v| self.system.vars[v.0 as usize].describe(model))
             .collect()
     }
 

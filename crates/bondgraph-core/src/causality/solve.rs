@@ -168,7 +168,7 @@ struct Solver<'a> {
     solved_by: Vec<Option<usize>>,
     torn: Vec<Torn>,
     queues: [VecDeque<usize>; 5],
-    derivatives: Derivatives<Rule>,
+    derivatives: Derivatives<Leaf, Rule>,
     /// While a tear is tried: the unknowns and equations it touched, to undo it.
     journal: Option<(Vec<usize>, Vec<usize>)>,
 }
@@ -402,7 +402,7 @@ fn value_of(pool: &mut Pool, v: VarId, values: &[Option<ExprId>]) -> ExprId {
 
 type Rule = fn(&mut Pool, Leaf) -> Option<ExprId>;
 
-fn differentiate(pool: &mut Pool, e: ExprId, d: &mut Derivatives<Rule>) -> ExprId {
+fn differentiate(pool: &mut Pool, e: ExprId, d: &mut Derivatives<Leaf, Rule>) -> ExprId {
     d.of(pool, e).unwrap_or_else(|| pool.num(f64::NAN))
 }
 
@@ -411,7 +411,7 @@ fn solve_for(
     i: usize,
     v: VarId,
     values: &[Option<ExprId>],
-    d: &mut Derivatives<Rule>,
+    d: &mut Derivatives<Leaf, Rule>,
 ) -> ExprId {
     let relation = sys.equations[i].relation.clone();
     let p = &mut sys.pool;
@@ -457,7 +457,7 @@ fn residual(
     sys: &mut System,
     i: usize,
     values: &[Option<ExprId>],
-    d: &mut Derivatives<Rule>,
+    d: &mut Derivatives<Leaf, Rule>,
 ) -> ExprId {
     let relation = sys.equations[i].relation.clone();
     let p = &mut sys.pool;

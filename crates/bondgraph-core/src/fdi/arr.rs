@@ -5,7 +5,8 @@ use std::collections::BTreeSet;
 
 use super::eliminate::eliminate;
 use crate::causality::equations::VarId;
-use crate::causality::{assign, Causal, Mode};
+use crate::causality::{assign, report, Causal, Mode};
+use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf};
 
@@ -35,7 +36,7 @@ pub struct Diagnosis {
     /// The ARRs, in the order of the nodes they come from.
     pub arrs: Vec<Arr>,
     /// Problems met: unknowns that could not be computed, missing ARRs.
-    pub problems: Vec<String>,
+    pub problems: Vec<Diagnostic>,
 }
 
 /// Derives the ARRs of `model`.
@@ -69,11 +70,18 @@ pub fn diagnose(model: &BondGraph) -> Diagnosis {
     for (i, arr) in arrs.iter_mut().enumerate() {
         arr.name = format!("ARR{}", i + 1);
     }
-    let mut problems = problems(model, &causal, arrs.len());
+    let mut problems = problems(model, &causal, &arrs);
     for u in eliminated.problems {
-        problems.push(format!(
-            "{} enters the relations that hold it nonlinearly, once its value is no longer explicit: they are not reported",
-            causal.system.vars[u as usize].describe(model)
+        let var = causal.system.vars[u as usize];
+        problems.push(report::at_nodes(
+            model,
+            Severity::Warning,
+            Code::NoArr,
+            &var.nodes(model),
+            format!(
+                "{} enters the relations that hold it nonlinearly, once its value is no longer explicit: they are not reported",
+                var.describe(model)
+            ),
         ));
     }
     Diagnosis {
@@ -164,20 +172,28 @@ fn attribute_sensors(model: &BondGraph, causal: &Causal, arrs: &mut [Arr]) {
     }
 }
 
-fn problems(model: &BondGraph, causal: &Causal, found: usize) -> Vec<String> {
-    let mut out = Vec::new();
-    let unsolved = causal.unsolved_names(model);
-    if !unsolved.is_empty() {
-        out.push(format!(
-            "these unknowns cannot be computed from known signals (an algebraic loop, or a part no detector observes): {}",
-            unsolved.join(", ")
-        ));
-    }
-    let detectors = model.counts().detectors;
-    if found != detectors {
-        out.push(format!(
-            "{detectors} detector(s) but {found} ARR(s): the model is not fully observable by its detectors"
-        ));
+/// What keeps some detector from yielding an ARR: the unknowns no detector computes, then
+/// each detector left without one.
+fn problems(model: &BondGraph, causal: &Causal, arrs: &[Arr]) -> Vec<Diagnostic> {
+    let mut out = report::refusals(model, causal);
+    out.extend(report::unsolved(model, causal));
+    let attributed: BTreeSet<NodeId> = arrs.iter().filter_map(|a| a.sensor).collect();
+    for d in model.nodes() {
+        if matches!(model.node(d).kind, NodeKind::Detector(_)) && !attributed.contains(&d) {
+            out.push(
+                report::at_nodes(
+                    model,
+                    Severity::Warning,
+                    Code::NoArr,
+                    &[d],
+                    format!(
+                        "the detector `{}` yields no ARR of its own: its junction's equation is not redundant with the others",
+                        model.node(d).name
+                    ),
+                )
+                .with_help("another detector may measure the same part of the model; `bgc causality` shows what sets each junction"),
+            );
+        }
     }
     out
 }

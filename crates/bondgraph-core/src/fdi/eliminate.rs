@@ -74,7 +74,7 @@ type Rule = fn(&mut Pool, Leaf) -> Option<ExprId>;
 struct Eliminator<'p> {
     pool: &'p mut Pool,
     simplifier: Simplifier,
-    derivatives: Derivatives<Rule>,
+    derivatives: Derivatives<Leaf, Rule>,
 }
 
 /// Eliminates the `torn` unknowns from their definitions and the `redundant` equations

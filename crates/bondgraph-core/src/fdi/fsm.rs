@@ -19,17 +19,6 @@ pub enum ComponentKind {
     Modulation,
 }
 
-impl ComponentKind {
-    /// The kind as printed: `R`, `MSe`, `Df`, `let`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ComponentKind::Element(k) => k.name(),
-            ComponentKind::Detector(k) => k.name(),
-            ComponentKind::Modulation => "let",
-        }
-    }
-}
-
 /// A component that can fail.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Component {
@@ -203,19 +192,6 @@ fn deep_lets(model: &BondGraph, expr: &SignalExpr) -> BTreeSet<LetId> {
         }
     }
     out
-}
-
-impl Row {
-    /// The dense signature over `n` residuals.
-    pub fn signature(&self, n: usize) -> Vec<bool> {
-        let mut out = vec![false; n];
-        for &k in &self.marks {
-            if let Some(slot) = out.get_mut(k) {
-                *slot = true;
-            }
-        }
-        out
-    }
 }
 
 impl Fsm {

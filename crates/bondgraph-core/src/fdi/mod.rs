@@ -4,5 +4,5 @@ mod arr;
 pub mod eliminate;
 mod fsm;
 
-pub use arr::{diagnose, Arr, Diagnosis};
-pub use fsm::{components, Component, ComponentKind, Fsm, Row};
+pub use arr::{diagnose, Diagnosis};
+pub use fsm::{ComponentKind, Fsm};

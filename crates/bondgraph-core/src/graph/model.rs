@@ -128,6 +128,7 @@ pub struct Let {
 
 /// The element kinds of the language.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[allow(clippy::upper_case_acronyms)] // MTF, MGY: the names every bond-graph text uses
 pub enum ElementKind {
     /// Effort source.
     Se,
@@ -197,11 +198,6 @@ impl ElementKind {
             self,
             ElementKind::Se | ElementKind::Sf | ElementKind::MSe | ElementKind::MSf
         )
-    }
-
-    /// R, C and I: one bond, pointing in.
-    pub fn is_one_port_passive(self) -> bool {
-        matches!(self, ElementKind::R | ElementKind::C | ElementKind::I)
     }
 
     /// TF, GY and their modulated forms: one bond in, one out.
@@ -427,6 +423,7 @@ impl BondGraph {
     }
 
     /// Counts of what the model holds, for `bgc check`.
+    #[cfg(test)]
     pub fn counts(&self) -> Counts {
         let mut counts = Counts::default();
         for node in self.graph.node_weights() {
@@ -443,6 +440,7 @@ impl BondGraph {
 
 /// How many of each thing a model holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg(test)]
 pub struct Counts {
     /// Elements (sources, R, C, I, TF, GY and modulated forms).
     pub elements: usize,

@@ -3,7 +3,8 @@
 use std::collections::HashMap;
 
 use crate::causality::equations::Var;
-use crate::causality::{assign, Causal, Mode};
+use crate::causality::{report, Causal};
+use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
 
@@ -27,37 +28,15 @@ pub struct StateSpace {
     /// Each detector's output, over states and inputs.
     pub outputs: Vec<(NodeId, ExprId)>,
     /// Why the state equations are incomplete, if they are.
-    pub problems: Vec<String>,
-}
-
-/// Derives the state equations of `model`.
-pub fn state_space(model: &BondGraph) -> StateSpace {
-    state_space_of(model, &assign(model, Mode::Integral))
+    pub problems: Vec<Diagnostic>,
 }
 
 /// The state equations of `model` from its equations in integral causality.
 pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     let mut pool = causal.system.pool.clone();
-    let mut problems: Vec<String> = causal
-        .system
-        .refusals
-        .iter()
-        .map(|r| format!("`{}`: {}", model.node(r.element).name, r.reason))
-        .collect();
-    let unsolved = causal.unsolved_names(model);
-    if !unsolved.is_empty() {
-        problems.push(format!(
-            "these unknowns cannot be computed (an unsolved algebraic loop, or an under-determined part): {}",
-            unsolved.join(", ")
-        ));
-    }
-    for (eq, _) in causal.redundant() {
-        let owner = causal.system.equations[eq].owner;
-        problems.push(format!(
-            "causal conflict at `{}`: its equation is over-determined in integral causality",
-            model.node(owner).name
-        ));
-    }
+    let mut problems = report::refusals(model, causal);
+    problems.extend(report::unsolved(model, causal));
+    problems.extend(report::conflicts(model, causal));
     let nan = pool.num(f64::NAN);
     let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
     for id in model.nodes() {
@@ -115,16 +94,30 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         .map(|s| s.rhs)
         .chain(outputs.iter().map(|o| o.1))
         .collect();
-    let mut leftover = false;
+    let mut readers: Vec<NodeId> = Vec::new();
     for e in all {
-        leftover |= pool.leaves(e).iter().any(|l| matches!(l, Leaf::Sensor(..)));
+        for l in pool.leaves(e) {
+            if let Leaf::Sensor(s, _) = l {
+                readers.push(s);
+            }
+        }
     }
-    if leftover {
-        problems.push(
-            "a modulation reads a measured signal that depends on itself, or a derivative of one: \
-             not a state-space model"
-                .to_string(),
-        );
+    if !readers.is_empty() {
+        let names: Vec<String> = readers
+            .iter()
+            .map(|&s| format!("`{}`", model.node(s).name))
+            .collect();
+        problems.push(report::at_nodes(
+            model,
+            Severity::Error,
+            Code::Refused,
+            &readers,
+            format!(
+                "a modulation reads the measured signal(s) {}, which depend on themselves or are differentiated: \
+                 not a state-space model",
+                names.join(", ")
+            ),
+        ));
     }
     StateSpace {
         pool: std::mem::take(pool),

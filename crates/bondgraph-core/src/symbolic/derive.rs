@@ -2,7 +2,7 @@
 
 use super::hash::FastMap;
 
-use super::pool::{ExprId, Leaf, Node, Pool};
+use super::pool::{ExprId, Leaf, LeafKind, Node, Pool};
 use crate::expr::{BinOp, Func};
 
 /// Time derivatives, memoised so a shared subexpression is differentiated once.
@@ -10,12 +10,12 @@ use crate::expr::{BinOp, Func};
 /// How a leaf varies is the caller's choice (`leaf`): for residuals, a measured signal's
 /// derivative is a new known signal; for a simulation, a state's derivative is its state
 /// equation. `leaf` returns `None` for a leaf it cannot differentiate.
-pub struct Derivatives<F> {
-    memo: FastMap<ExprId, ExprId>,
+pub struct Derivatives<L: LeafKind, F> {
+    memo: FastMap<ExprId<L>, ExprId<L>>,
     leaf: F,
 }
 
-impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
+impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L, F> {
     /// Derivatives with the given rule for leaves.
     pub fn new(leaf: F) -> Self {
         Derivatives {
@@ -25,12 +25,12 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
     }
 
     /// d/dt of a leaf under the rule.
-    pub fn of_leaf(&mut self, pool: &mut Pool, leaf: Leaf) -> Option<ExprId> {
+    pub fn of_leaf(&mut self, pool: &mut Pool<L>, leaf: L) -> Option<ExprId<L>> {
         (self.leaf)(pool, leaf)
     }
 
     /// d/dt of `root`, or `None` if a leaf has no derivative under the rule.
-    pub fn of(&mut self, pool: &mut Pool, root: ExprId) -> Option<ExprId> {
+    pub fn of(&mut self, pool: &mut Pool<L>, root: ExprId<L>) -> Option<ExprId<L>> {
         // Only nodes not yet differentiated are visited.
         for id in pool.reachable_unless(root, |id| self.memo.contains_key(&id)) {
             let d = self.node(pool, id)?;
@@ -39,8 +39,8 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
         self.memo.get(&root).copied()
     }
 
-    fn node(&mut self, p: &mut Pool, id: ExprId) -> Option<ExprId> {
-        let d = |s: &Self, x: ExprId| s.memo.get(&x).copied();
+    fn node(&mut self, p: &mut Pool<L>, id: ExprId<L>) -> Option<ExprId<L>> {
+        let d = |s: &Self, x: ExprId<L>| s.memo.get(&x).copied();
         Some(match p.node(id) {
             Node::Num(_) => p.num(0.0),
             Node::Leaf(l) => (self.leaf)(p, l)?,
@@ -79,8 +79,15 @@ impl<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>> Derivatives<F> {
     }
 }
 
-fn binary(p: &mut Pool, op: BinOp, a: ExprId, b: ExprId, da: ExprId, db: ExprId) -> ExprId {
-    let zero = |p: &Pool, x: ExprId| p.as_num(x) == Some(0.0);
+fn binary<L: LeafKind>(
+    p: &mut Pool<L>,
+    op: BinOp,
+    a: ExprId<L>,
+    b: ExprId<L>,
+    da: ExprId<L>,
+    db: ExprId<L>,
+) -> ExprId<L> {
+    let zero = |p: &Pool<L>, x: ExprId<L>| p.as_num(x) == Some(0.0);
     match op {
         BinOp::Add => p.add(da, db),
         BinOp::Sub => p.sub(da, db),
@@ -119,7 +126,12 @@ fn binary(p: &mut Pool, op: BinOp, a: ExprId, b: ExprId, da: ExprId, db: ExprId)
 }
 
 /// f'(a) for a function of one argument; `fa` is the node f(a) itself.
-fn outer_derivative(p: &mut Pool, f: Func, a: ExprId, fa: ExprId) -> ExprId {
+fn outer_derivative<L: LeafKind>(
+    p: &mut Pool<L>,
+    f: Func,
+    a: ExprId<L>,
+    fa: ExprId<L>,
+) -> ExprId<L> {
     let one = p.num(1.0);
     let two = p.num(2.0);
     match f {

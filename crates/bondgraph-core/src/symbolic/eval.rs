@@ -1,22 +1,22 @@
 //! Numeric evaluation of expressions.
 
 use super::hash::FastMap;
-use super::pool::{ExprId, Leaf, Node, Pool};
+use super::pool::{ExprId, LeafKind, Node, Pool};
 use std::collections::HashMap;
 
 /// Evaluates expressions of one pool with leaf values from a closure, memoising shared nodes.
-pub struct Evaluator<'p, F> {
-    pool: &'p Pool,
+pub struct Evaluator<'p, L: LeafKind, F> {
+    pool: &'p Pool<L>,
     leaf: F,
     /// Values of the nodes evaluated so far: sparse, so that an evaluator costs what it
     /// reaches, not the size of its pool.
-    values: FastMap<ExprId, f64>,
-    integrals: HashMap<ExprId, f64>,
+    values: FastMap<ExprId<L>, f64>,
+    integrals: HashMap<ExprId<L>, f64>,
 }
 
-impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
+impl<'p, L: LeafKind, F: Fn(L) -> f64> Evaluator<'p, L, F> {
     /// An evaluator over `pool`, reading leaves with `leaf`.
-    pub fn new(pool: &'p Pool, leaf: F) -> Self {
+    pub fn new(pool: &'p Pool<L>, leaf: F) -> Self {
         Evaluator {
             pool,
             leaf,
@@ -26,13 +26,13 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
     }
 
     /// Gives the current values of `int(..)` nodes, which cannot be evaluated pointwise.
-    pub fn with_integrals(mut self, integrals: HashMap<ExprId, f64>) -> Self {
+    pub fn with_integrals(mut self, integrals: HashMap<ExprId<L>, f64>) -> Self {
         self.integrals = integrals;
         self
     }
 
     /// The value of `root`.
-    pub fn value(&mut self, root: ExprId) -> f64 {
+    pub fn value(&mut self, root: ExprId<L>) -> f64 {
         // Only what is not yet evaluated is visited: evaluating many roots that share parts
         // (the terms of one residual) costs what is new in each.
         let order = self
@@ -40,7 +40,7 @@ impl<'p, F: Fn(Leaf) -> f64> Evaluator<'p, F> {
             .reachable_unless(root, |id| self.values.contains_key(&id));
         for id in order {
             let node = self.pool.node(id);
-            let v = |x: ExprId| self.values.get(&x).copied().unwrap_or(f64::NAN);
+            let v = |x: ExprId<L>| self.values.get(&x).copied().unwrap_or(f64::NAN);
             let value = match node {
                 Node::Num(bits) => f64::from_bits(bits),
                 Node::Leaf(l) => (self.leaf)(l),

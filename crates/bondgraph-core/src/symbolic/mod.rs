@@ -16,6 +16,6 @@ pub mod rewrite;
 
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::Evaluator;
-pub use normal::{Polynomial, Simplifier, MAX_TERMS};
-pub use pool::{ExprId, Leaf, Node, Pool};
+pub use normal::{Polynomial, Simplifier};
+pub use pool::{ExprId, Leaf, LeafKind, Node, Pool};
 pub use print::Printer;

@@ -30,7 +30,7 @@ impl Default for Monomial {
     fn default() -> Self {
         Monomial::Inline {
             len: 0,
-            factors: [(ExprId(0), 0); INLINE],
+            factors: [(ExprId::from_index(0), 0); INLINE],
         }
     }
 }
@@ -148,7 +148,7 @@ mod tests {
 
     #[test]
     fn short_and_long_monomials_compare_as_their_factors() {
-        let f = |k: u32| (ExprId(k), 1);
+        let f = |k: u32| (ExprId::from_index(k), 1);
         let short: Monomial = [f(1), f(2)].into_iter().collect();
         let long: Monomial = (1..=5).map(f).collect();
         assert!(matches!(short, Monomial::Inline { len: 2, .. }));

@@ -282,7 +282,7 @@ impl Simplifier {
         &mut self,
         pool: &mut Pool,
         p: &Polynomial,
-        derivatives: &mut super::Derivatives<F>,
+        derivatives: &mut super::Derivatives<Leaf, F>,
     ) -> Option<Polynomial> {
         let mut of_atom: FastMap<ExprId, Rc<Poly>> = FastMap::default();
         let mut out = Vec::new();

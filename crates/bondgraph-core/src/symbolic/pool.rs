@@ -1,13 +1,67 @@
 //! Nodes of the expression DAG and their hash-consing constructors.
 
+use std::fmt;
+use std::hash::Hash;
+use std::marker::PhantomData;
+
 use super::hash::{FastMap, FastSet};
 
 use crate::expr::{BinOp, Func};
 use crate::graph::{InputId, NodeId, ParamId};
 
-/// An expression: an index into its [`Pool`]. Children always have smaller ids than parents.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct ExprId(pub u32);
+/// An expression: a handle into a [`Pool`] whose leaves are `L`. Children always have smaller
+/// ids than parents. The leaf type ties a handle to its kind of pool: a solver's expression
+/// cannot be read in the product's pool.
+pub struct ExprId<L = Leaf>(u32, PhantomData<fn() -> L>);
+
+impl<L> ExprId<L> {
+    /// The handle at position `index` of its pool.
+    pub(crate) const fn from_index(index: u32) -> Self {
+        ExprId(index, PhantomData)
+    }
+
+    /// Its position in its pool, for dense side tables.
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+impl<L> Clone for ExprId<L> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<L> Copy for ExprId<L> {}
+impl<L> PartialEq for ExprId<L> {
+    fn eq(&self, other: &Self) -> bool {
+        self.0 == other.0
+    }
+}
+impl<L> Eq for ExprId<L> {}
+impl<L> PartialOrd for ExprId<L> {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl<L> Ord for ExprId<L> {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.cmp(&other.0)
+    }
+}
+impl<L> Hash for ExprId<L> {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.0.hash(state);
+    }
+}
+impl<L> fmt::Debug for ExprId<L> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "ExprId({})", self.0)
+    }
+}
+
+/// What a pool's leaves must be: small values that can be hashed and ordered.
+pub trait LeafKind: Copy + Eq + Ord + Hash + fmt::Debug {}
+impl<T: Copy + Eq + Ord + Hash + fmt::Debug> LeafKind for T {}
 
 /// A leaf of an expression.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -29,35 +83,44 @@ pub enum Leaf {
     Time,
 }
 
-/// One node of the DAG.
+/// One node of the DAG, with leaves of type `L`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Node {
+pub enum Node<L: LeafKind = Leaf> {
     /// A number, by its bits (so nodes can be hashed); never NaN from a constructor.
     Num(u64),
     /// A leaf.
-    Leaf(Leaf),
+    Leaf(L),
     /// `-a`
-    Neg(ExprId),
+    Neg(ExprId<L>),
     /// `a op b`
-    Binary(BinOp, ExprId, ExprId),
+    Binary(BinOp, ExprId<L>, ExprId<L>),
     /// `f(a)`
-    Call1(Func, ExprId),
+    Call1(Func, ExprId<L>),
     /// `f(a, b)`
-    Call2(Func, ExprId, ExprId),
+    Call2(Func, ExprId<L>, ExprId<L>),
     /// The time integral of `a` from the start of the record.
-    Int(ExprId),
+    Int(ExprId<L>),
 }
 
 /// The arena of expression nodes, each stored once.
-#[derive(Default, Clone, Debug)]
-pub struct Pool {
-    nodes: Vec<Node>,
-    index: FastMap<Node, ExprId>,
+#[derive(Clone, Debug)]
+pub struct Pool<L: LeafKind = Leaf> {
+    nodes: Vec<Node<L>>,
+    index: FastMap<Node<L>, ExprId<L>>,
 }
 
-impl Pool {
+impl<L: LeafKind> Default for Pool<L> {
+    fn default() -> Self {
+        Pool {
+            nodes: Vec::new(),
+            index: FastMap::default(),
+        }
+    }
+}
+
+impl<L: LeafKind> Pool<L> {
     /// The node of `id`.
-    pub fn node(&self, id: ExprId) -> Node {
+    pub fn node(&self, id: ExprId<L>) -> Node<L> {
         self.nodes[id.0 as usize]
     }
 
@@ -71,25 +134,25 @@ impl Pool {
         self.nodes.is_empty()
     }
 
-    fn intern(&mut self, node: Node) -> ExprId {
+    fn intern(&mut self, node: Node<L>) -> ExprId<L> {
         if let Some(&id) = self.index.get(&node) {
             return id;
         }
-        let id = ExprId(self.nodes.len() as u32);
+        let id = ExprId::from_index(self.nodes.len() as u32);
         self.nodes.push(node);
         self.index.insert(node, id);
         id
     }
 
     /// A number.
-    pub fn num(&mut self, x: f64) -> ExprId {
+    pub fn num(&mut self, x: f64) -> ExprId<L> {
         // One zero, so `0` and `-0` share a node.
         let x = if x == 0.0 { 0.0 } else { x };
         self.intern(Node::Num(x.to_bits()))
     }
 
     /// The value of `id` if it is a number.
-    pub fn as_num(&self, id: ExprId) -> Option<f64> {
+    pub fn as_num(&self, id: ExprId<L>) -> Option<f64> {
         match self.node(id) {
             Node::Num(bits) => Some(f64::from_bits(bits)),
             _ => None,
@@ -97,12 +160,12 @@ impl Pool {
     }
 
     /// A leaf.
-    pub fn leaf(&mut self, leaf: Leaf) -> ExprId {
+    pub fn leaf(&mut self, leaf: L) -> ExprId<L> {
         self.intern(Node::Leaf(leaf))
     }
 
     /// `-a`
-    pub fn neg(&mut self, a: ExprId) -> ExprId {
+    pub fn neg(&mut self, a: ExprId<L>) -> ExprId<L> {
         match self.node(a) {
             Node::Num(bits) => self.num(-f64::from_bits(bits)),
             Node::Neg(x) => x,
@@ -112,7 +175,7 @@ impl Pool {
     }
 
     /// `a + b`
-    pub fn add(&mut self, a: ExprId, b: ExprId) -> ExprId {
+    pub fn add(&mut self, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         match (self.as_num(a), self.as_num(b)) {
             (Some(x), Some(y)) => self.num(x + y),
             (Some(0.0), _) => b,
@@ -125,7 +188,7 @@ impl Pool {
     }
 
     /// `a - b`
-    pub fn sub(&mut self, a: ExprId, b: ExprId) -> ExprId {
+    pub fn sub(&mut self, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         if a == b {
             return self.num(0.0);
         }
@@ -141,7 +204,7 @@ impl Pool {
     }
 
     /// `a * b`
-    pub fn mul(&mut self, a: ExprId, b: ExprId) -> ExprId {
+    pub fn mul(&mut self, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         match (self.as_num(a), self.as_num(b)) {
             (Some(x), Some(y)) => self.num(x * y),
             (Some(0.0), _) | (_, Some(0.0)) => self.num(0.0),
@@ -165,7 +228,7 @@ impl Pool {
     }
 
     /// `a / b`
-    pub fn div(&mut self, a: ExprId, b: ExprId) -> ExprId {
+    pub fn div(&mut self, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         match (self.as_num(a), self.as_num(b)) {
             (Some(x), Some(y)) if y != 0.0 => self.num(x / y),
             (Some(0.0), _) => self.num(0.0),
@@ -186,7 +249,7 @@ impl Pool {
     }
 
     /// `a ^ b`
-    pub fn pow(&mut self, a: ExprId, b: ExprId) -> ExprId {
+    pub fn pow(&mut self, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         match (self.as_num(a), self.as_num(b)) {
             (Some(x), Some(y)) => self.num(x.powf(y)),
             (_, Some(1.0)) => a,
@@ -196,7 +259,7 @@ impl Pool {
     }
 
     /// `a op b`
-    pub fn binary(&mut self, op: BinOp, a: ExprId, b: ExprId) -> ExprId {
+    pub fn binary(&mut self, op: BinOp, a: ExprId<L>, b: ExprId<L>) -> ExprId<L> {
         match op {
             BinOp::Add => self.add(a, b),
             BinOp::Sub => self.sub(a, b),
@@ -207,7 +270,7 @@ impl Pool {
     }
 
     /// `f(a)` or `f(a, b)`; constant arguments are folded.
-    pub fn call(&mut self, func: Func, args: &[ExprId]) -> ExprId {
+    pub fn call(&mut self, func: Func, args: &[ExprId<L>]) -> ExprId<L> {
         let values: Option<Vec<f64>> = args.iter().map(|&a| self.as_num(a)).collect();
         if let Some(values) = values {
             let v = func.apply(&values);
@@ -223,7 +286,7 @@ impl Pool {
     }
 
     /// The time integral of `a`.
-    pub fn int(&mut self, a: ExprId) -> ExprId {
+    pub fn int(&mut self, a: ExprId<L>) -> ExprId<L> {
         match self.as_num(a) {
             Some(0.0) => a,
             _ => self.intern(Node::Int(a)),
@@ -231,8 +294,8 @@ impl Pool {
     }
 
     /// Sum of signed terms (`true` = plus); zero when empty.
-    pub fn signed_sum(&mut self, terms: &[(bool, ExprId)]) -> ExprId {
-        let mut acc: Option<ExprId> = None;
+    pub fn signed_sum(&mut self, terms: &[(bool, ExprId<L>)]) -> ExprId<L> {
+        let mut acc: Option<ExprId<L>> = None;
         for &(plus, t) in terms {
             acc = Some(match (acc, plus) {
                 (None, true) => t,
@@ -246,9 +309,9 @@ impl Pool {
 
     /// Calls `f` on every node reachable from `roots`, children before parents, once each.
     /// Costs O(r log r) for r reachable nodes, whatever the size of the pool.
-    pub fn visit_reachable(&self, roots: &[ExprId], mut f: impl FnMut(ExprId, Node)) {
-        let mut seen: FastSet<ExprId> = FastSet::default();
-        let mut stack: Vec<ExprId> = roots.to_vec();
+    pub fn visit_reachable(&self, roots: &[ExprId<L>], mut f: impl FnMut(ExprId<L>, Node<L>)) {
+        let mut seen: FastSet<ExprId<L>> = FastSet::default();
+        let mut stack: Vec<ExprId<L>> = roots.to_vec();
         let mut found = Vec::new();
         while let Some(id) = stack.pop() {
             if !seen.insert(id) {
@@ -267,9 +330,13 @@ impl Pool {
     /// The nodes reachable from `root` without passing through a node `done` accepts,
     /// children before parents: a memoised pass over a growing expression costs what is new
     /// in it, not its whole size.
-    pub fn reachable_unless(&self, root: ExprId, done: impl Fn(ExprId) -> bool) -> Vec<ExprId> {
+    pub fn reachable_unless(
+        &self,
+        root: ExprId<L>,
+        done: impl Fn(ExprId<L>) -> bool,
+    ) -> Vec<ExprId<L>> {
         let mut order = Vec::new();
-        let mut seen: FastSet<ExprId> = FastSet::default();
+        let mut seen: FastSet<ExprId<L>> = FastSet::default();
         let mut stack = vec![root];
         while let Some(id) = stack.pop() {
             if done(id) || !seen.insert(id) {
@@ -284,7 +351,7 @@ impl Pool {
     }
 
     /// Every leaf reachable from `root`, in id order.
-    pub fn leaves(&self, root: ExprId) -> Vec<Leaf> {
+    pub fn leaves(&self, root: ExprId<L>) -> Vec<L> {
         let mut out = Vec::new();
         self.visit_reachable(&[root], |_, node| {
             if let Node::Leaf(l) = node {
@@ -297,15 +364,15 @@ impl Pool {
     /// `root` with leaves replaced by `f` (leaves for which `f` returns `None` stay).
     pub fn substitute(
         &mut self,
-        root: ExprId,
-        f: &mut impl FnMut(&mut Pool, Leaf) -> Option<ExprId>,
-    ) -> ExprId {
+        root: ExprId<L>,
+        f: &mut impl FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>,
+    ) -> ExprId<L> {
         let mut order = Vec::new();
         self.visit_reachable(&[root], |id, _| order.push(id));
-        let mut map: FastMap<ExprId, ExprId> =
+        let mut map: FastMap<ExprId<L>, ExprId<L>> =
             FastMap::with_capacity_and_hasher(order.len(), Default::default());
         for id in order {
-            let m = |x: ExprId| map.get(&x).copied().unwrap_or(x);
+            let m = |x: ExprId<L>| map.get(&x).copied().unwrap_or(x);
             let new = match self.node(id) {
                 Node::Num(_) => id,
                 Node::Leaf(l) => f(self, l).unwrap_or(id),
@@ -336,23 +403,54 @@ impl Pool {
     }
 }
 
-impl Pool {
+impl<L: LeafKind> Pool<L> {
     /// Copies `root` of `other` into this pool, mapping its leaves with `leaf`.
     pub fn import(
         &mut self,
-        other: &Pool,
-        root: ExprId,
-        leaf: &mut impl FnMut(&mut Pool, Leaf) -> ExprId,
-    ) -> ExprId {
+        other: &Pool<L>,
+        root: ExprId<L>,
+        leaf: &mut impl FnMut(&mut Pool<L>, L) -> ExprId<L>,
+    ) -> ExprId<L> {
+        let mapped: Result<_, std::convert::Infallible> =
+            self.try_import(other, root, &mut |p, l| Ok(leaf(p, l)));
+        match mapped {
+            Ok(id) => id,
+            Err(never) => match never {},
+        }
+    }
+
+    /// Copies `root` of a pool with other leaves into this one, mapping each leaf with `leaf`.
+    pub fn import_from<M: LeafKind>(
+        &mut self,
+        other: &Pool<M>,
+        root: ExprId<M>,
+        mut leaf: impl FnMut(&mut Pool<L>, M) -> ExprId<L>,
+    ) -> ExprId<L> {
+        let mapped: Result<_, std::convert::Infallible> =
+            self.try_import(other, root, &mut |p, l| Ok(leaf(p, l)));
+        match mapped {
+            Ok(id) => id,
+            Err(never) => match never {},
+        }
+    }
+
+    /// Copies `root` of a pool with other leaves into this one, mapping each leaf with
+    /// `leaf`; the first leaf it refuses stops the copy with its error.
+    pub fn try_import<M: LeafKind, E>(
+        &mut self,
+        other: &Pool<M>,
+        root: ExprId<M>,
+        leaf: &mut impl FnMut(&mut Pool<L>, M) -> Result<ExprId<L>, E>,
+    ) -> Result<ExprId<L>, E> {
         let mut order = Vec::new();
         other.visit_reachable(&[root], |id, node| order.push((id, node)));
-        let mut map: FastMap<ExprId, ExprId> =
+        let mut map: FastMap<ExprId<M>, ExprId<L>> =
             FastMap::with_capacity_and_hasher(order.len(), Default::default());
         for (id, node) in order {
-            let m = |x: ExprId| map[&x];
+            let m = |x: ExprId<M>| map[&x];
             let new = match node {
                 Node::Num(bits) => self.num(f64::from_bits(bits)),
-                Node::Leaf(l) => leaf(self, l),
+                Node::Leaf(l) => leaf(self, l)?,
                 Node::Neg(a) => self.neg(m(a)),
                 Node::Binary(op, a, b) => self.binary(op, m(a), m(b)),
                 Node::Call1(f, a) => self.call(f, &[m(a)]),
@@ -361,12 +459,12 @@ impl Pool {
             };
             map.insert(id, new);
         }
-        map[&root]
+        Ok(map[&root])
     }
 }
 
 /// The children of a node.
-pub(crate) fn children(node: Node) -> impl Iterator<Item = ExprId> {
+pub(crate) fn children<L: LeafKind>(node: Node<L>) -> impl Iterator<Item = ExprId<L>> {
     let (a, b) = match node {
         Node::Num(_) | Node::Leaf(_) => (None, None),
         Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => (Some(a), None),

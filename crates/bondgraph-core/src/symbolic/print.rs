@@ -2,17 +2,17 @@
 
 use std::fmt::Write as _;
 
-use super::pool::{ExprId, Leaf, Node, Pool};
+use super::pool::{ExprId, LeafKind, Node, Pool};
 use crate::expr::{BinOp, Func};
 
 /// Writes expressions of one pool, naming leaves with a closure.
-pub struct Printer<'p, F> {
-    pool: &'p Pool,
+pub struct Printer<'p, L: LeafKind, F> {
+    pool: &'p Pool<L>,
     name: F,
 }
 
 /// Binding strength of a printed node: 1 sums, 2 products, 3 unary minus, 4 powers, 5 atoms.
-pub(crate) fn precedence(node: Node) -> u8 {
+pub(crate) fn precedence<L: LeafKind>(node: Node<L>) -> u8 {
     match node {
         Node::Binary(op, ..) => op.precedence(),
         Node::Neg(_) => 3,
@@ -21,20 +21,20 @@ pub(crate) fn precedence(node: Node) -> u8 {
     }
 }
 
-impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
+impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
     /// A printer over `pool` with leaf names from `name`.
-    pub fn new(pool: &'p Pool, name: F) -> Self {
+    pub fn new(pool: &'p Pool<L>, name: F) -> Self {
         Printer { pool, name }
     }
 
     /// Plain infix: `+ - * / ^`, calls, `der(y, n)`, `int(..)`.
-    pub fn text(&self, root: ExprId) -> String {
+    pub fn text(&self, root: ExprId<L>) -> String {
         let mut out = String::new();
         self.text_into(&mut out, root, 0);
         out
     }
 
-    fn text_into(&self, out: &mut String, id: ExprId, outer: u8) {
+    fn text_into(&self, out: &mut String, id: ExprId<L>, outer: u8) {
         let node = self.pool.node(id);
         let paren = precedence(node) < outer;
         if paren {
@@ -87,13 +87,42 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
     }
 
     /// LaTeX math (no surrounding `$`); leaf names are used as given.
-    pub fn latex(&self, root: ExprId) -> String {
+    pub fn latex(&self, root: ExprId<L>) -> String {
         let mut out = String::new();
         self.latex_into(&mut out, root, 0);
         out
     }
 
-    fn latex_into(&self, out: &mut String, id: ExprId, outer: u8) {
+    /// The terms of the top-level sum, each in LaTeX with its sign (`true` for plus), so that
+    /// a long equation can be broken between them.
+    pub fn latex_terms(&self, root: ExprId<L>) -> Vec<(bool, String)> {
+        let (root, negated) = match self.pool.node(root) {
+            Node::Neg(a) => (a, true),
+            _ => (root, false),
+        };
+        let (first, rest) = self.chain(root, |o| o.precedence() == 1);
+        let mut terms = Vec::with_capacity(rest.len() + 1);
+        // A term keeps the grouping a difference needs: it follows a sign.
+        let outer = if rest.is_empty() { 0 } else { 2 };
+        let mut push = |plus: bool, id: ExprId<L>| {
+            let mut text = String::new();
+            self.latex_into(&mut text, id, outer);
+            terms.push((plus != negated, text));
+        };
+        if negated && !rest.is_empty() {
+            // -(a + b) is not -a + b: keep it whole.
+            let mut text = String::new();
+            self.latex_into(&mut text, root, 3);
+            return vec![(false, text)];
+        }
+        push(true, first);
+        for (op, b) in rest {
+            push(op == BinOp::Add, b);
+        }
+        terms
+    }
+
+    fn latex_into(&self, out: &mut String, id: ExprId<L>, outer: u8) {
         let node = self.pool.node(id);
         // A fraction groups its parts itself.
         let own = match node {
@@ -178,11 +207,15 @@ impl<'p, F: Fn(Leaf) -> String> Printer<'p, F> {
     }
 }
 
-impl<F> Printer<'_, F> {
+impl<L: LeafKind, F> Printer<'_, L, F> {
     /// The operands of a left-nested chain of operators that `joins` accepts, leftmost
     /// first, with the operator before each of the others. A canonical sum of ten thousand
     /// terms is a chain ten thousand deep: walked here, not recursed into.
-    fn chain(&self, id: ExprId, joins: impl Fn(BinOp) -> bool) -> (ExprId, Vec<(BinOp, ExprId)>) {
+    fn chain(
+        &self,
+        id: ExprId<L>,
+        joins: impl Fn(BinOp) -> bool,
+    ) -> (ExprId<L>, Vec<(BinOp, ExprId<L>)>) {
         let mut rest = Vec::new();
         let mut left = id;
         while let Node::Binary(op, a, b) = self.pool.node(left) {
@@ -218,6 +251,7 @@ fn latex_function(f: Func) -> &'static str {
 mod tests {
     use super::*;
     use crate::graph::ParamId;
+    use crate::symbolic::Leaf;
 
     /// A canonical sum of many distinct terms is a left-nested chain as deep as it is long;
     /// printing it must not recurse that deep (a test thread has a small stack).

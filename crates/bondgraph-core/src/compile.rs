@@ -1,0 +1,92 @@
+//! The front door: a model's text in, the product and every diagnostic out.
+
+use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use crate::pipeline::{analyse, Unsimplified};
+use crate::product::{build, Compiled};
+use crate::symbolic::rewrite::Limits;
+
+/// How far to take a model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Derive {
+    /// Parse and validate only (`bgc check`): no causality, no equations.
+    Nothing,
+    /// The simulation causality and the state equations (`--emit state`, `--emit dot`).
+    StateEquations,
+    /// Both causalities, the state equations, the ARRs and the FSM.
+    Everything,
+}
+
+/// What to compile and how to write expressions.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// How far to go.
+    pub derive: Derive,
+    /// The e-graph's limits for writing expressions; `None` keeps the canonical forms.
+    pub simplify: Option<Limits>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            derive: Derive::Everything,
+            simplify: Some(Limits::default()),
+        }
+    }
+}
+
+/// The result of [`compile`] on a valid model.
+#[derive(Clone, Debug)]
+pub struct Output {
+    /// The product; its diagnostics say what was refused, if anything.
+    pub compiled: Compiled,
+    /// Expressions shown in canonical form because a count limit skipped their rewriting.
+    pub unsimplified: Vec<Unsimplified>,
+}
+
+/// Compiles a model's text. `Err` holds the diagnostics of a model that is not valid (syntax,
+/// names, structure); a valid model gives the product, whose own diagnostics hold the
+/// warnings and whatever a stage could not derive (then [`Compiled::has_errors`]).
+pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Output, Diagnostics> {
+    let text = without_bom(source);
+    let (graph, mut diagnostics) = crate::load(text);
+    let Some(model) = graph else {
+        return Err(diagnostics);
+    };
+    if options.derive == Derive::Nothing {
+        let compiled = build(&model, None, text, file_name, diagnostics);
+        return Ok(Output {
+            compiled,
+            unsimplified: Vec::new(),
+        });
+    }
+    let mut analysis = analyse(&model, options.derive == Derive::Everything);
+    let mut unsimplified = Vec::new();
+    if let Some(limits) = options.simplify {
+        let s = analysis.simplify(limits);
+        unsimplified = s.skipped;
+        if let Some(what) = s.timed_out {
+            diagnostics.push(
+                Diagnostic::error(
+                    Code::TooLarge,
+                    Span::default(),
+                    format!("writing {what} in its simplest form took longer than the time limit"),
+                )
+                .with_help(
+                    "raise the limit (`--egg-seconds`), lower `--egg-nodes`, or use `--canonical`; \
+                     the limit only ever stops the run, it never changes what is printed",
+                ),
+            );
+        }
+    }
+    let compiled = build(&model, Some(&analysis), text, file_name, diagnostics);
+    Ok(Output {
+        compiled,
+        unsimplified,
+    })
+}
+
+/// The text without its byte-order mark, if it has one: editors on Windows write one, and it
+/// is not part of what the user wrote. Diagnostics' spans refer to the text without it.
+pub fn without_bom(source: &str) -> &str {
+    source.strip_prefix('\u{FEFF}').unwrap_or(source)
+}

@@ -1,0 +1,475 @@
+//! From what the stages derived to the product: names resolved once, expressions copied into
+//! one pool of final names, and anything implausible refused with a diagnostic.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+use super::*;
+use crate::causality::{self, Causal, Strong};
+use crate::diagnostic::{Code, Diagnostic, Diagnostics, Severity};
+use crate::fdi::{self, Fsm};
+use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
+use crate::pipeline::Analysis;
+use crate::symbolic::{Leaf, Node, Pool};
+
+/// Why an expression cannot enter the product.
+enum Refusal {
+    /// It still holds a solver unknown.
+    Unknown,
+    /// It holds a measured signal where only states and inputs may appear.
+    Sensor,
+    /// It holds a number that is not finite.
+    NotFinite,
+}
+
+/// Builds the product of a valid model. `analysis` is `None` when only the model was asked
+/// for (`bgc check`).
+pub(crate) fn build(
+    model: &BondGraph,
+    analysis: Option<&Analysis<'_>>,
+    source: &str,
+    file_name: &str,
+    mut diagnostics: Diagnostics,
+) -> Compiled {
+    let mut b = Builder::new(model);
+    let mut c = Compiled {
+        name: model.name.clone(),
+        file_name: file_name.to_string(),
+        parameters: b.parameters(),
+        inputs: b.inputs(),
+        sensors: b.sensors(),
+        states: Arena::default(),
+        exprs: Pool::default(),
+        state_space: None,
+        arrs: Vec::new(),
+        diagnosed: false,
+        components: Arena::default(),
+        causality: Vec::new(),
+        graph: Graph::default(),
+        diagnostics: Diagnostics::default(),
+        lines: LineIndex::new(source),
+        source: source.to_string(),
+    };
+    c.graph = graph(model, analysis.map(|a| &a.integral));
+    if let Some(a) = analysis {
+        let mut stage = Diagnostics::default();
+        for d in &a.state.problems {
+            stage.push(d.clone());
+        }
+        c.causality.push(report(
+            model,
+            &a.integral,
+            Mode::Simulation,
+            &a.state.problems,
+        ));
+        b.state_space(&mut c, a, &mut stage);
+        if let Some((d, fsm)) = &a.diagnosis {
+            for p in &d.problems {
+                stage.push(p.clone());
+            }
+            c.causality
+                .push(report(model, &d.causal, Mode::Diagnosis, &d.problems));
+            b.arrs(&mut c, d, fsm, &mut stage);
+            c.diagnosed = true;
+        }
+        for d in dedup(stage) {
+            diagnostics.push(d);
+        }
+    }
+    diagnostics.sort();
+    c.diagnostics = diagnostics;
+    c
+}
+
+/// Each diagnostic once: the same refusal is met in both causalities.
+fn dedup(stage: Diagnostics) -> Vec<Diagnostic> {
+    let mut out: Vec<Diagnostic> = Vec::new();
+    for d in stage {
+        if !out
+            .iter()
+            .any(|o| o.message == d.message && o.span == d.span)
+        {
+            out.push(d);
+        }
+    }
+    out
+}
+
+/// The model's names, resolved once into product handles.
+struct Builder<'m> {
+    model: &'m BondGraph,
+    sensor_of: HashMap<NodeId, Handle<Sensor>>,
+}
+
+impl<'m> Builder<'m> {
+    fn new(model: &'m BondGraph) -> Self {
+        Builder {
+            model,
+            sensor_of: HashMap::new(),
+        }
+    }
+
+    fn parameters(&self) -> Arena<Parameter> {
+        let mut out = Arena::default();
+        for p in &self.model.params {
+            out.push(Parameter {
+                name: p.name.clone(),
+                value: p.value,
+                unit: p.unit.clone(),
+                description: p.description.clone(),
+                span: p.span,
+            });
+        }
+        out
+    }
+
+    fn inputs(&self) -> Arena<Input> {
+        let mut out = Arena::default();
+        for u in &self.model.inputs {
+            out.push(Input {
+                name: u.name.clone(),
+                unit: u.unit.clone(),
+                description: u.description.clone(),
+                span: u.span,
+            });
+        }
+        out
+    }
+
+    fn sensors(&mut self) -> Arena<Sensor> {
+        let m = self.model;
+        let mut out = Arena::default();
+        for id in m.nodes() {
+            let node = m.node(id);
+            if let NodeKind::Detector(kind) = node.kind {
+                let h = out.push(Sensor {
+                    name: node.name.clone(),
+                    kind: sensor_kind(kind),
+                    junction: m
+                        .detector_junction(id)
+                        .map_or_else(String::new, |j| m.node(j).name.clone()),
+                    description: node.description.clone(),
+                    span: node.span,
+                });
+                self.sensor_of.insert(id, h);
+            }
+        }
+        out
+    }
+
+    /// Copies `root` of a stage's pool into the product; `states` says whether state leaves
+    /// (and not measured signals) may appear.
+    fn import(
+        &self,
+        exprs: &mut Exprs,
+        pool: &Pool,
+        root: crate::symbolic::ExprId,
+        states: bool,
+    ) -> Result<Expr, Refusal> {
+        let e = exprs.try_import(pool, root, &mut |p, leaf| {
+            let symbol = match leaf {
+                Leaf::Param(k) => Symbol::Parameter(Handle::new(k.0 as usize)),
+                Leaf::Input(u, n) => Symbol::Input(Handle::new(u.0 as usize), n),
+                Leaf::Sensor(s, n) if !states => {
+                    Symbol::Sensor(*self.sensor_of.get(&s).ok_or(Refusal::Unknown)?, n)
+                }
+                Leaf::Sensor(..) => return Err(Refusal::Sensor),
+                Leaf::State(k) if states => Symbol::State(Handle::new(k as usize)),
+                Leaf::Time => Symbol::Time,
+                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) => return Err(Refusal::Unknown),
+            };
+            Ok(p.leaf(symbol))
+        })?;
+        let mut finite = true;
+        exprs.visit_reachable(&[e], |_, node| {
+            if let Node::Num(bits) = node {
+                finite &= f64::from_bits(bits).is_finite();
+            }
+        });
+        if finite {
+            Ok(e)
+        } else {
+            Err(Refusal::NotFinite)
+        }
+    }
+
+    /// The state equations, all or none: a model whose state equations are incomplete gets
+    /// none, with the reasons in the diagnostics.
+    fn state_space(&self, c: &mut Compiled, a: &Analysis<'_>, stage: &mut Diagnostics) {
+        let m = self.model;
+        for s in &a.state.states {
+            let kind = match m.node(s.element).kind {
+                NodeKind::Element(ElementKind::C, _) => StateKind::Displacement,
+                _ => StateKind::Momentum,
+            };
+            c.states.push(State {
+                name: s.name.clone(),
+                element: m.node(s.element).name.clone(),
+                kind,
+            });
+        }
+        let stage_failed = a.state.problems.iter().any(Diagnostic::is_error);
+        let mut space = StateSpace {
+            equations: Vec::new(),
+            outputs: Vec::new(),
+        };
+        let mut refused: Vec<(String, NodeId, Refusal)> = Vec::new();
+        for (k, s) in a.state.states.iter().enumerate() {
+            match self.import(&mut c.exprs, &a.state.pool, s.rhs, true) {
+                Ok(e) => space.equations.push((Handle::new(k), e)),
+                Err(r) => refused.push((format!("der({})", s.name), s.element, r)),
+            }
+        }
+        for (sensor, e) in &a.state.outputs {
+            match self.import(&mut c.exprs, &a.state.pool, *e, true) {
+                Ok(e) => space.outputs.push((self.sensor_of[sensor], e)),
+                Err(r) => {
+                    refused.push((format!("the output {}", m.node(*sensor).name), *sensor, r))
+                }
+            }
+        }
+        if refused.is_empty() && !stage_failed {
+            c.state_space = Some(space);
+            return;
+        }
+        if !stage_failed {
+            // The stages said nothing, yet an expression is implausible: say so, never print it.
+            for (what, node, why) in refused {
+                stage.push(refusal(m, &what, node, why));
+            }
+        }
+    }
+
+    /// The ARRs that could be derived, and the FSM over them.
+    fn arrs(&self, c: &mut Compiled, d: &fdi::Diagnosis, fsm: &Fsm, stage: &mut Diagnostics) {
+        let m = self.model;
+        let pool = &d.causal.system.pool;
+        let mut kept: Vec<Option<usize>> = Vec::new();
+        for arr in &d.arrs {
+            match self.import(&mut c.exprs, pool, arr.residual, false) {
+                Ok(e) => {
+                    kept.push(Some(c.arrs.len()));
+                    let (reads, integrals) = reads(&c.exprs, e);
+                    c.arrs.push(Arr {
+                        name: String::new(),
+                        junction: m.node(arr.junction).name.clone(),
+                        sensor: arr.sensor.map(|s| self.sensor_of[&s]),
+                        expr: e,
+                        components: Vec::new(),
+                        reads,
+                        integrals,
+                    });
+                }
+                Err(why) => {
+                    kept.push(None);
+                    stage.push(refusal(m, &arr.name, arr.junction, why));
+                }
+            }
+        }
+        for (i, arr) in c.arrs.iter_mut().enumerate() {
+            arr.name = format!("ARR{}", i + 1);
+        }
+        for row in &fsm.rows {
+            let marks: Vec<usize> = row.marks.iter().filter_map(|&k| kept[k]).collect();
+            let h = c.components.push(Component {
+                name: row.component.name.clone(),
+                kind: component_kind(row.component.kind),
+                parameters: row
+                    .component
+                    .parameters
+                    .iter()
+                    .map(|p| Handle::new(p.0 as usize))
+                    .collect(),
+                signals: row.component.signals.clone(),
+                detectable: !marks.is_empty(),
+                isolable: false,
+                marks,
+            });
+            for &k in &c.components[h].marks.clone() {
+                c.arrs[k].components.push(h);
+            }
+        }
+        isolability(&mut c.components);
+    }
+}
+
+/// `Ib`: detectable, and no other row has the same signature.
+fn isolability(components: &mut Arena<Component>) {
+    let mut count: HashMap<Vec<usize>, usize> = HashMap::new();
+    for c in components.values() {
+        *count.entry(c.marks.clone()).or_default() += 1;
+    }
+    let isolable: Vec<bool> = components
+        .values()
+        .map(|c| c.detectable && count.get(&c.marks) == Some(&1))
+        .collect();
+    for (i, flag) in isolable.into_iter().enumerate() {
+        components.get_mut(Handle::new(i)).isolable = flag;
+    }
+}
+
+/// The diagnostic for an expression bgc will not print.
+fn refusal(model: &BondGraph, what: &str, node: NodeId, why: Refusal) -> Diagnostic {
+    let reason = match why {
+        Refusal::Unknown => "it still depends on a variable that nothing known determines",
+        Refusal::Sensor => "it reads a measured signal, which a state equation cannot",
+        Refusal::NotFinite => {
+            "it holds a number that is not finite (a division by zero in the model's values?)"
+        }
+    };
+    causality::report::at_nodes(
+        model,
+        Severity::Error,
+        Code::Refused,
+        &[node],
+        format!("{what} is not written: {reason}"),
+    )
+}
+
+/// What an expression reads: each signal's derivative orders (those read pointwise, not
+/// only under an integral) and integral, and the arguments of integrals of anything else.
+fn reads(exprs: &Exprs, e: Expr) -> (Vec<SignalUse>, Vec<Expr>) {
+    let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
+    let mut others = Vec::new();
+    let mut pointwise: BTreeSet<Expr> = BTreeSet::from([e]);
+    exprs.visit_reachable(&[e], |_, node| match node {
+        Node::Int(arg) => match exprs.node(arg) {
+            Node::Leaf(Symbol::Input(u, 0)) => uses.entry(Signal::Input(u)).or_default().1 = true,
+            Node::Leaf(Symbol::Sensor(s, 0)) => uses.entry(Signal::Sensor(s)).or_default().1 = true,
+            _ => {
+                others.push(arg);
+                pointwise.insert(arg);
+            }
+        },
+        Node::Neg(a) | Node::Call1(_, a) => {
+            pointwise.insert(a);
+        }
+        Node::Binary(_, a, b) | Node::Call2(_, a, b) => {
+            pointwise.extend([a, b]);
+        }
+        Node::Num(_) | Node::Leaf(_) => {}
+    });
+    for &id in &pointwise {
+        match exprs.node(id) {
+            Node::Leaf(Symbol::Input(u, n)) => {
+                uses.entry(Signal::Input(u)).or_default().0.insert(n);
+            }
+            Node::Leaf(Symbol::Sensor(s, n)) => {
+                uses.entry(Signal::Sensor(s)).or_default().0.insert(n);
+            }
+            _ => {}
+        }
+    }
+    let reads = uses
+        .into_iter()
+        .map(|(signal, (orders, integral))| SignalUse {
+            signal,
+            orders: orders.into_iter().collect(),
+            integral,
+        })
+        .collect();
+    (reads, others)
+}
+
+fn sensor_kind(kind: DetectorKind) -> SensorKind {
+    match kind {
+        DetectorKind::De => SensorKind::Effort,
+        DetectorKind::Df => SensorKind::Flow,
+    }
+}
+
+fn component_kind(kind: fdi::ComponentKind) -> ComponentKind {
+    match kind {
+        fdi::ComponentKind::Element(k) => ComponentKind::Element(k.name()),
+        fdi::ComponentKind::Detector(k) => ComponentKind::Sensor(sensor_kind(k)),
+        fdi::ComponentKind::Modulation => ComponentKind::Modulation,
+    }
+}
+
+/// The causality of one mode in the model's names.
+fn report(
+    model: &BondGraph,
+    causal: &Causal,
+    mode: Mode,
+    problems: &[Diagnostic],
+) -> CausalityReport {
+    let storage = causal
+        .storage(model)
+        .into_iter()
+        .map(|(n, s)| {
+            let s = match s {
+                causality::StorageCausality::Integral => StorageCausality::Integral,
+                causality::StorageCausality::Derivative => StorageCausality::Derivative,
+                causality::StorageCausality::Unassigned => StorageCausality::Unassigned,
+            };
+            (model.node(n).name.clone(), s)
+        })
+        .collect();
+    let junctions = model
+        .nodes()
+        .filter(|&n| model.node(n).is_junction())
+        .map(|n| {
+            let setter = match causal.strong_bond(model, n) {
+                Some(Strong::Bond(b)) => Setter::Bond(model.bond(b).number),
+                Some(Strong::Detector(d)) => Setter::Detector(model.node(d).name.clone()),
+                None => Setter::Nothing,
+            };
+            (model.node(n).name.clone(), setter)
+        })
+        .collect();
+    let mut messages: Vec<String> = Vec::new();
+    for p in problems {
+        if !messages.contains(&p.message) {
+            messages.push(p.message.clone());
+        }
+    }
+    CausalityReport {
+        mode,
+        storage,
+        junctions,
+        problems: messages,
+    }
+}
+
+/// The bond graph for drawings, with the strokes of `causal` when it is known.
+fn graph(model: &BondGraph, causal: Option<&Causal>) -> Graph {
+    let mut g = Graph::default();
+    let mut handle: HashMap<NodeId, Handle<GraphNode>> = HashMap::new();
+    for id in model.nodes() {
+        let node = model.node(id);
+        let (class, note) = match &node.kind {
+            NodeKind::Junction(kind) => (NodeClass::Junction(kind.symbol()), String::new()),
+            NodeKind::Element(kind, law) => {
+                (NodeClass::Element(kind.name()), model.show(law.expr()))
+            }
+            NodeKind::Detector(kind) => (
+                NodeClass::Sensor(sensor_kind(*kind)),
+                node.description.clone().unwrap_or_default(),
+            ),
+        };
+        let h = g.nodes.push(GraphNode {
+            name: node.name.clone(),
+            class,
+            note,
+        });
+        handle.insert(id, h);
+    }
+    for id in model.bonds() {
+        let bond = model.bond(id);
+        let (tail, head) = model.ends(id);
+        let setter = causal.and_then(|c| c.effort_setter(model, id));
+        let stroke = match bond.kind {
+            BondKind::Signal => Stroke::None,
+            BondKind::Power if setter == Some(tail) => Stroke::Head,
+            BondKind::Power if setter == Some(head) => Stroke::Tail,
+            BondKind::Power => Stroke::None,
+        };
+        g.bonds.push(GraphBond {
+            number: bond.number,
+            tail: handle[&tail],
+            head: handle[&head],
+            signal: bond.kind == BondKind::Signal,
+            stroke,
+        });
+    }
+    g
+}

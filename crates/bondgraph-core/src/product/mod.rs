@@ -1,0 +1,370 @@
+//! The product of compilation: what a user asked for and nothing of how it was found.
+//!
+//! [`Compiled`] is the one thing the emitters, the CLI and (later) the Rust generator and the
+//! macro read. Its expressions live in one pool whose leaves are [`Symbol`]s, final names
+//! only: a parameter, an input or a measured signal with its derivative order, a state, time.
+//! Solver unknowns never get here; an expression that still held one, or a number that is not
+//! finite, is refused when the product is built, with a diagnostic.
+
+mod arena;
+mod build;
+
+pub use arena::{Arena, Handle};
+pub(crate) use build::build;
+
+use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
+use crate::symbolic::{ExprId, Pool};
+
+/// A leaf of a product expression: a name the user gave, never a solver's unknown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Symbol {
+    /// A parameter.
+    Parameter(Handle<Parameter>),
+    /// The n-th time derivative of an input (0: the input itself).
+    Input(Handle<Input>, u32),
+    /// The n-th time derivative of a measured signal (0: the signal itself).
+    Sensor(Handle<Sensor>, u32),
+    /// A state variable (in state equations and outputs only).
+    State(Handle<State>),
+    /// Time.
+    Time,
+}
+
+/// An expression of the product, a handle into [`Compiled::exprs`].
+pub type Expr = ExprId<Symbol>;
+
+/// The product's expression pool: hash-consed, so shared subexpressions stay shared.
+pub type Exprs = Pool<Symbol>;
+
+/// A model parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parameter {
+    /// Its name.
+    pub name: String,
+    /// Its nominal value.
+    pub value: f64,
+    /// Its unit as written, e.g. `Ohm`.
+    pub unit: Option<String>,
+    /// What it is, as the user described it.
+    pub description: Option<String>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// A known input signal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Input {
+    /// Its name.
+    pub name: String,
+    /// Its unit as written.
+    pub unit: Option<String>,
+    /// What it is.
+    pub description: Option<String>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// What a detector measures.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum SensorKind {
+    /// `De`: the effort of a 0-junction.
+    Effort,
+    /// `Df`: the flow of a 1-junction.
+    Flow,
+}
+
+impl SensorKind {
+    /// `De` or `Df`.
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorKind::Effort => "De",
+            SensorKind::Flow => "Df",
+        }
+    }
+}
+
+/// A detector; its name is the measured signal's name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sensor {
+    /// The signal's name.
+    pub name: String,
+    /// Effort or flow.
+    pub kind: SensorKind,
+    /// The junction it is attached to.
+    pub junction: String,
+    /// What it measures, as the user described it.
+    pub description: Option<String>,
+    /// Where it is declared.
+    pub span: Span,
+}
+
+/// Which energy variable a state is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StateKind {
+    /// The momentum `p` of an `I`.
+    Momentum,
+    /// The displacement `q` of a `C`.
+    Displacement,
+}
+
+/// A state variable of the simulation model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State {
+    /// `p_NAME` or `q_NAME`.
+    pub name: String,
+    /// The storage element's name.
+    pub element: String,
+    /// Momentum or displacement.
+    pub kind: StateKind,
+}
+
+/// The model in state-space form: `d(state)/dt = rhs` and each detector's output.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StateSpace {
+    /// One right-hand side per state, in [`Compiled::states`] order.
+    pub equations: Vec<(Handle<State>, Expr)>,
+    /// Each detector's output over states and inputs.
+    pub outputs: Vec<(Handle<Sensor>, Expr)>,
+}
+
+/// What an ARR reads of one input or measured signal.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SignalUse {
+    /// The signal.
+    pub signal: Signal,
+    /// The derivative orders read, increasing (0: the value itself).
+    pub orders: Vec<u32>,
+    /// Whether its integral from the start of the record is read.
+    pub integral: bool,
+}
+
+/// A known signal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Signal {
+    /// An input.
+    Input(Handle<Input>),
+    /// A measured signal.
+    Sensor(Handle<Sensor>),
+}
+
+/// An analytical redundancy relation: `expr = 0` while the machine is healthy.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Arr {
+    /// `ARR1`, `ARR2`…
+    pub name: String,
+    /// The junction it is written at.
+    pub junction: String,
+    /// The detector it is attributed to.
+    pub sensor: Option<Handle<Sensor>>,
+    /// The residual, over parameters, inputs and measured signals (with derivatives and
+    /// integrals).
+    pub expr: Expr,
+    /// The FSM rows it is sensitive to.
+    pub components: Vec<Handle<Component>>,
+    /// The signals it reads, in input then sensor order.
+    pub reads: Vec<SignalUse>,
+    /// The arguments of the `int(..)` it holds that are not one signal's integral.
+    pub integrals: Vec<Expr>,
+}
+
+/// What kind of component an FSM row is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ComponentKind {
+    /// An element, by its kind's name (`R`, `MSe`…); a source is an actuator.
+    Element(&'static str),
+    /// A detector (a sensor).
+    Sensor(SensorKind),
+    /// A `let` with parameters of its own that modulates elements (the bench's backlash `w`).
+    Modulation,
+}
+
+impl ComponentKind {
+    /// The kind as printed: `R`, `MSe`, `Df`, `let`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ComponentKind::Element(k) => k,
+            ComponentKind::Sensor(k) => k.name(),
+            ComponentKind::Modulation => "let",
+        }
+    }
+}
+
+/// One row of the fault signature matrix: a component that can fail.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Component {
+    /// Its name.
+    pub name: String,
+    /// What it is.
+    pub kind: ComponentKind,
+    /// The parameters that belong to it.
+    pub parameters: Vec<Handle<Parameter>>,
+    /// The signals it applies or measures.
+    pub signals: Vec<String>,
+    /// The ARRs (by position in [`Compiled::arrs`]) it shows in, increasing.
+    pub marks: Vec<usize>,
+    /// `Db`: some residual is sensitive to it.
+    pub detectable: bool,
+    /// `Ib`: detectable with a signature no other component has.
+    pub isolable: bool,
+}
+
+impl Component {
+    /// Its signature over `n` residuals.
+    pub fn signature(&self, n: usize) -> Vec<bool> {
+        let mut s = vec![false; n];
+        for &m in &self.marks {
+            if let Some(bit) = s.get_mut(m) {
+                *bit = true;
+            }
+        }
+        s
+    }
+}
+
+/// Which causality a report is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// Preferred integral causality: for the state equations.
+    Simulation,
+    /// Preferred derivative causality, detectors inverted: for the ARRs.
+    Diagnosis,
+}
+
+/// The causality a storage element took.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StorageCausality {
+    /// It holds a state.
+    Integral,
+    /// Its output is a derivative.
+    Derivative,
+    /// Its equation was not used.
+    Unassigned,
+}
+
+/// What sets a junction's common variable.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Setter {
+    /// The power bond of this number (the strong bond).
+    Bond(u32),
+    /// An inverted detector.
+    Detector(String),
+    /// Nothing: the variable could not be computed.
+    Nothing,
+}
+
+/// The causality of one mode, in the model's names.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CausalityReport {
+    /// The mode.
+    pub mode: Mode,
+    /// Each storage element's name and causality.
+    pub storage: Vec<(String, StorageCausality)>,
+    /// Each junction's name and what sets it.
+    pub junctions: Vec<(String, Setter)>,
+    /// The messages of this mode's diagnostics, each once.
+    pub problems: Vec<String>,
+}
+
+/// What a node of the drawing is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeClass {
+    /// A junction, `0` or `1`.
+    Junction(&'static str),
+    /// An element, by its kind's name.
+    Element(&'static str),
+    /// A detector.
+    Sensor(SensorKind),
+}
+
+/// A node of the bond graph, for drawings and summaries.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GraphNode {
+    /// Its name.
+    pub name: String,
+    /// What it is.
+    pub class: NodeClass,
+    /// Its law as written (elements), or its description (detectors).
+    pub note: String,
+}
+
+/// Where a bond's causal stroke is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stroke {
+    /// No causality known (or a signal bond).
+    None,
+    /// At the head: the tail sets the effort.
+    Head,
+    /// At the tail: the head sets the effort.
+    Tail,
+}
+
+/// A bond, directed along positive power.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GraphBond {
+    /// Its number.
+    pub number: u32,
+    /// Where power comes from.
+    pub tail: Handle<GraphNode>,
+    /// Where power goes.
+    pub head: Handle<GraphNode>,
+    /// A signal bond to a detector (no power).
+    pub signal: bool,
+    /// Its causal stroke in simulation causality.
+    pub stroke: Stroke,
+}
+
+/// The bond graph itself, as drawings and summaries need it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Graph {
+    /// Nodes, in declaration order.
+    pub nodes: Arena<GraphNode>,
+    /// Bonds, in number order.
+    pub bonds: Vec<GraphBond>,
+}
+
+/// Everything bgc derived from a model that is right; what is not is in the diagnostics.
+#[derive(Clone, Debug)]
+pub struct Compiled {
+    /// The model's name.
+    pub name: String,
+    /// The name of the file (or stream) it came from.
+    pub file_name: String,
+    /// Parameters, in declaration order.
+    pub parameters: Arena<Parameter>,
+    /// Inputs, in declaration order.
+    pub inputs: Arena<Input>,
+    /// Detectors, in declaration order.
+    pub sensors: Arena<Sensor>,
+    /// States, in declaration order of their storage elements.
+    pub states: Arena<State>,
+    /// The expressions of the state equations, outputs and ARRs.
+    pub exprs: Exprs,
+    /// The state equations, when they were asked for and could be derived.
+    pub state_space: Option<StateSpace>,
+    /// The ARRs that could be derived (when they were asked for).
+    pub arrs: Vec<Arr>,
+    /// Whether ARRs were derived at all (`false` when only the state equations were asked for).
+    pub diagnosed: bool,
+    /// The rows of the fault signature matrix.
+    pub components: Arena<Component>,
+    /// The causality reports of the modes that were run.
+    pub causality: Vec<CausalityReport>,
+    /// The bond graph.
+    pub graph: Graph,
+    /// Every diagnostic, from the parser to the product.
+    pub diagnostics: Diagnostics,
+    lines: LineIndex,
+    source: String,
+}
+
+impl Compiled {
+    /// The line and column of a span's start.
+    pub fn line_col(&self, span: Span) -> LineCol {
+        self.lines.line_col(&self.source, span.start)
+    }
+
+    /// Whether any diagnostic is an error: some output was refused.
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.has_errors()
+    }
+}

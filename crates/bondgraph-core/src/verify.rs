@@ -1,0 +1,494 @@
+//! `bgc verify`: what bgc derived, checked numerically on the model's own trajectories.
+//!
+//! The plant is simulated from the product's state equations (classic RK4, fixed step) from
+//! several initial states, with smooth inputs whose derivatives are known exactly. Each
+//! measured signal and every time derivative an ARR reads is computed exactly, by
+//! differentiating the outputs symbolically along the state equations; every `int(..)` is
+//! integrated with the plant (so ARRs assume zero initial values of their integrals, as the
+//! plant starts them). Then:
+//! - every residual must stay at round-off level on the healthy plant, relative to the size
+//!   of its largest term;
+//! - every FSM entry is checked by a fault in the plant only: each parameter of a component
+//!   at +20 % (a sensor: a smooth additive fault on its measurement); the residuals the FSM
+//!   marks must move, the others must not.
+//!
+//! What is checked is exactly what the emitters print: the product's expressions.
+
+use std::collections::{BTreeSet, HashMap};
+
+use crate::expr::BinOp;
+use crate::product::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
+use crate::product::{Sensor, Symbol};
+use crate::symbolic::{Derivatives, Evaluator, ExprId, Node, Pool};
+
+/// How the check is run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VerifyOptions {
+    /// Amplitude of the inputs: `u_k(t) = scale (1 + 0.5 sin(w_k t + k))`.
+    pub input_scale: f64,
+    /// Typical size of the initial states.
+    pub state_scale: f64,
+    /// Initial states tried.
+    pub runs: usize,
+    /// RK4 steps per run.
+    pub steps: usize,
+    /// The step, in seconds.
+    pub step: f64,
+    /// Largest relative |residual| accepted on the healthy plant.
+    pub healthy: f64,
+    /// Smallest relative |residual| that counts as "moved" under a fault.
+    pub moved: f64,
+}
+
+impl Default for VerifyOptions {
+    fn default() -> Self {
+        VerifyOptions {
+            input_scale: 1.0,
+            state_scale: 0.5,
+            runs: 3,
+            steps: 1500,
+            step: 1e-3,
+            healthy: 1e-8,
+            moved: 1e-6,
+        }
+    }
+}
+
+/// Why a model cannot be verified at all.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum VerifyError {
+    /// The state equations were not derived, so there is no plant to simulate.
+    NoStateEquations,
+    /// There is nothing to check.
+    NoArrs,
+    /// The simulation left the finite numbers (at this time, in seconds).
+    Diverged(String),
+}
+
+impl std::fmt::Display for VerifyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            VerifyError::NoStateEquations => f.write_str(
+                "the state equations could not be derived, so the model cannot be simulated",
+            ),
+            VerifyError::NoArrs => f.write_str("the model has no ARRs to verify"),
+            VerifyError::Diverged(t) => write!(
+                f,
+                "the simulation left the finite numbers at t = {t} s; try smaller --input-scale or --state-scale"
+            ),
+        }
+    }
+}
+
+/// One ARR on the healthy plant.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ArrCheck {
+    /// Its name.
+    pub name: String,
+    /// Largest relative |residual| over all runs.
+    pub worst: f64,
+    /// Whether it stayed under the tolerance.
+    pub pass: bool,
+}
+
+/// One FSM entry under a fault of its component.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EntryCheck {
+    /// The component.
+    pub component: Handle<Component>,
+    /// The ARR (position in [`Compiled::arrs`]).
+    pub arr: usize,
+    /// What the FSM says: the ARR is sensitive to the component.
+    pub marked: bool,
+    /// Largest relative |residual| under the fault.
+    pub worst: f64,
+    /// Whether the ARR behaved as the FSM says.
+    pub pass: bool,
+}
+
+/// The outcome of [`verify`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Verification {
+    /// Each ARR on the healthy plant.
+    pub arrs: Vec<ArrCheck>,
+    /// Each FSM entry of each component that can be faulted in the plant.
+    pub entries: Vec<EntryCheck>,
+    /// Components that cannot be faulted from the product (a source without parameters of
+    /// its own): their entries are not checked.
+    pub unchecked: Vec<Handle<Component>>,
+}
+
+impl Verification {
+    /// Whether every check passed.
+    pub fn passed(&self) -> bool {
+        self.arrs.iter().all(|a| a.pass) && self.entries.iter().all(|e| e.pass)
+    }
+}
+
+/// A leaf of the verification pool: the plant's parameters and the detector's nominal ones
+/// are different leaves, so that a fault changes the plant only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum V {
+    Plant(Handle<Parameter>),
+    Nominal(Handle<Parameter>),
+    Input(Handle<Input>, u32),
+    State(Handle<State>),
+    /// The n-th derivative of the additive fault on a sensor.
+    SensorFault(Handle<Sensor>, u32),
+    Time,
+}
+
+type VId = ExprId<V>;
+
+/// The plant and the residuals over its states, in one pool.
+struct Plant {
+    pool: Pool<V>,
+    rhs: Vec<VId>,
+    integrals: Vec<VId>,
+    residuals: Vec<VId>,
+    terms: Vec<Vec<VId>>,
+}
+
+/// Checks every ARR and FSM entry of `c` numerically.
+pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, VerifyError> {
+    let space = c
+        .state_space
+        .as_ref()
+        .ok_or(VerifyError::NoStateEquations)?;
+    if c.arrs.is_empty() {
+        return Err(VerifyError::NoArrs);
+    }
+    let plant = plant(c, space);
+    let nominal: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let n = plant.rhs.len();
+    let initial: Vec<Vec<f64>> = (0..options.runs.max(1))
+        .map(|seed| {
+            (0..n)
+                .map(|i| options.state_scale * (0.4 + 0.37 * ((i * 7 + seed * 3) % 5) as f64))
+                .collect()
+        })
+        .collect();
+    let healthy_run = Run {
+        plant: &plant,
+        plant_params: nominal.clone(),
+        nominal: nominal.clone(),
+        faulty_sensor: None,
+        options,
+    };
+    let mut worst = vec![0.0f64; c.arrs.len()];
+    for x0 in &initial {
+        for (w, r) in worst.iter_mut().zip(healthy_run.worst(x0)?) {
+            *w = w.max(r);
+        }
+    }
+    let arrs = c
+        .arrs
+        .iter()
+        .zip(&worst)
+        .map(|(a, &w)| ArrCheck {
+            name: a.name.clone(),
+            worst: w,
+            pass: w < options.healthy,
+        })
+        .collect();
+    let mut entries = Vec::new();
+    let mut unchecked = Vec::new();
+    for (h, comp) in c.components.iter() {
+        // Each fault, with the ARRs it may move besides the component's own: a parameter
+        // shared by several components is a fault of all of them.
+        let faults: Vec<(Run<'_>, BTreeSet<usize>)> = match comp.kind {
+            ComponentKind::Sensor(_) => c
+                .sensors
+                .find(|s| s.name == comp.name)
+                .map(|s| {
+                    let run = Run {
+                        faulty_sensor: Some(s),
+                        ..healthy_run.clone()
+                    };
+                    (run, BTreeSet::new())
+                })
+                .into_iter()
+                .collect(),
+            _ => comp
+                .parameters
+                .iter()
+                .map(|p| {
+                    let mut faulty = nominal.clone();
+                    faulty[p.index()] *= 1.2;
+                    let run = Run {
+                        plant_params: faulty,
+                        ..healthy_run.clone()
+                    };
+                    (run, shared_marks(c, h, *p))
+                })
+                .collect(),
+        };
+        if faults.is_empty() {
+            unchecked.push(h);
+            continue;
+        }
+        let marks: BTreeSet<usize> = comp.marks.iter().copied().collect();
+        let mut moved = vec![0.0f64; c.arrs.len()];
+        let mut stray = vec![0.0f64; c.arrs.len()];
+        for (run, shared) in &faults {
+            for (k, r) in run.worst(&initial[0])?.into_iter().enumerate() {
+                moved[k] = moved[k].max(r);
+                if !shared.contains(&k) {
+                    stray[k] = stray[k].max(r);
+                }
+            }
+        }
+        for k in 0..c.arrs.len() {
+            let marked = marks.contains(&k);
+            let (worst, pass) = if marked {
+                (moved[k], moved[k] > options.moved)
+            } else {
+                (stray[k], stray[k] < options.healthy)
+            };
+            entries.push(EntryCheck {
+                component: h,
+                arr: k,
+                marked,
+                worst,
+                pass,
+            });
+        }
+    }
+    Ok(Verification {
+        arrs,
+        entries,
+        unchecked,
+    })
+}
+
+/// The ARRs marked for the other components that own parameter `p`.
+fn shared_marks(c: &Compiled, own: Handle<Component>, p: Handle<Parameter>) -> BTreeSet<usize> {
+    c.components
+        .iter()
+        .filter(|(h, comp)| *h != own && comp.parameters.contains(&p))
+        .flat_map(|(_, comp)| comp.marks.iter().copied())
+        .collect()
+}
+
+fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
+    let mut pool: Pool<V> = Pool::default();
+    let plant_leaf = |p: &mut Pool<V>, s: Symbol| match s {
+        Symbol::Parameter(k) => p.leaf(V::Plant(k)),
+        Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
+        Symbol::State(k) => p.leaf(V::State(k)),
+        // State equations and outputs read no measured signal.
+        Symbol::Sensor(..) | Symbol::Time => p.leaf(V::Time),
+    };
+    let mut rhs = vec![pool.num(0.0); c.states.len()];
+    for (k, e) in &space.equations {
+        rhs[k.index()] = pool.import_from(&c.exprs, *e, plant_leaf);
+    }
+    let mut outputs: HashMap<Handle<Sensor>, VId> = HashMap::new();
+    for (s, e) in &space.outputs {
+        outputs.insert(*s, pool.import_from(&c.exprs, *e, plant_leaf));
+    }
+    let mut measured: HashMap<(Handle<Sensor>, u32), VId> = HashMap::new();
+    let mut residuals = Vec::new();
+    for arr in &c.arrs {
+        let mut signal = |p: &mut Pool<V>, s: Symbol| match s {
+            Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
+            Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
+            Symbol::Sensor(s, n) => {
+                let y = output_derivative(p, &rhs, &outputs, &mut measured, (s, n));
+                let fault = p.leaf(V::SensorFault(s, n));
+                p.add(y, fault)
+            }
+            Symbol::State(k) => p.leaf(V::State(k)),
+            Symbol::Time => p.leaf(V::Time),
+        };
+        residuals.push(pool.import_from(&c.exprs, arr.expr, &mut signal));
+    }
+    let mut roots = rhs.clone();
+    roots.extend(&residuals);
+    let mut integrals = Vec::new();
+    pool.visit_reachable(&roots, |id, node| {
+        if let Node::Int(_) = node {
+            integrals.push(id);
+        }
+    });
+    let terms = residuals
+        .iter()
+        .map(|&r| {
+            let mut out = Vec::new();
+            top_terms(&pool, r, &mut out);
+            out
+        })
+        .collect();
+    Plant {
+        pool,
+        rhs,
+        integrals,
+        residuals,
+        terms,
+    }
+}
+
+/// The n-th derivative of a detector's output along the state equations, memoised.
+fn output_derivative(
+    pool: &mut Pool<V>,
+    rhs: &[VId],
+    outputs: &HashMap<Handle<Sensor>, VId>,
+    memo: &mut HashMap<(Handle<Sensor>, u32), VId>,
+    (sensor, n): (Handle<Sensor>, u32),
+) -> VId {
+    if let Some(&e) = memo.get(&(sensor, n)) {
+        return e;
+    }
+    let e = if n == 0 {
+        outputs
+            .get(&sensor)
+            .copied()
+            .unwrap_or_else(|| pool.num(0.0))
+    } else {
+        let lower = output_derivative(pool, rhs, outputs, memo, (sensor, n - 1));
+        let mut d = Derivatives::new(|p: &mut Pool<V>, leaf: V| match leaf {
+            V::State(k) => Some(rhs[k.index()]),
+            V::Input(u, m) => Some(p.leaf(V::Input(u, m + 1))),
+            V::SensorFault(s, m) => Some(p.leaf(V::SensorFault(s, m + 1))),
+            V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
+            V::Time => Some(p.num(1.0)),
+        });
+        d.of(pool, lower).unwrap_or_else(|| pool.num(0.0))
+    };
+    memo.insert((sensor, n), e);
+    e
+}
+
+/// The terms of `e` read as a sum (signs dropped: only their size matters).
+fn top_terms(pool: &Pool<V>, e: VId, out: &mut Vec<VId>) {
+    let mut stack = vec![e];
+    while let Some(e) = stack.pop() {
+        match pool.node(e) {
+            Node::Binary(BinOp::Add | BinOp::Sub, a, b) => stack.extend([a, b]),
+            Node::Neg(a) => stack.push(a),
+            _ => out.push(e),
+        }
+    }
+}
+
+/// The k-th test input and its n-th derivative at t.
+fn input(k: usize, n: u32, t: f64, scale: f64) -> f64 {
+    let w = 1.3 + 0.7 * k as f64;
+    let phase = w * t + k as f64;
+    let d = w.powi(n as i32) * 0.5 * (phase + f64::from(n) * std::f64::consts::FRAC_PI_2).sin();
+    scale * if n == 0 { 1.0 + d } else { d }
+}
+
+/// The n-th derivative of the additive sensor fault `0.3 sin(2t + 1)` at t.
+fn sensor_fault(n: u32, t: f64) -> f64 {
+    0.3 * 2f64.powi(n as i32) * (2.0 * t + 1.0 + f64::from(n) * std::f64::consts::FRAC_PI_2).sin()
+}
+
+/// One simulation: the plant's parameters, the detector's, and a faulty sensor if any.
+#[derive(Clone)]
+struct Run<'a> {
+    plant: &'a Plant,
+    plant_params: Vec<f64>,
+    nominal: Vec<f64>,
+    faulty_sensor: Option<Handle<Sensor>>,
+    options: &'a VerifyOptions,
+}
+
+impl Run<'_> {
+    fn leaf(&self, x: &[f64], t: f64) -> impl Fn(V) -> f64 + '_ {
+        let x = x.to_vec();
+        move |leaf| match leaf {
+            V::State(k) => x[k.index()],
+            V::Plant(p) => self.plant_params[p.index()],
+            V::Nominal(p) => self.nominal[p.index()],
+            V::Input(u, n) => input(u.index(), n, t, self.options.input_scale),
+            V::SensorFault(s, n) if Some(s) == self.faulty_sensor => sensor_fault(n, t),
+            V::SensorFault(..) => 0.0,
+            V::Time => t,
+        }
+    }
+
+    fn integrals(&self, x: &[f64]) -> HashMap<VId, f64> {
+        let n = self.plant.rhs.len();
+        self.plant
+            .integrals
+            .iter()
+            .enumerate()
+            .map(|(i, &id)| (id, x[n + i]))
+            .collect()
+    }
+
+    fn derivative(&self, x: &[f64], t: f64) -> Vec<f64> {
+        let mut ev =
+            Evaluator::new(&self.plant.pool, self.leaf(x, t)).with_integrals(self.integrals(x));
+        let mut out: Vec<f64> = self.plant.rhs.iter().map(|&e| ev.value(e)).collect();
+        for &id in &self.plant.integrals {
+            if let Node::Int(arg) = self.plant.pool.node(id) {
+                out.push(ev.value(arg));
+            }
+        }
+        out
+    }
+
+    /// Each residual and the size of its largest term.
+    fn residuals(&self, x: &[f64], t: f64) -> Vec<(f64, f64)> {
+        let mut ev =
+            Evaluator::new(&self.plant.pool, self.leaf(x, t)).with_integrals(self.integrals(x));
+        self.plant
+            .residuals
+            .iter()
+            .zip(&self.plant.terms)
+            .map(|(&r, terms)| {
+                let size = terms.iter().map(|&e| ev.value(e).abs()).fold(0.0, f64::max);
+                (ev.value(r), size)
+            })
+            .collect()
+    }
+
+    /// Largest |residual| of each ARR along an RK4 trajectory from `x0`, relative to the
+    /// largest term it met on the way: residuals are in the model's units (m^3/s for a tank,
+    /// N for a mass), so only their size against their own terms says how far from zero.
+    fn worst(&self, x0: &[f64]) -> Result<Vec<f64>, VerifyError> {
+        let h = self.options.step;
+        let mut x: Vec<f64> = x0.to_vec();
+        x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
+        let n = self.plant.residuals.len();
+        let (mut worst, mut size) = (vec![0.0f64; n], vec![0.0f64; n]);
+        for step in 0..self.options.steps {
+            let t = step as f64 * h;
+            for (k, (r, s)) in self.residuals(&x, t).into_iter().enumerate() {
+                // A residual that is not finite is as wrong as one that is large.
+                worst[k] = if r.is_finite() {
+                    worst[k].max(r.abs())
+                } else {
+                    f64::INFINITY
+                };
+                size[k] = size[k].max(s);
+            }
+            let add = |x: &[f64], k: &[f64], s: f64| -> Vec<f64> {
+                x.iter().zip(k).map(|(a, b)| a + s * b).collect()
+            };
+            let k1 = self.derivative(&x, t);
+            let k2 = self.derivative(&add(&x, &k1, h / 2.0), t + h / 2.0);
+            let k3 = self.derivative(&add(&x, &k2, h / 2.0), t + h / 2.0);
+            let k4 = self.derivative(&add(&x, &k3, h), t + h);
+            for i in 0..x.len() {
+                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+            }
+            if x.iter().any(|v| !v.is_finite()) {
+                return Err(VerifyError::Diverged(format!("{t}")));
+            }
+        }
+        Ok(worst
+            .iter()
+            .zip(&size)
+            .map(|(&w, &s)| {
+                if w == 0.0 {
+                    0.0
+                } else {
+                    w / s.max(f64::MIN_POSITIVE)
+                }
+            })
+            .collect())
+    }
+}
