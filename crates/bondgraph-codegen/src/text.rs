@@ -97,7 +97,12 @@ pub fn emit(c: &Compiled) -> String {
 fn arrs(out: &mut String, c: &Compiled) {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let _ = writeln!(out, "ARRs");
-    if c.sensors.is_empty() {
+    if !c.diagnosed {
+        let _ = writeln!(
+            out,
+            "  not derived: the model could not be taken that far (see the errors on standard error)"
+        );
+    } else if c.sensors.is_empty() {
         let _ = writeln!(
             out,
             "  none: the model has no detectors (add `De NAME on JUNCTION` or `Df NAME on JUNCTION`)"

@@ -1,6 +1,7 @@
 //! The front door: a model's text in, the product and every diagnostic out.
 
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use crate::graph::{first_too_large, MAX_EXPANDED};
 use crate::pipeline::{analyse, Unsimplified};
 use crate::product::{build, Compiled};
 use crate::symbolic::rewrite::Limits;
@@ -52,7 +53,30 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
     let Some(model) = graph else {
         return Err(diagnostics);
     };
-    if options.derive == Derive::Nothing {
+    if let Some((l, size)) = first_too_large(&model).filter(|_| options.derive != Derive::Nothing) {
+        let decl = &model.lets[l.0 as usize];
+        let size = if size == u64::MAX {
+            "more than 10^19".to_string()
+        } else {
+            size.to_string()
+        };
+        diagnostics.push(
+            Diagnostic::error(
+                Code::TooLarge,
+                decl.span,
+                format!(
+                    "`{}` is {size} nodes long once the `let`s it uses are written out, past bgc's bound of {MAX_EXPANDED}",
+                    decl.name
+                ),
+            )
+            .with_label("this definition grows too large")
+            .with_help(
+                "each use of a `let` copies its definition; a `let` that uses the one before it twice doubles at every step",
+            ),
+        );
+        diagnostics.sort();
+    }
+    if options.derive == Derive::Nothing || diagnostics.has_errors() {
         let compiled = build(&model, None, text, file_name, diagnostics);
         return Ok(Output {
             compiled,
@@ -76,6 +100,12 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
                      the limit only ever stops the run, it never changes what is printed",
                 ),
             );
+            // Nothing half-rewritten is shown: the outcome does not depend on the clock.
+            let compiled = build(&model, None, text, file_name, diagnostics);
+            return Ok(Output {
+                compiled,
+                unsimplified: Vec::new(),
+            });
         }
     }
     let compiled = build(&model, Some(&analysis), text, file_name, diagnostics);

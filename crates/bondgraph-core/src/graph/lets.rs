@@ -114,3 +114,44 @@ pub(crate) fn variability(expr: &SignalExpr, lets: &[Option<Variability>]) -> Op
     });
     most
 }
+
+/// Most nodes a `let`'s definition may have once every `let` it uses is written out. Past it,
+/// the expressions bgc prints (which are trees) would be too large to read or to write:
+/// `let l_i = l_{i-1} * l_{i-1} + a`, 20 deep, is 3 million nodes.
+pub const MAX_EXPANDED: u64 = 200_000;
+
+/// The first `let` (in dependency order) whose written-out size passes [`MAX_EXPANDED`],
+/// with that size (saturated at `u64::MAX`).
+pub fn first_too_large(model: &super::BondGraph) -> Option<(LetId, u64)> {
+    let mut size = vec![0u64; model.lets.len()];
+    for &l in &model.let_order {
+        let expr = &model.lets[l.0 as usize].value;
+        let mut leaves = 0u64;
+        expr.for_each_leaf(&mut |s| {
+            let n = match s {
+                Signal::Let(k) => size.get(k.0 as usize).copied().unwrap_or(1),
+                _ => 1,
+            };
+            leaves = leaves.saturating_add(n);
+        });
+        let inner = nodes(expr);
+        size[l.0 as usize] = leaves.saturating_add(inner);
+        if size[l.0 as usize] > MAX_EXPANDED {
+            return Some((l, size[l.0 as usize]));
+        }
+    }
+    None
+}
+
+/// The operator nodes of an expression (its leaves not counted). Recursion is bounded by the
+/// parser's limits on nesting.
+fn nodes(expr: &SignalExpr) -> u64 {
+    use crate::expr::Expr;
+    match expr {
+        Expr::Num(_) => 1,
+        Expr::Leaf(_) => 0,
+        Expr::Neg(a) | Expr::Der(a, _) | Expr::Int(a) => 1 + nodes(a),
+        Expr::Binary(_, a, b) => 1 + nodes(a) + nodes(b),
+        Expr::Call(_, args) => 1 + args.iter().map(nodes).sum::<u64>(),
+    }
+}

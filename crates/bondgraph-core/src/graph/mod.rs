@@ -8,6 +8,7 @@ pub mod model;
 mod scope;
 mod validate;
 
+pub use lets::{first_too_large, MAX_EXPANDED};
 pub use lower::lower;
 pub use model::*;
 

@@ -19,7 +19,14 @@ enum Refusal {
     Sensor,
     /// It holds a number that is not finite.
     NotFinite,
+    /// Written out as a tree, it would pass [`MAX_PRINTED`] nodes.
+    TooLarge,
 }
+
+/// Most nodes an expression may have once written out as the tree every emitter prints: a
+/// DAG with much sharing (derivatives of deep nests) can stand for a tree that no one can
+/// read, and that takes minutes to write.
+const MAX_PRINTED: u64 = 2_000_000;
 
 /// Builds the product of a valid model. `analysis` is `None` when only the model was asked
 /// for (`bgc check`).
@@ -180,15 +187,22 @@ impl<'m> Builder<'m> {
             Ok(p.leaf(symbol))
         })?;
         let mut finite = true;
-        exprs.visit_reachable(&[e], |_, node| {
+        let mut printed: HashMap<Expr, u64> = HashMap::new();
+        exprs.visit_reachable(&[e], |id, node| {
             if let Node::Num(bits) = node {
                 finite &= f64::from_bits(bits).is_finite();
             }
+            let size = crate::symbolic::children(node)
+                .map(|c| printed.get(&c).copied().unwrap_or(0))
+                .fold(1u64, u64::saturating_add);
+            printed.insert(id, size);
         });
-        if finite {
-            Ok(e)
-        } else {
+        if !finite {
             Err(Refusal::NotFinite)
+        } else if printed.get(&e).copied().unwrap_or(0) > MAX_PRINTED {
+            Err(Refusal::TooLarge)
+        } else {
+            Ok(e)
         }
     }
 
@@ -315,11 +329,16 @@ fn refusal(model: &BondGraph, what: &str, node: NodeId, why: Refusal) -> Diagnos
         Refusal::NotFinite => {
             "it holds a number that is not finite (a division by zero in the model's values?)"
         }
+        Refusal::TooLarge => "written out, it would pass bgc's bound of 2,000,000 nodes",
+    };
+    let code = match why {
+        Refusal::TooLarge => Code::TooLarge,
+        _ => Code::Refused,
     };
     causality::report::at_nodes(
         model,
         Severity::Error,
-        Code::Refused,
+        code,
         &[node],
         format!("{what} is not written: {reason}"),
     )

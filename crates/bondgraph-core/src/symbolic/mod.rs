@@ -17,5 +17,6 @@ pub mod rewrite;
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::Evaluator;
 pub use normal::{Polynomial, Simplifier};
+pub(crate) use pool::children;
 pub use pool::{ExprId, Leaf, LeafKind, Node, Pool};
 pub use print::Printer;
