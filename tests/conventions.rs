@@ -233,3 +233,29 @@ fn two_port_chain() {
         ]
     );
 }
+
+#[test]
+fn an_unmeasured_mass_between_two_measured_ones_is_eliminated() {
+    // F -> m1 (y1 measured) -> spring k1 -> m2 (unmeasured) -> spring k2 -> m3 (y3 measured).
+    // By hand, with f1 = F - m1 y1' (mass 1) and f2 = m3 y3' (mass 3):
+    //   spring 1: f1' = k1 (y1 - v2), so v2 = y1 - (F' - m1 y1'')/k1;
+    //   mass 2:   m2 v2' = f1 - f2, an ARR once v2 is replaced:
+    //             F - m1 y1' - m2 y1' + m2 F''/k1 - m1 m2 y1'''/k1 - m3 y3' = 0;
+    //   spring 2: f2' = k2 (v2 - y3) with f2 = f1 - m2 v2' (mass 2 again, so that m3 stays
+    //             out): y1 - y3 - (F' - m1 y1'')/k1 - (F' - m1 y1'' - m2 v2'')/k2 = 0.
+    let d = derive(
+        "model t\nparam m1 = 1\nparam m2 = 1.5\nparam m3 = 2\nparam k1 = 40\nparam k2 = 50\ninput F\n\
+         Se force = F\nI mass1 = m1\nI mass2 = m2\nI mass3 = m3\nC spring1 stiffness k1\n\
+         C spring2 stiffness k2\nDf y1 on v1\nDf y3 on v3\nforce -> 1:v1 -> mass1\n\
+         v1 -> 0:f1 -> spring1\nf1 -> 1:v2 -> mass2\nv2 -> 0:f2 -> spring2\nf2 -> 1:v3 -> mass3\n",
+    );
+    assert_eq!(
+        d.arrs,
+        [
+            "ARR1@f2: m1 * m2 * der(y1, 4) / (k1 * k2) + m1 * der(y1, 2) / k1 + m1 * der(y1, 2) / k2 \
+             - m2 * der(F, 3) / (k1 * k2) + m2 * der(y1, 2) / k2 - der(F, 1) / k1 - der(F, 1) / k2 + y1 - y3",
+            "ARR2@v3: F - m1 * m2 * der(y1, 3) / k1 - m1 * der(y1, 1) + m2 * der(F, 2) / k1 \
+             - m2 * der(y1, 1) - m3 * der(y3, 1)",
+        ]
+    );
+}

@@ -59,10 +59,11 @@ pub enum Use {
 pub struct Torn {
     /// The unknown.
     pub var: VarId,
-    /// The balance that computes it.
-    pub equation: usize,
-    /// Its value over known signals and earlier torn unknowns.
-    pub value: ExprId,
+    /// The balance that computes it, and its value over known signals and earlier torn
+    /// unknowns; `None` for an unknown torn where propagation stalled in diagnosis (the
+    /// velocity of an unmeasured mass between measured ones), which only the relations
+    /// that hold it determine.
+    pub definition: Option<(usize, ExprId)>,
 }
 
 /// The oriented system.
@@ -247,8 +248,45 @@ impl<'a> Solver<'a> {
         }
     }
 
+    /// The next equation to orient. In diagnosis, storage is put in integral causality only
+    /// when no unknown can be torn instead: a chain of unmeasured masses between measured
+    /// ones is then related by elimination over d/dt, not by integrals of unknowns.
+    fn next(&mut self) -> Option<usize> {
+        let fallback = Class::Fallback as usize;
+        loop {
+            if let Some(i) = self.queues[..fallback]
+                .iter_mut()
+                .find_map(VecDeque::pop_front)
+            {
+                return Some(i);
+            }
+            if self.mode == Mode::Diagnosis && self.journal.is_none() && self.tear_differential() {
+                continue;
+            }
+            return self.queues[fallback].pop_front();
+        }
+    }
+
+    /// Holds an unknown of a stalled equation as a differential symbol; `false` if none is
+    /// left to tear.
+    fn tear_differential(&mut self) -> bool {
+        if self.torn.len() >= MAX_TEARS {
+            return false;
+        }
+        let Some(v) = self.tear_candidate(&std::collections::BTreeSet::new()) else {
+            return false;
+        };
+        let symbol = self.sys.pool.leaf(Leaf::Tear(v.0, 0));
+        self.torn.push(Torn {
+            var: v,
+            definition: None,
+        });
+        self.know(v, symbol, None);
+        true
+    }
+
     fn propagate(&mut self) {
-        while let Some(i) = self.queues.iter_mut().find_map(VecDeque::pop_front) {
+        while let Some(i) = self.next() {
             if self.uses[i] != Use::Pending || self.unknown[i] != 1 {
                 continue;
             }
@@ -263,8 +301,7 @@ impl<'a> Solver<'a> {
             if class == Class::SensorBalance {
                 self.torn.push(Torn {
                     var: v,
-                    equation: i,
-                    value,
+                    definition: Some((i, value)),
                 });
                 value = self.sys.pool.leaf(Leaf::Tear(v.0, 0));
             }
@@ -318,7 +355,9 @@ impl<'a> Solver<'a> {
                     }
                 }
                 for t in &mut self.torn {
-                    t.value = put(t.value);
+                    if let Some((_, value)) = &mut t.definition {
+                        *value = put(*value);
+                    }
                 }
                 for &j in &eqs {
                     if let Use::Redundant { residual } = self.uses[j] {

@@ -83,16 +83,14 @@ pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) 
     let mut e = Eliminator::new(pool);
     let mut items: Vec<Option<Item>> = Vec::with_capacity(torn.len() + redundant.len());
     for t in torn {
+        let Some((equation, value)) = t.definition else {
+            continue;
+        };
         let u = e.pool.leaf(Leaf::Tear(t.var.0, 0));
-        let expr = e.pool.sub(u, t.value);
-        let value = e.simplifier.polynomial(e.pool, t.value);
+        let expr = e.pool.sub(u, value);
+        let value = e.simplifier.polynomial(e.pool, value);
         let local = e.torn_in(&value).is_empty();
-        items.push(Some(e.item(
-            expr,
-            t.equation,
-            Some((t.var.0, value)),
-            local,
-        )));
+        items.push(Some(e.item(expr, equation, Some((t.var.0, value)), local)));
     }
     for &(equation, expr) in redundant {
         items.push(Some(e.item(expr, equation, None, false)));

@@ -274,6 +274,10 @@ impl<'m> Builder<'m> {
                     });
                 }
                 Err(why) => {
+                    if std::env::var("BGC_DEBUG").is_ok() {
+                        let pr = crate::symbolic::Printer::new(pool, |l| format!("{l:?}"));
+                        eprintln!("DEBUG {}: {}", arr.name, pr.text(arr.residual));
+                    }
                     kept.push(None);
                     stage.push(refusal(m, &arr.name, arr.junction, why));
                 }
