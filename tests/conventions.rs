@@ -259,3 +259,57 @@ fn an_unmeasured_mass_between_two_measured_ones_is_eliminated() {
         ]
     );
 }
+
+#[test]
+fn an_inertia_behind_a_rigid_gear_holds_no_state() {
+    // T -> J1 -> gear (w2 = w1/N) -> J2 with friction b2. J2 takes derivative causality: its
+    // torque is J2 w2' = J2 w1'/N, seen as J2 w1'/N^2 at the motor shaft. By hand, with
+    // p = J1 w1: (J1 + J2/N^2) w1' = T - b2 w1/N^2, so
+    // p' = T / (1 + J2/(J1 N^2)) - b2 p / (J1 N^2 + J2): the effective inertia J1 + J2/N^2.
+    let d = derive(
+        "model g\nparam J1 = 0.8\nparam J2 = 10\nparam N = 5\nparam b2 = 2\ninput T\nSe motor = T\n\
+         I in1 = J1\nTF gear ratio N\nI in2 = J2\nR fric = b2\nDf w1 on s1\nDf w2 on s2\n\
+         motor -> 1:s1 -> in1\ns1 -> gear -> 1:s2 -> in2, fric\n",
+    );
+    assert_eq!(
+        d.states,
+        ["p_in1' = T / (J2 / (J1 * N ^ 2) + 1) - p_in1 * b2 / (J1 * N ^ 2 + J2)"]
+    );
+    assert_eq!(d.outputs, ["w1 = p_in1 / J1", "w2 = p_in1 / (J1 * N)"]);
+    assert_eq!(
+        d.integral,
+        [
+            ("in1".into(), StorageCausality::Integral),
+            ("in2".into(), StorageCausality::Derivative)
+        ]
+    );
+}
+
+#[test]
+fn capacitors_in_parallel_share_one_state() {
+    // I0 -> 0 -> C1, C2, R. C2 sees the voltage C1 sets: one state, C = C1 + C2. By hand,
+    // v = q1/C1 and (C1 + C2) v' = I0 - v/R, so q1' = C1 v' = I0/(1 + C2/C1) - q1/(R (C1 + C2)).
+    let d = derive(
+        "model p\nparam C1 = 2e-3\nparam C2 = 3e-3\nparam R1 = 100\ninput I0\nSf src = I0\n\
+         C c1 = C1\nC c2 = C2\nR load = R1\nDe v on n\nsrc -> 0:n -> c1, c2, load\n",
+    );
+    assert_eq!(
+        d.states,
+        ["q_c1' = I0 / (C2 / C1 + 1) - q_c1 / (C1 * R1 + C2 * R1)"]
+    );
+    assert_eq!(d.outputs, ["v = q_c1 / C1"]);
+}
+
+#[test]
+fn inductors_in_series_share_one_state() {
+    // U -> 1 -> L1, L2, R: one current, L = L1 + L2. p1 = L1 i, (L1 + L2) i' = U - R i, so
+    // p1' = U/(1 + L2/L1) - R p1/(L1 + L2).
+    let d = derive(
+        "model s\nparam L1 = 0.1\nparam L2 = 0.3\nparam R1 = 5\ninput U\nSe src = U\nI l1 = L1\n\
+         I l2 = L2\nR r = R1\nDf i on j\nsrc -> 1:j -> l1, l2, r\n",
+    );
+    assert_eq!(
+        d.states,
+        ["p_l1' = U / (L2 / L1 + 1) - p_l1 * R1 / (L1 + L2)"]
+    );
+}

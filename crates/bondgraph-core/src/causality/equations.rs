@@ -536,8 +536,22 @@ impl Builder<'_> {
                 let state = self.sys.pool.leaf(Leaf::State(index));
                 match phi(self, state, &mut used) {
                     Some(value) => {
+                        // The derivative form too: an element that another storage element
+                        // drives through a rigid path (a gear between inertias, capacitors
+                        // in parallel) takes derivative causality and holds no state.
+                        let co_leaf = self.leaf(co);
+                        let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
                         self.sys.states.push(State { name, element: node, rate });
-                        self.push(node, Relation::Assign { var: co, value }, used);
+                        used.sort();
+                        used.dedup();
+                        self.push(
+                            node,
+                            Relation::Storage {
+                                derivative,
+                                integral: Some((co, value)),
+                            },
+                            used,
+                        );
                     }
                     None => self.sys.refusals.push(Refusal {
                         element: node,

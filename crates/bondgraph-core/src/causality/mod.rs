@@ -9,7 +9,7 @@ pub mod report;
 pub mod solve;
 
 use equations::{Relation, System, Var, VarId};
-use solve::{Class, Solved, Use};
+use solve::{Solved, Use};
 
 use crate::graph::{BondGraph, BondId, BondKind, NodeId, NodeKind};
 use crate::symbolic::ExprId;
@@ -79,7 +79,9 @@ impl Causal {
         }
     }
 
-    /// The causality each storage element took.
+    /// The causality each storage element took: derivative when its equation computed the
+    /// rate (the derivative of its energy variable), integral when it computed the co-energy
+    /// variable from a state or an integral.
     pub fn storage(&self, model: &BondGraph) -> Vec<(NodeId, StorageCausality)> {
         let mut out = Vec::new();
         for (i, eq) in self.system.equations.iter().enumerate() {
@@ -92,26 +94,25 @@ impl Causal {
             ) {
                 continue;
             }
-            let causality = match (self.mode, &eq.relation, self.solved.uses[i]) {
-                (Mode::Integral, Relation::Assign { .. }, _) => StorageCausality::Integral,
+            let causality = match (&eq.relation, self.solved.uses[i]) {
+                (Relation::Assign { .. }, Use::Solves { .. }) => StorageCausality::Integral,
                 (
-                    _,
-                    _,
-                    Use::Solves {
-                        class: Class::Preferred,
-                        ..
+                    Relation::Storage {
+                        derivative,
+                        integral,
                     },
-                ) => StorageCausality::Derivative,
-                (
-                    _,
-                    _,
-                    Use::Solves {
-                        class: Class::Fallback,
-                        ..
-                    },
-                ) => StorageCausality::Integral,
+                    Use::Solves { var, .. },
+                ) => {
+                    if derivative.is_some_and(|d| d.0 == var) {
+                        StorageCausality::Derivative
+                    } else if integral.is_some_and(|d| d.0 == var) {
+                        StorageCausality::Integral
+                    } else {
+                        StorageCausality::Unassigned
+                    }
+                }
                 // Checked both ways; the residual uses the derivative form when there is one.
-                (_, Relation::Storage { derivative, .. }, Use::Redundant { .. }) => {
+                (Relation::Storage { derivative, .. }, Use::Redundant { .. }) => {
                     if derivative.is_some() {
                         StorageCausality::Derivative
                     } else {

@@ -188,6 +188,7 @@ impl<'a> Solver<'a> {
         for junction in model.nodes().filter_map(|id| model.detector_junction(id)) {
             sensed[junction.0.index()] = true;
         }
+        let rule = rule(sys, mode);
         Solver {
             model,
             unknown: sys.equations.iter().map(|e| e.vars.len()).collect(),
@@ -200,7 +201,7 @@ impl<'a> Solver<'a> {
             sensed,
             var_eqs,
             queues: Default::default(),
-            derivatives: Derivatives::new(known_signal_rule as Rule),
+            derivatives: Derivatives::new(rule),
             journal: None,
         }
     }
@@ -208,6 +209,11 @@ impl<'a> Solver<'a> {
     /// Queues a pending equation with one unknown, or records it as redundant with none.
     fn settle(&mut self, i: usize) {
         if self.uses[i] != Use::Pending {
+            return;
+        }
+        if self.unknown_state_output(i).is_some() {
+            // Integral causality needs only the state, whatever the rate is.
+            self.queues[Class::Preferred as usize].push_back(i);
             return;
         }
         match self.unknown[i] {
@@ -285,13 +291,37 @@ impl<'a> Solver<'a> {
         true
     }
 
+    /// In integral causality, the co-energy variable of a storage element's equation while
+    /// it is unknown: the state gives it, whether or not the rate is known.
+    fn unknown_state_output(&self, i: usize) -> Option<VarId> {
+        if self.mode != Mode::Integral {
+            return None;
+        }
+        match self.sys.equations[i].relation {
+            Relation::Storage {
+                integral: Some((co, _)),
+                ..
+            } if self.values[co.0 as usize].is_none() => Some(co),
+            _ => None,
+        }
+    }
+
     fn propagate(&mut self) {
         while let Some(i) = self.next() {
-            if self.uses[i] != Use::Pending || self.unknown[i] != 1 {
+            if self.uses[i] != Use::Pending {
+                continue;
+            }
+            let state_output = self.unknown_state_output(i);
+            if state_output.is_none() && self.unknown[i] != 1 {
                 continue;
             }
             let eq = &self.sys.equations[i];
-            let Some(&v) = eq.vars.iter().find(|v| self.values[v.0 as usize].is_none()) else {
+            let Some(v) = state_output.or_else(|| {
+                eq.vars
+                    .iter()
+                    .copied()
+                    .find(|v| self.values[v.0 as usize].is_none())
+            }) else {
                 continue;
             };
             let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) else {
@@ -402,12 +432,18 @@ impl<'a> Solver<'a> {
 /// The root of `r`, if `r` is linear in the unknown `v`: with a = r(0) and b = r(1) − a,
 /// r is linear when r(2) = a + 2b holds in canonical form, and then v = −a/b.
 fn linear_root(pool: &mut Pool, r: ExprId, v: VarId) -> Option<ExprId> {
-    let at = |pool: &mut Pool, x: f64| {
-        let n = pool.num(x);
-        let e = pool.substitute(r, &mut |_, leaf| (leaf == Leaf::Var(v.0)).then_some(n));
+    linear_root_of(pool, r, Leaf::Var(v.0))
+}
+
+/// The root of `r` in the leaf `x`, if `r` is linear in it (see [`linear_root`]).
+pub(crate) fn linear_root_of(pool: &mut Pool, r: ExprId, x: Leaf) -> Option<ExprId> {
+    let at = |pool: &mut Pool, value: f64| {
+        let n = pool.num(value);
+        let e = pool.substitute(r, &mut |_, leaf| (leaf == x).then_some(n));
         Simplifier::default().simplify(pool, e)
     };
     let (a, one, two) = (at(pool, 0.0), at(pool, 1.0), at(pool, 2.0));
+    // (`value` above is the number put for `x`.)
     let b = pool.sub(one, a);
     let b = Simplifier::default().simplify(pool, b);
     if pool.as_num(b) == Some(0.0) {
@@ -439,7 +475,24 @@ fn value_of(pool: &mut Pool, v: VarId, values: &[Option<ExprId>]) -> ExprId {
     values[v.0 as usize].unwrap_or_else(|| pool.num(f64::NAN))
 }
 
-type Rule = fn(&mut Pool, Leaf) -> Option<ExprId>;
+/// How leaves vary in time while the equations are oriented: known signals get derivatives
+/// of their own; in integral causality a state's derivative is its rate, an unknown held as
+/// the symbol `Tear(rate, 0)` until the state equations are solved for it.
+type Rule = Box<dyn FnMut(&mut Pool, Leaf) -> Option<ExprId>>;
+
+fn rule(sys: &System, mode: Mode) -> Rule {
+    match mode {
+        Mode::Diagnosis => Box::new(known_signal_rule),
+        Mode::Integral => {
+            let rates: Vec<u32> = sys.states.iter().map(|s| s.rate.0).collect();
+            Box::new(move |p: &mut Pool, leaf: Leaf| match leaf {
+                Leaf::State(k) => rates.get(k as usize).map(|&r| p.leaf(Leaf::Tear(r, 0))),
+                Leaf::Tear(v, n) => Some(p.leaf(Leaf::Tear(v, n + 1))),
+                other => known_signal_rule(p, other),
+            })
+        }
+    }
+}
 
 fn differentiate(pool: &mut Pool, e: ExprId, d: &mut Derivatives<Leaf, Rule>) -> ExprId {
     d.of(pool, e).unwrap_or_else(|| pool.num(f64::NAN))

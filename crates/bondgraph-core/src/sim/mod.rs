@@ -2,7 +2,8 @@
 
 use std::collections::HashMap;
 
-use crate::causality::equations::Var;
+use crate::causality::equations::{Relation, Var};
+use crate::causality::solve::Use;
 use crate::causality::{report, Causal};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, NodeId, NodeKind};
@@ -35,7 +36,10 @@ pub struct StateSpace {
 pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     let mut pool = causal.system.pool.clone();
     let mut problems = report::refusals(model, causal);
-    problems.extend(report::unsolved(model, causal));
+    // What a refused law leaves unsolved follows from it: reported once, at the law.
+    if problems.is_empty() {
+        problems.extend(report::unsolved(model, causal));
+    }
     problems.extend(report::conflicts(model, causal));
     let nan = pool.num(f64::NAN);
     let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
@@ -67,22 +71,32 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         }
     }
     let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
-    let states: Vec<StateEquation> = causal
-        .system
-        .states
-        .clone()
-        .into_iter()
-        .map(|s| {
-            let rhs = causal.solved.values[s.rate.0 as usize].unwrap_or(nan);
-            StateEquation {
-                name: s.name,
-                element: s.element,
-                rhs: measured(pool, rhs, &map),
-            }
-        })
-        .collect();
+    let kept = independent(causal);
+    let mut states: Vec<StateEquation> = Vec::new();
+    let mut rates: Vec<u32> = Vec::new();
+    for (s, _) in causal.system.states.iter().zip(&kept).filter(|(_, k)| **k) {
+        let rhs = causal.solved.values[s.rate.0 as usize].unwrap_or(nan);
+        rates.push(s.rate.0);
+        states.push(StateEquation {
+            name: s.name.clone(),
+            element: s.element,
+            rhs: measured(pool, rhs, &map),
+        });
+    }
     let mut simplifier = Simplifier::default();
-    let mut states = states;
+    if let Err(element) = solve_rates(pool, &mut states, &mut outputs, &rates) {
+        problems.push(report::at_nodes(
+            model,
+            Severity::Error,
+            Code::AlgebraicLoop,
+            &[element],
+            format!(
+                "the derivative of `{}`'s state appears nonlinearly in the state equations, through storage elements in derivative causality",
+                model.node(element).name
+            ),
+        ));
+    }
+    renumber(pool, &mut states, &mut outputs, &kept);
     for s in &mut states {
         s.rhs = simplifier.simplify(pool, s.rhs);
     }
@@ -124,6 +138,101 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         states,
         outputs,
         problems,
+    }
+}
+
+/// Which states are independent: those whose storage element took integral causality. A
+/// storage element in derivative causality (an inertia behind a rigid gear) holds none.
+fn independent(causal: &Causal) -> Vec<bool> {
+    causal
+        .system
+        .states
+        .iter()
+        .map(|s| {
+            causal.system.equations.iter().enumerate().any(|(i, eq)| {
+                eq.owner == s.element
+                    && matches!(
+                        (&eq.relation, causal.solved.uses[i]),
+                        (Relation::Storage { integral: Some((co, _)), .. }, Use::Solves { var, .. })
+                            if *co == var
+                    )
+            })
+        })
+        .collect()
+}
+
+/// Solves the state equations for the state derivatives they hold (`Tear(rate, 0)`: a
+/// storage element in derivative causality differentiates states), when they enter linearly:
+/// Gaussian elimination, one rate at a time. `Err` names the element whose rate does not.
+fn solve_rates(
+    pool: &mut Pool,
+    states: &mut [StateEquation],
+    outputs: &mut [(NodeId, ExprId)],
+    rates: &[u32],
+) -> Result<(), NodeId> {
+    let holds = |pool: &Pool, e: ExprId| pool.leaves(e).iter().any(|l| matches!(l, Leaf::Tear(..)));
+    if !states.iter().any(|s| holds(pool, s.rhs)) && !outputs.iter().any(|o| holds(pool, o.1)) {
+        return Ok(());
+    }
+    let mut simplifier = Simplifier::default();
+    // rate_k - rhs_k = 0, with each solved rate substituted into the others as it is found.
+    let mut solved: Vec<(Leaf, ExprId)> = Vec::new();
+    for k in 0..states.len() {
+        let x = Leaf::Tear(rates[k], 0);
+        let own = pool.leaf(x);
+        let equation = pool.sub(own, states[k].rhs);
+        let equation = simplifier.simplify(pool, equation);
+        let root =
+            crate::causality::solve::linear_root_of(pool, equation, x).ok_or(states[k].element)?;
+        for (_, value) in &mut solved {
+            *value = pool.substitute(*value, &mut |_, l| (l == x).then_some(root));
+        }
+        solved.push((x, root));
+        for s in states.iter_mut().skip(k + 1) {
+            s.rhs = pool.substitute(s.rhs, &mut |_, l| (l == x).then_some(root));
+        }
+    }
+    let put = |pool: &mut Pool, e: ExprId| {
+        pool.substitute(e, &mut |_, l| {
+            solved.iter().find(|(x, _)| *x == l).map(|(_, v)| *v)
+        })
+    };
+    for (s, (_, value)) in states.iter_mut().zip(&solved) {
+        s.rhs = *value;
+    }
+    for (_, e) in outputs.iter_mut() {
+        *e = put(pool, *e);
+    }
+    Ok(())
+}
+
+/// Renumbers `Leaf::State` to the independent states only.
+fn renumber(
+    pool: &mut Pool,
+    states: &mut [StateEquation],
+    outputs: &mut [(NodeId, ExprId)],
+    kept: &[bool],
+) {
+    if kept.iter().all(|k| *k) {
+        return;
+    }
+    let mut index = Vec::with_capacity(kept.len());
+    let mut next = 0u32;
+    for &k in kept {
+        index.push(next);
+        next += u32::from(k);
+    }
+    let map = |pool: &mut Pool, e: ExprId| {
+        pool.substitute(e, &mut |p, l| match l {
+            Leaf::State(k) => Some(p.leaf(Leaf::State(index[k as usize]))),
+            _ => None,
+        })
+    };
+    for s in states.iter_mut() {
+        s.rhs = map(pool, s.rhs);
+    }
+    for (_, e) in outputs.iter_mut() {
+        *e = map(pool, *e);
     }
 }
 
