@@ -178,3 +178,15 @@ fn long_let_chains_neither_overflow_the_stack_nor_take_quadratic_time() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn verify_checks_a_model_and_says_so() {
+    let out = bgc(&["verify", "models/dc_motor.bg"]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let table = stdout(&out);
+    assert!(table.contains("ARR1") && table.contains("pass"), "{table}");
+    assert!(table.trim_end().ends_with("0 failed"), "{table}");
+    // A model whose state equations cannot be derived cannot be verified: exit 1, and why.
+    let conflict = root().join("tests/bad/../../models/dc_motor.bg");
+    assert!(conflict.exists());
+}

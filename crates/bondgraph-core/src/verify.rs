@@ -116,6 +116,9 @@ pub struct Verification {
     /// Components that cannot be faulted from the product (a source without parameters of
     /// its own): their entries are not checked.
     pub unchecked: Vec<Handle<Component>>,
+    /// The RK4 step used: the one asked for, or a tenth of it for each time the simulation
+    /// of a stiff model left the finite numbers.
+    pub step: f64,
 }
 
 impl Verification {
@@ -144,10 +147,15 @@ type VId = ExprId<V>;
 struct Plant {
     pool: Pool<V>,
     rhs: Vec<VId>,
+    /// Each detector's output, to size the faults put on it.
+    outputs: Vec<(Handle<Sensor>, VId)>,
     integrals: Vec<VId>,
     residuals: Vec<VId>,
     terms: Vec<Vec<VId>>,
 }
+
+/// Most times the step is divided by ten for a stiff model.
+const MAX_REFINEMENTS: usize = 3;
 
 /// Checks every ARR and FSM entry of `c` numerically.
 pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, VerifyError> {
@@ -159,6 +167,21 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         return Err(VerifyError::NoArrs);
     }
     let plant = plant(c, space);
+    let mut options = *options;
+    for _ in 0..MAX_REFINEMENTS {
+        match verify_with(c, &plant, &options) {
+            Err(VerifyError::Diverged(_)) => options.step /= 10.0,
+            done => return done,
+        }
+    }
+    verify_with(c, &plant, &options)
+}
+
+fn verify_with(
+    c: &Compiled,
+    plant: &Plant,
+    options: &VerifyOptions,
+) -> Result<Verification, VerifyError> {
     let nominal: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let n = plant.rhs.len();
     let initial: Vec<Vec<f64>> = (0..options.runs.max(1))
@@ -169,12 +192,16 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         })
         .collect();
     let healthy_run = Run {
-        plant: &plant,
+        plant,
         plant_params: nominal.clone(),
         nominal: nominal.clone(),
         faulty_sensor: None,
+        fault_size: 0.0,
         options,
     };
+    // A sensor fault is a fifth of the signal's peak on the healthy plant: a fixed size would
+    // be lost in a pressure of megapascals and swamp a temperature of a few kelvin.
+    let peaks = healthy_run.peaks(&initial[0])?;
     let mut worst = vec![0.0f64; c.arrs.len()];
     for x0 in &initial {
         for (w, r) in worst.iter_mut().zip(healthy_run.worst(x0)?) {
@@ -201,8 +228,14 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
                 .sensors
                 .find(|s| s.name == comp.name)
                 .map(|s| {
+                    let peak = plant
+                        .outputs
+                        .iter()
+                        .position(|(o, _)| *o == s)
+                        .map_or(0.0, |i| peaks[i]);
                     let run = Run {
                         faulty_sensor: Some(s),
+                        fault_size: if peak > 0.0 { 0.2 * peak } else { 1.0 },
                         ..healthy_run.clone()
                     };
                     (run, BTreeSet::new())
@@ -258,6 +291,7 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         arrs,
         entries,
         unchecked,
+        step: options.step,
     })
 }
 
@@ -319,9 +353,12 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
             out
         })
         .collect();
+    let mut outputs: Vec<(Handle<Sensor>, VId)> = outputs.into_iter().collect();
+    outputs.sort();
     Plant {
         pool,
         rhs,
+        outputs,
         integrals,
         residuals,
         terms,
@@ -379,9 +416,9 @@ fn input(k: usize, n: u32, t: f64, scale: f64) -> f64 {
     scale * if n == 0 { 1.0 + d } else { d }
 }
 
-/// The n-th derivative of the additive sensor fault `0.3 sin(2t + 1)` at t.
-fn sensor_fault(n: u32, t: f64) -> f64 {
-    0.3 * 2f64.powi(n as i32) * (2.0 * t + 1.0 + f64::from(n) * std::f64::consts::FRAC_PI_2).sin()
+/// The n-th derivative of the additive sensor fault `size sin(2t + 1)` at t.
+fn sensor_fault(n: u32, t: f64, size: f64) -> f64 {
+    size * 2f64.powi(n as i32) * (2.0 * t + 1.0 + f64::from(n) * std::f64::consts::FRAC_PI_2).sin()
 }
 
 /// One simulation: the plant's parameters, the detector's, and a faulty sensor if any.
@@ -391,6 +428,7 @@ struct Run<'a> {
     plant_params: Vec<f64>,
     nominal: Vec<f64>,
     faulty_sensor: Option<Handle<Sensor>>,
+    fault_size: f64,
     options: &'a VerifyOptions,
 }
 
@@ -402,7 +440,9 @@ impl Run<'_> {
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
             V::Input(u, n) => input(u.index(), n, t, self.options.input_scale),
-            V::SensorFault(s, n) if Some(s) == self.faulty_sensor => sensor_fault(n, t),
+            V::SensorFault(s, n) if Some(s) == self.faulty_sensor => {
+                sensor_fault(n, t, self.fault_size)
+            }
             V::SensorFault(..) => 0.0,
             V::Time => t,
         }
@@ -445,26 +485,31 @@ impl Run<'_> {
             .collect()
     }
 
-    /// Largest |residual| of each ARR along an RK4 trajectory from `x0`, relative to the
-    /// largest term it met on the way: residuals are in the model's units (m^3/s for a tank,
-    /// N for a mass), so only their size against their own terms says how far from zero.
-    fn worst(&self, x0: &[f64]) -> Result<Vec<f64>, VerifyError> {
+    /// The largest |output| of each detector along an RK4 trajectory from `x0`.
+    fn peaks(&self, x0: &[f64]) -> Result<Vec<f64>, VerifyError> {
+        let mut peaks = vec![0.0f64; self.plant.outputs.len()];
+        self.simulate(x0, |run, x, t| {
+            let mut ev =
+                Evaluator::new(&run.plant.pool, run.leaf(x, t)).with_integrals(run.integrals(x));
+            for (p, (_, e)) in peaks.iter_mut().zip(&run.plant.outputs) {
+                *p = p.max(ev.value(*e).abs());
+            }
+        })?;
+        Ok(peaks)
+    }
+
+    /// Integrates the plant from `x0` with RK4, calling `visit` at every step.
+    fn simulate(
+        &self,
+        x0: &[f64],
+        mut visit: impl FnMut(&Self, &[f64], f64),
+    ) -> Result<(), VerifyError> {
         let h = self.options.step;
         let mut x: Vec<f64> = x0.to_vec();
         x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
-        let n = self.plant.residuals.len();
-        let (mut worst, mut size) = (vec![0.0f64; n], vec![0.0f64; n]);
         for step in 0..self.options.steps {
             let t = step as f64 * h;
-            for (k, (r, s)) in self.residuals(&x, t).into_iter().enumerate() {
-                // A residual that is not finite is as wrong as one that is large.
-                worst[k] = if r.is_finite() {
-                    worst[k].max(r.abs())
-                } else {
-                    f64::INFINITY
-                };
-                size[k] = size[k].max(s);
-            }
+            visit(self, &x, t);
             let add = |x: &[f64], k: &[f64], s: f64| -> Vec<f64> {
                 x.iter().zip(k).map(|(a, b)| a + s * b).collect()
             };
@@ -479,6 +524,26 @@ impl Run<'_> {
                 return Err(VerifyError::Diverged(format!("{t}")));
             }
         }
+        Ok(())
+    }
+
+    /// Largest |residual| of each ARR along an RK4 trajectory from `x0`, relative to the
+    /// largest term it met on the way: residuals are in the model's units (m^3/s for a tank,
+    /// N for a mass), so only their size against their own terms says how far from zero.
+    fn worst(&self, x0: &[f64]) -> Result<Vec<f64>, VerifyError> {
+        let n = self.plant.residuals.len();
+        let (mut worst, mut size) = (vec![0.0f64; n], vec![0.0f64; n]);
+        self.simulate(x0, |run, x, t| {
+            for (k, (r, s)) in run.residuals(x, t).into_iter().enumerate() {
+                // A residual that is not finite is as wrong as one that is large.
+                worst[k] = if r.is_finite() {
+                    worst[k].max(r.abs())
+                } else {
+                    f64::INFINITY
+                };
+                size[k] = size[k].max(s);
+            }
+        })?;
         Ok(worst
             .iter()
             .zip(&size)
