@@ -68,6 +68,18 @@ fn a_causal_conflict_is_reported_in_user_names_with_exit_1() {
 }
 
 #[test]
+fn a_model_without_state_equations_cannot_be_verified() {
+    let out = bgc_stdin(&["verify", "-"], CONFLICT.as_bytes());
+    assert_eq!(code(&out), 1);
+    assert!(
+        stderr(&out).contains("bg::causal-conflict"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(stdout(&out).is_empty(), "{}", stdout(&out));
+}
+
+#[test]
 fn a_nonlinear_algebraic_loop_is_refused_with_its_elements() {
     let text = "model nl\nparam R1 = 2\nparam C1 = 3\ninput U\nSe u = U\nR r1 : f = e^3\n\
         R r2 = R1\nR r3 = C1\nC cap = C1\nu -> 1:a -> r1\na -> 0:b -> r2\nb -> 1:c -> r3, cap\n";
