@@ -125,10 +125,18 @@ fn arrs(out: &mut String, c: &Compiled) {
     }
 }
 
+/// Above this many ARRs the matrix is listed row by row (the ARRs each component shows in):
+/// a dense table of a 10,000-stage chain is 64 million cells that no one reads.
+pub const DENSE_FSM_LIMIT: usize = 30;
+
 fn fsm_table(out: &mut String, c: &Compiled) {
     let _ = writeln!(out, "fault signature matrix");
     if c.arrs.is_empty() {
         let _ = writeln!(out, "  empty: no ARRs");
+        return;
+    }
+    if c.arrs.len() > DENSE_FSM_LIMIT {
+        fsm_rows(out, c);
         return;
     }
     let width = c
@@ -166,5 +174,43 @@ fn fsm_table(out: &mut String, c: &Compiled) {
             "{}",
             format!("{line}  {}", params.join(" ")).trim_end()
         );
+    }
+}
+
+/// The matrix as one line per component: kind, Db, Ib, and the ARRs it shows in.
+fn fsm_rows(out: &mut String, c: &Compiled) {
+    let width = c
+        .components
+        .values()
+        .map(|r| r.name.len())
+        .max()
+        .unwrap_or(0)
+        .max("component".len());
+    let _ = writeln!(
+        out,
+        "  ({} ARRs: each component with the ARRs it shows in)",
+        c.arrs.len()
+    );
+    let _ = writeln!(
+        out,
+        "  {:<width$}  {:<5}  Db  Ib  ARRs",
+        "component", "kind"
+    );
+    for row in c.components.values() {
+        let flag = |b: bool| if b { "1" } else { "0" };
+        let arrs: Vec<&str> = row.marks.iter().map(|&k| c.arrs[k].name.as_str()).collect();
+        let line = format!(
+            "  {:<width$}  {:<5}  {:>2}  {:>2}  {}",
+            row.name,
+            row.kind.name(),
+            flag(row.detectable),
+            flag(row.isolable),
+            if arrs.is_empty() {
+                "-".to_string()
+            } else {
+                arrs.join(" ")
+            }
+        );
+        let _ = writeln!(out, "{}", line.trim_end());
     }
 }

@@ -16,7 +16,10 @@ mod rules;
 
 use std::time::{Duration, Instant};
 
-use egg::{CostFunction, Extractor, Rewrite, Runner, StopReason};
+use std::cell::RefCell;
+use std::collections::HashMap;
+
+use egg::{CostFunction, Extractor, RecExpr, Rewrite, Runner, StopReason};
 
 use super::pool::{ExprId, Pool};
 use cost::Readable;
@@ -87,6 +90,19 @@ pub struct Rewritten {
 pub struct Rewriter {
     rules: Vec<Rewrite<Math, ConstantFold>>,
     limits: Limits,
+    /// Rounds already run, by their input: the search depends on the e-graph expression
+    /// alone (atoms are numbered in the order they are met), so an expression of the same
+    /// shape as one seen before (the ARRs of the stages of a chain) gets the same form at
+    /// no cost. Rounds the clock stopped are not kept.
+    seen: RefCell<HashMap<RecExpr<Math>, Seen>>,
+}
+
+/// What a round gave: its best form when shorter than its input, how it stopped, its size.
+#[derive(Clone)]
+struct Seen {
+    best: Option<RecExpr<Math>>,
+    stop: Stop,
+    nodes: usize,
 }
 
 impl Rewriter {
@@ -96,6 +112,7 @@ impl Rewriter {
         Rewriter {
             rules: rules::rules(),
             limits,
+            seen: RefCell::new(HashMap::new()),
         }
     }
 
@@ -145,11 +162,38 @@ impl Rewriter {
         if expr.len() > self.limits.nodes {
             return Round::unchanged(root, Stop::TooLarge, 0);
         }
+        if let Some(seen) = self.seen.borrow().get(&expr) {
+            // Free: nothing was built.
+            return Round {
+                expr: seen
+                    .best
+                    .as_ref()
+                    .map_or(root, |best| from_egg(pool, best, &atoms)),
+                stop: seen.stop,
+                nodes: 0,
+            };
+        }
+        let seen = self.search(&expr, time);
+        if seen.stop != Stop::TimeLimit {
+            self.seen.borrow_mut().insert(expr, seen.clone());
+        }
+        Round {
+            expr: seen
+                .best
+                .as_ref()
+                .map_or(root, |best| from_egg(pool, best, &atoms)),
+            stop: seen.stop,
+            nodes: seen.nodes,
+        }
+    }
+
+    /// The e-graph of `expr` within the limits, and its shortest form if shorter.
+    fn search(&self, expr: &RecExpr<Math>, time: Duration) -> Seen {
         let runner = Runner::<Math, ConstantFold, ()>::default()
             .with_node_limit(self.limits.nodes)
             .with_iter_limit(self.limits.iterations)
             .with_time_limit(time)
-            .with_expr(&expr)
+            .with_expr(expr)
             .run(&self.rules);
         let stop = match runner.stop_reason {
             Some(StopReason::NodeLimit(_)) => Stop::NodeLimit,
@@ -158,18 +202,22 @@ impl Rewriter {
             _ => Stop::Saturated,
         };
         let nodes = runner.egraph.total_number_of_nodes();
-        let Some(&top) = runner.roots.first() else {
-            return Round::unchanged(root, stop, nodes);
-        };
-        let readable = Readable::new(&runner.egraph, &expr);
-        let (cost, best) = Extractor::new(&runner.egraph, readable).find_best(top);
-        if cost.length >= Readable::plain().cost_rec(&expr).length {
-            return Round::unchanged(root, stop, nodes);
-        }
-        Round {
-            expr: from_egg(pool, &best, &atoms),
+        let unchanged = Seen {
+            best: None,
             stop,
             nodes,
+        };
+        let Some(&top) = runner.roots.first() else {
+            return unchanged;
+        };
+        let readable = Readable::new(&runner.egraph, expr);
+        let (cost, best) = Extractor::new(&runner.egraph, readable).find_best(top);
+        if cost.length >= Readable::plain().cost_rec(expr).length {
+            return unchanged;
+        }
+        Seen {
+            best: Some(best),
+            ..unchanged
         }
     }
 }
