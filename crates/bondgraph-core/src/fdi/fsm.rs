@@ -3,6 +3,7 @@
 use std::collections::{BTreeSet, HashMap};
 
 use super::arr::Diagnosis;
+use super::sensitivity::depends_on;
 use crate::graph::{
     BondGraph, DetectorKind, ElementKind, LetId, NodeId, NodeKind, ParamId, Signal, SignalExpr,
 };
@@ -223,10 +224,15 @@ impl Fsm {
                     _ => {}
                 }
             }
-            // A component with parameters of its own is marked only where one of them
-            // survives simplification: a term that cancels cannot show a fault.
+            // A component with parameters of its own is marked only where the residual
+            // depends on one of them: a parameter that cancels cannot show a fault, even if
+            // it is still written (a factor of both a numerator and a denominator).
+            let pool = &diagnosis.causal.system.pool;
             let survives = |c: &Component| {
-                c.parameters.is_empty() || c.parameters.iter().any(|p| params.contains(p))
+                c.parameters.is_empty()
+                    || c.parameters
+                        .iter()
+                        .any(|p| params.contains(p) && depends_on(pool, arr.residual, *p, model))
             };
             let mut rows: BTreeSet<usize> = BTreeSet::new();
             for n in &arr.nodes {

@@ -3,6 +3,7 @@
 mod arr;
 pub mod eliminate;
 mod fsm;
+mod sensitivity;
 
 pub use arr::{diagnose, Diagnosis};
 pub use fsm::{ComponentKind, Fsm};
