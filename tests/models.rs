@@ -113,7 +113,7 @@ fn tool(name: &str) -> bool {
     found
 }
 
-/// Compiles a standalone LaTeX document with pdflatex.
+/// Compiles a standalone LaTeX document with pdflatex, and checks that no line is too wide.
 fn compile_latex(model: &str, tex: &str) {
     if !tool("pdflatex") {
         return;
@@ -131,10 +131,15 @@ fn compile_latex(model: &str, tex: &str) {
         .stdin(Stdio::null())
         .output()
         .expect("pdflatex runs");
+    let log = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success() && dir.join("arr.pdf").exists(),
-        "{model}: pdflatex failed:\n{}",
-        String::from_utf8_lossy(&out.stdout)
+        "{model}: pdflatex failed:\n{log}"
+    );
+    // Every equation stays within the margins: long ones are broken or named.
+    assert!(
+        !log.contains("Overfull \\hbox"),
+        "{model}: a line runs past the margin:\n{log}"
     );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -3,7 +3,9 @@
 
 use std::fmt::Write as _;
 
-use bondgraph_core::{Compiled, Printer};
+use std::collections::HashMap;
+
+use bondgraph_core::{Compiled, Expr, ExprId, Node, Pool, Printer, Symbol};
 
 use crate::names;
 
@@ -18,7 +20,7 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
         out.push_str("\\documentclass{article}\n\\usepackage{amsmath}\n\\usepackage[margin=2cm]{geometry}\n\\allowdisplaybreaks\n\\begin{document}\n");
         let _ = writeln!(out, "\\section*{{Model \\texttt{{{}}}}}", escape(&c.name));
     }
-    let printer = Printer::new(&c.exprs, |s| names::latex(c, s));
+    let mut writer = Writer::new(c);
     if let Some(space) = c.state_space.as_ref().filter(|s| !s.equations.is_empty()) {
         out.push_str("% State equations\n\\begin{align}\n");
         let lines: Vec<String> = space
@@ -26,7 +28,7 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
             .iter()
             .map(|(k, rhs)| {
                 let lhs = names::latex_derivative(&c.states[*k].name, 1);
-                broken(&format!("  {lhs} &= "), &printer.latex_terms(*rhs), "")
+                writer.equation(&format!("  {lhs} &= "), *rhs, "")
             })
             .collect();
         out.push_str(&lines.join(" \\\\\n"));
@@ -39,7 +41,7 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
             .iter()
             .map(|arr| {
                 let head = format!("  \\mathrm{{{}}}:\\quad & ", arr.name);
-                broken(&head, &printer.latex_terms(arr.expr), " = 0")
+                writer.equation(&head, arr.expr, " = 0")
             })
             .collect();
         out.push_str(&lines.join(" \\\\\n"));
@@ -60,6 +62,145 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
         out.push_str("\\end{document}\n");
     }
     out
+}
+
+/// A leaf of an equation being written: a name of the model, or a subexpression named
+/// `\Phi_k` because it is too long for a line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum Aux {
+    Symbol(Symbol),
+    Named(usize),
+}
+
+/// Writes the equations of a document, naming what does not fit on a line: a term longer
+/// than [`LINE`] has its long parts (a third of a line or more) replaced by `\Phi_k`, each
+/// defined on lines of its own just before the equation that uses it.
+struct Writer<'c> {
+    c: &'c Compiled,
+    pool: Pool<Aux>,
+    named: usize,
+    names: HashMap<ExprId<Aux>, ExprId<Aux>>,
+}
+
+impl<'c> Writer<'c> {
+    fn new(c: &'c Compiled) -> Self {
+        Writer {
+            c,
+            pool: Pool::default(),
+            named: 0,
+            names: HashMap::new(),
+        }
+    }
+
+    fn latex(&self, e: ExprId<Aux>) -> String {
+        let c = self.c;
+        Printer::new(&self.pool, |l| match l {
+            Aux::Symbol(s) => names::latex(c, s),
+            Aux::Named(k) => format!("\\Phi_{{{k}}}"),
+        })
+        .latex(e)
+    }
+
+    fn terms(&self, e: ExprId<Aux>) -> Vec<(bool, String)> {
+        let c = self.c;
+        let printer = Printer::new(&self.pool, |l| match l {
+            Aux::Symbol(s) => names::latex(c, s),
+            Aux::Named(k) => format!("\\Phi_{{{k}}}"),
+        });
+        let terms = printer.terms(e);
+        let alone = terms.len() == 1;
+        terms
+            .into_iter()
+            .map(|(plus, t)| (plus, printer.latex_term(t, alone)))
+            .collect()
+    }
+
+    /// The lines of one equation: the definitions it needs, then itself.
+    fn equation(&mut self, head: &str, root: Expr, tail: &str) -> String {
+        let e = self
+            .pool
+            .import_from(&self.c.exprs, root, |p, s| p.leaf(Aux::Symbol(s)));
+        let mut defined = Vec::new();
+        let e = self.shorten_terms(e, &mut defined);
+        let mut lines: Vec<String> = defined
+            .iter()
+            .map(|&(k, def)| {
+                let head = format!("  \\Phi_{{{k}}} &= ");
+                format!("{} \\nonumber", broken(&head, &self.terms(def), ""))
+            })
+            .collect();
+        lines.push(broken(head, &self.terms(e), tail));
+        lines.join(" \\\\\n")
+    }
+
+    /// `e` with each term of its top-level sum shortened to fit a line.
+    fn shorten_terms(
+        &mut self,
+        e: ExprId<Aux>,
+        defined: &mut Vec<(usize, ExprId<Aux>)>,
+    ) -> ExprId<Aux> {
+        let terms = Printer::new(&self.pool, |_| String::new()).terms(e);
+        if terms.len() == 1 {
+            return self.shorten(e, defined);
+        }
+        let mut out: Option<ExprId<Aux>> = None;
+        for (plus, t) in terms {
+            let t = self.shorten(t, defined);
+            out = Some(match (out, plus) {
+                (None, true) => t,
+                (None, false) => self.pool.neg(t),
+                (Some(a), true) => self.pool.add(a, t),
+                (Some(a), false) => self.pool.sub(a, t),
+            });
+        }
+        out.unwrap_or(e)
+    }
+
+    /// `e` with its longest parts named, one at a time, until it fits on a line.
+    fn shorten(&mut self, e: ExprId<Aux>, defined: &mut Vec<(usize, ExprId<Aux>)>) -> ExprId<Aux> {
+        let mut e = e;
+        while self.latex(e).len() > LINE {
+            let node = self.pool.node(e);
+            let children: Vec<ExprId<Aux>> = match node {
+                Node::Num(_) | Node::Leaf(_) => Vec::new(),
+                Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => vec![a],
+                Node::Binary(_, a, b) | Node::Call2(_, a, b) => vec![a, b],
+            };
+            let longest = children
+                .iter()
+                .copied()
+                .filter(|&x| !matches!(self.pool.node(x), Node::Leaf(_) | Node::Num(_)))
+                .max_by_key(|&x| self.latex(x).len());
+            let Some(longest) = longest else {
+                return e;
+            };
+            let name = self.name(longest, defined);
+            let map = |x: ExprId<Aux>| if x == longest { name } else { x };
+            e = match node {
+                Node::Num(_) | Node::Leaf(_) => e,
+                Node::Neg(a) => self.pool.neg(map(a)),
+                Node::Binary(op, a, b) => self.pool.binary(op, map(a), map(b)),
+                Node::Call1(f, a) => self.pool.call(f, &[map(a)]),
+                Node::Call2(f, a, b) => self.pool.call(f, &[map(a), map(b)]),
+                Node::Int(a) => self.pool.int(map(a)),
+            };
+        }
+        e
+    }
+
+    /// The name of `x`, defined (shortened in its turn) the first time it is needed; the
+    /// same subexpression keeps its name through the document.
+    fn name(&mut self, x: ExprId<Aux>, defined: &mut Vec<(usize, ExprId<Aux>)>) -> ExprId<Aux> {
+        if let Some(&name) = self.names.get(&x) {
+            return name;
+        }
+        let def = self.shorten_terms(x, defined);
+        self.named += 1;
+        defined.push((self.named, def));
+        let name = self.pool.leaf(Aux::Named(self.named));
+        self.names.insert(x, name);
+        name
+    }
 }
 
 /// One equation of an `align`, its terms packed into lines of about [`LINE`] characters;

@@ -93,6 +93,29 @@ impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
         out
     }
 
+    /// The terms of the top-level sum of `root` with their signs (`true` for plus): `root`
+    /// itself, with a plus, when it is not a sum. A negated sum is kept whole.
+    pub fn terms(&self, root: ExprId<L>) -> Vec<(bool, ExprId<L>)> {
+        let (inner, negated) = match self.pool.node(root) {
+            Node::Neg(a) => (a, true),
+            _ => (root, false),
+        };
+        let (first, rest) = self.chain(inner, |o| o.precedence() == 1);
+        if negated && !rest.is_empty() {
+            return vec![(true, root)];
+        }
+        let mut out = vec![(!negated, first)];
+        out.extend(rest.into_iter().map(|(op, b)| (op == BinOp::Add, b)));
+        out
+    }
+
+    /// LaTeX of one term of a sum: grouped as a term after a sign needs.
+    pub fn latex_term(&self, term: ExprId<L>, alone: bool) -> String {
+        let mut text = String::new();
+        self.latex_into(&mut text, term, if alone { 0 } else { 2 });
+        text
+    }
+
     /// The terms of the top-level sum, each in LaTeX with its sign (`true` for plus), so that
     /// a long equation can be broken between them.
     pub fn latex_terms(&self, root: ExprId<L>) -> Vec<(bool, String)> {
