@@ -25,7 +25,18 @@ fn emit(model: &str, args: &[&str]) -> String {
         out.stdout, again.stdout,
         "{model} {args:?}: output differs between runs"
     );
+    plausible(model, &stdout(&out));
     stdout(&out)
+}
+
+/// Nothing implausible is printed: no non-number, no solver name.
+fn plausible(model: &str, text: &str) {
+    for word in ["NaN", "inf", "unknown", "Var(", "Tear("] {
+        let bare = text
+            .split(|c: char| !c.is_alphanumeric() && c != '(' && c != '_')
+            .any(|w| w == word);
+        assert!(!bare, "{model}: output holds `{word}`");
+    }
 }
 
 #[test]
@@ -49,6 +60,11 @@ fn every_model_checks_and_every_emitter_is_snapshotted() {
         insta::assert_snapshot!("latex", emit(&model, &["--emit", "latex"]));
         let json = emit(&model, &["--emit", "json"]);
         schema(&model, &json);
+        sparse_matches_dense(
+            &model,
+            &json,
+            &emit(&model, &["--emit", "json", "--fsm", "sparse"]),
+        );
         insta::assert_snapshot!("json", json);
         compile_latex(&model, &emit(&model, &["--emit", "latex", "--standalone"]));
         let causality = bgc(&["causality", &model]);
@@ -74,6 +90,10 @@ fn schema(model: &str, text: &str) {
     for e in v["state_equations"].as_array().expect("state_equations") {
         assert!(e["state"].is_string() && e["rhs"].is_string());
     }
+    for o in v["outputs"].as_array().expect("outputs") {
+        assert!(o["sensor"].is_string() && o["expr"].is_string());
+    }
+    assert!(v["diagnostics"].as_array().expect("diagnostics").is_empty());
     let residuals = v["fsm"]["residuals"].as_array().expect("residuals");
     assert_eq!(residuals.len(), arrs.len());
     for (i, arr) in arrs.iter().enumerate() {
@@ -82,6 +102,11 @@ fn schema(model: &str, text: &str) {
             assert!(arr[key].is_string(), "{model}: ARR{} lacks {key}", i + 1);
         }
         assert!(arr["components"].is_array());
+        for r in arr["reads"].as_array().expect("reads") {
+            assert!(
+                r["signal"].is_string() && r["orders"].is_array() && r["integral"].is_boolean()
+            );
+        }
     }
     for row in v["fsm"]["rows"].as_array().expect("rows") {
         let signature = row["signature"].as_array().expect("signature");
@@ -92,6 +117,36 @@ fn schema(model: &str, text: &str) {
             assert!(row[key].is_string());
         }
         assert!(row["parameters"].is_array() && row["signals"].is_array());
+    }
+}
+
+/// `--fsm sparse` lists, for each row, the ARRs where the dense signature has a 1.
+fn sparse_matches_dense(model: &str, dense: &str, sparse: &str) {
+    let d: serde_json::Value = serde_json::from_str(dense).expect("dense JSON");
+    let s: serde_json::Value = serde_json::from_str(sparse).expect("sparse JSON");
+    let names = d["fsm"]["residuals"].as_array().expect("residuals").clone();
+    for (dr, sr) in d["fsm"]["rows"]
+        .as_array()
+        .expect("rows")
+        .iter()
+        .zip(s["fsm"]["rows"].as_array().expect("rows"))
+    {
+        assert!(
+            sr.get("signature").is_none(),
+            "{model}: sparse rows hold no signature"
+        );
+        let listed: Vec<&serde_json::Value> = dr["signature"]
+            .as_array()
+            .expect("signature")
+            .iter()
+            .zip(&names)
+            .filter(|(bit, _)| **bit == 1)
+            .map(|(_, n)| n)
+            .collect();
+        let arrs: Vec<&serde_json::Value> = sr["arrs"].as_array().expect("arrs").iter().collect();
+        assert_eq!(listed, arrs, "{model}: {}", dr["component"]);
+        assert_eq!(dr["Db"], sr["Db"]);
+        assert_eq!(dr["Ib"], sr["Ib"]);
     }
 }
 

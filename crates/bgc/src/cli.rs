@@ -33,6 +33,11 @@ pub struct Args {
     #[arg(long)]
     standalone: bool,
 
+    /// With `--emit json`: the FSM's rows as a `signature` of 0 and 1 per ARR (dense), or as
+    /// the names of the ARRs each shows in (sparse, for large models).
+    #[arg(long, value_enum, value_name = "FORM", default_value = "dense")]
+    fsm: FsmArg,
+
     /// Write the output to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -158,6 +163,15 @@ enum Target {
     Dot,
 }
 
+/// How the JSON writes the FSM.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FsmArg {
+    /// One 0 or 1 per ARR in each row.
+    Dense,
+    /// The ARRs each row shows in.
+    Sparse,
+}
+
 /// Why bgc stops without success.
 pub enum Failure {
     /// The model has errors; they were reported.
@@ -226,6 +240,10 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 eprintln!("error: --standalone applies to --emit latex only");
                 return Err(Failure::Usage);
             }
+            if args.fsm == FsmArg::Sparse && args.emit != Target::Json {
+                eprintln!("error: --fsm applies to --emit json only");
+                return Err(Failure::Usage);
+            }
             let derive = match args.emit {
                 Target::State | Target::Dot => Derive::StateEquations,
                 _ => Derive::Everything,
@@ -237,7 +255,13 @@ pub fn run(args: Args) -> Result<(), Failure> {
             let c = compile(&model, derive, limits)?;
             let text = match args.emit {
                 Target::Text => bondgraph_codegen::text::emit(&c),
-                Target::Json => bondgraph_codegen::json::emit(&c),
+                Target::Json => bondgraph_codegen::json::emit_with(
+                    &c,
+                    match args.fsm {
+                        FsmArg::Dense => bondgraph_codegen::json::FsmForm::Dense,
+                        FsmArg::Sparse => bondgraph_codegen::json::FsmForm::Sparse,
+                    },
+                ),
                 Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
                 Target::State => bondgraph_codegen::text::state(&c),
                 Target::Dot => bondgraph_codegen::dot::emit(&c),

@@ -39,8 +39,24 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
     format!("[{}]", items.into_iter().collect::<Vec<_>>().join(", "))
 }
 
-/// The product as JSON.
+/// How the fault signature matrix is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum FsmForm {
+    /// Each row's `signature`: one 0 or 1 per ARR.
+    #[default]
+    Dense,
+    /// Each row's `arrs`: the names of the ARRs it shows in (for models with many ARRs:
+    /// the dense matrix of a 10,000-stage chain is most of a 199 MB file).
+    Sparse,
+}
+
+/// The product as JSON, with the FSM in its dense form.
 pub fn emit(c: &Compiled) -> String {
+    emit_with(c, FsmForm::Dense)
+}
+
+/// The product as JSON, with the FSM in the form asked for.
+pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
     let mut out = String::from("{\n");
     let _ = writeln!(out, "  \"model\": {},", string(&c.name));
     let params: Vec<String> = c
@@ -64,7 +80,7 @@ pub fn emit(c: &Compiled) -> String {
     let _ = writeln!(out, "  \"sensors\": {},", list(sensors));
     state_space(&mut out, c);
     arrs(&mut out, c);
-    fsm(&mut out, c);
+    fsm(&mut out, c, form);
     diagnostics(&mut out, c);
     out.push_str("}\n");
     out
@@ -135,19 +151,28 @@ fn arrs(out: &mut String, c: &Compiled) {
     let _ = writeln!(out, "  \"arrs\": [{}\n  ],", arrs.join(","));
 }
 
-fn fsm(out: &mut String, c: &Compiled) {
+fn fsm(out: &mut String, c: &Compiled, form: FsmForm) {
     let bit = |b: bool| if b { "1" } else { "0" }.to_string();
     let rows: Vec<String> = c
         .components
         .values()
         .map(|r| {
+            let marks = match form {
+                FsmForm::Dense => format!(
+                    "\"signature\": {}",
+                    list(r.signature(c.arrs.len()).into_iter().map(bit))
+                ),
+                FsmForm::Sparse => format!(
+                    "\"arrs\": {}",
+                    list(r.marks.iter().map(|&k| string(&c.arrs[k].name)))
+                ),
+            };
             format!(
-                "\n      {{\"component\": {}, \"kind\": {}, \"parameters\": {}, \"signals\": {}, \"signature\": {}, \"Db\": {}, \"Ib\": {}}}",
+                "\n      {{\"component\": {}, \"kind\": {}, \"parameters\": {}, \"signals\": {}, {marks}, \"Db\": {}, \"Ib\": {}}}",
                 string(&r.name),
                 string(r.kind.name()),
                 list(r.parameters.iter().map(|p| string(&c.parameters[*p].name))),
                 list(r.signals.iter().map(|s| string(s))),
-                list(r.signature(c.arrs.len()).into_iter().map(bit)),
                 bit(r.detectable),
                 bit(r.isolable)
             )
