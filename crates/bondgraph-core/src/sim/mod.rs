@@ -144,20 +144,27 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
 /// Which states are independent: those whose storage element took integral causality. A
 /// storage element in derivative causality (an inertia behind a rigid gear) holds none.
 fn independent(causal: &Causal) -> Vec<bool> {
+    // The storage equation that set each element's co-energy variable from its state.
+    let mut integral: HashMap<NodeId, bool> = HashMap::new();
+    for (i, eq) in causal.system.equations.iter().enumerate() {
+        if let (
+            Relation::Storage {
+                integral: Some((co, _)),
+                ..
+            },
+            Use::Solves { var, .. },
+        ) = (&eq.relation, causal.solved.uses[i])
+        {
+            if *co == var {
+                integral.insert(eq.owner, true);
+            }
+        }
+    }
     causal
         .system
         .states
         .iter()
-        .map(|s| {
-            causal.system.equations.iter().enumerate().any(|(i, eq)| {
-                eq.owner == s.element
-                    && matches!(
-                        (&eq.relation, causal.solved.uses[i]),
-                        (Relation::Storage { integral: Some((co, _)), .. }, Use::Solves { var, .. })
-                            if *co == var
-                    )
-            })
-        })
+        .map(|s| integral.contains_key(&s.element))
         .collect()
 }
 
