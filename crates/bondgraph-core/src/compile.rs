@@ -84,6 +84,9 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
         });
     }
     let mut analysis = analyse(&model, options.derive == Derive::Everything);
+    if options.simplify.is_none() {
+        analysis.normalise();
+    }
     let mut unsimplified = Vec::new();
     if let Some(limits) = options.simplify {
         let s = analysis.simplify(limits);

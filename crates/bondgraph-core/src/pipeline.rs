@@ -4,7 +4,9 @@ use crate::causality::{assign, Causal, Mode};
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::BondGraph;
 use crate::sim::{state_space_of, StateSpace};
+use crate::symbolic::rewrite::length;
 use crate::symbolic::rewrite::{Limits, Rewriter, Stop};
+use crate::symbolic::{ExprId, Pool, Simplifier};
 
 /// What the stages derived from a model; the product is built from it.
 pub(crate) struct Analysis<'m> {
@@ -55,6 +57,34 @@ pub(crate) struct Simplified {
 }
 
 impl Analysis<'_> {
+    /// For `--canonical`: every shown expression with the terms that share reciprocals of
+    /// sums over their common denominator (see [`Simplifier::together`]), where that is
+    /// shorter to read.
+    pub fn normalise(&mut self) {
+        let shorter = |pool: &mut Pool, simplifier: &mut Simplifier, e: ExprId| {
+            let together = simplifier.together(pool, e);
+            if length(pool, together) < length(pool, e) {
+                together
+            } else {
+                e
+            }
+        };
+        if let Some((d, _)) = &mut self.diagnosis {
+            let mut simplifier = Simplifier::default();
+            for arr in &mut d.arrs {
+                arr.residual = shorter(&mut d.causal.system.pool, &mut simplifier, arr.residual);
+            }
+        }
+        let mut simplifier = Simplifier::default();
+        let state = &mut self.state;
+        for s in &mut state.states {
+            s.rhs = shorter(&mut state.pool, &mut simplifier, s.rhs);
+        }
+        for (_, e) in &mut state.outputs {
+            *e = shorter(&mut state.pool, &mut simplifier, *e);
+        }
+    }
+
     /// Rewrites every expression the emitters show (ARRs first, then state equations and
     /// detector outputs) into the cheapest form egg finds within `limits`. The FSM and the
     /// derivations are already done on the canonical forms; only how each is written changes.
@@ -64,7 +94,12 @@ impl Analysis<'_> {
         let mut spent = 0usize;
         let mut skipped = Vec::new();
         let mut timed_out = None;
-        let mut choose = |pool: &mut _, root, what: &dyn Fn() -> String| {
+        let mut simplifier = Simplifier::default();
+        let mut state_simplifier = Simplifier::default();
+        let mut choose = |pool: &mut Pool,
+                          simplifier: &mut Simplifier,
+                          root: ExprId,
+                          what: &dyn Fn() -> String| {
             if timed_out.is_some() {
                 return root;
             }
@@ -75,8 +110,18 @@ impl Analysis<'_> {
                 });
                 return root;
             }
-            let r = rewriter.cheapest(pool, root);
+            let mut r = rewriter.cheapest(pool, root);
             spent = spent.saturating_add(r.nodes);
+            // The form over a common denominator is a second starting point: kept when its
+            // best form is strictly shorter.
+            let together = simplifier.together(pool, root);
+            if together != root && r.stop != Stop::TimeLimit {
+                let t = rewriter.cheapest(pool, together);
+                spent = spent.saturating_add(t.nodes);
+                if t.stop == Stop::TimeLimit || t.after < r.after {
+                    r = t;
+                }
+            }
             match r.stop {
                 Stop::TimeLimit => timed_out = Some(what()),
                 Stop::TooLarge => skipped.push(Unsimplified {
@@ -90,16 +135,20 @@ impl Analysis<'_> {
         if let Some((d, _)) = &mut self.diagnosis {
             let pool = &mut d.causal.system.pool;
             for arr in &mut d.arrs {
-                arr.residual = choose(pool, arr.residual, &|| arr.name.clone());
+                arr.residual = choose(pool, &mut simplifier, arr.residual, &|| arr.name.clone());
             }
         }
         let state = &mut self.state;
         for s in &mut state.states {
-            s.rhs = choose(&mut state.pool, s.rhs, &|| format!("der({})", s.name));
+            s.rhs = choose(&mut state.pool, &mut state_simplifier, s.rhs, &|| {
+                format!("der({})", s.name)
+            });
         }
         for (sensor, e) in &mut state.outputs {
             let name = &self.model.node(*sensor).name;
-            *e = choose(&mut state.pool, *e, &|| format!("the output {name}"));
+            *e = choose(&mut state.pool, &mut state_simplifier, *e, &|| {
+                format!("the output {name}")
+            });
         }
         Simplified { skipped, timed_out }
     }

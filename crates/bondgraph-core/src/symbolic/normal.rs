@@ -265,6 +265,62 @@ impl Simplifier {
         out
     }
 
+    /// `root` in canonical form, with the terms that share reciprocals of sums put over
+    /// their common denominator when that leaves fewer terms:
+    /// `g E/(E+1)^2 + g E/(E+1) - g E^2/(E+1)^2` is `2 g E/(E+1)^2`. The numerator is
+    /// expanded within [`MAX_TERMS`]; past it the canonical form is kept.
+    pub fn together(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+        let poly = self.poly(pool, root);
+        let mut depth: BTreeMap<ExprId, i32> = BTreeMap::new();
+        for (m, _) in poly.iter() {
+            for &(a, e) in m.iter() {
+                if e < 0 && self.poly(pool, a).len() > 1 {
+                    let k = depth.entry(a).or_insert(0);
+                    *k = (*k).max(-e);
+                }
+            }
+        }
+        if depth.is_empty() {
+            return self.simplify(pool, root);
+        }
+        // Only the terms over a sum are put together; the others stay as they are.
+        let over_sum = |m: &Monomial| m.iter().any(|(a, e)| *e < 0 && depth.contains_key(a));
+        let (fractions, plain): (Vec<_>, Vec<_>) = poly.iter().partition(|(m, _)| over_sum(m));
+        let mut numerator = Poly::default();
+        for (m, &c) in &fractions {
+            // The term times every denominator S^k: S^(k + e) for the sums it holds with
+            // exponent e, S^k for those it does not hold.
+            let rest: Monomial = m
+                .iter()
+                .filter(|(a, _)| !depth.contains_key(a))
+                .copied()
+                .collect();
+            let mut term = constant(c);
+            for (&a, &k) in &depth {
+                let e = m.iter().find(|(b, _)| *b == a).map_or(0, |(_, e)| *e);
+                let sum = self.poly(pool, a);
+                for _ in 0..(k + e) {
+                    term = mul(&term, &sum);
+                    if term.len() > MAX_TERMS {
+                        return self.simplify(pool, root);
+                    }
+                }
+            }
+            add_into(&mut numerator, &mul(&term, &constant_poly(rest, 1.0)), 1.0);
+            if numerator.len() > MAX_TERMS {
+                return self.simplify(pool, root);
+            }
+        }
+        if numerator.len() >= fractions.len() {
+            return self.simplify(pool, root);
+        }
+        let denominator: Monomial = depth.iter().map(|(&a, &k)| (a, -k)).collect();
+        let mut together = mul(&numerator, &constant_poly(denominator, 1.0));
+        let plain = Poly::from_terms(plain.into_iter().map(|(m, c)| (m.clone(), *c)).collect());
+        add_into(&mut together, &plain, 1.0);
+        rebuild(pool, &together)
+    }
+
     /// Forgets the polynomials of the nodes seen so far (not the simplified forms).
     pub fn forget_polynomials(&mut self) {
         self.polys = FastMap::default();

@@ -236,7 +236,7 @@ impl Round {
 }
 
 /// The printed length of `root`.
-fn length(pool: &Pool, root: ExprId) -> usize {
+pub(crate) fn length(pool: &Pool, root: ExprId) -> usize {
     Readable::plain().cost_rec(&to_egg(pool, root).0).length
 }
 
