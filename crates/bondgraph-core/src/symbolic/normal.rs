@@ -658,6 +658,42 @@ mod tests {
         assert!(!p.leaves(simple).contains(&Leaf::Param(ParamId(0))));
     }
 
+    /// The sigmoid's derivative from the chain rule, three fractions over (E + 1) and
+    /// (E + 1)^2, is one: g E/(E+1)^2 + g E/(E+1) - g E^2/(E+1)^2 = 2 g E/(E+1)^2; a term
+    /// without a denominator stays outside.
+    #[test]
+    fn fractions_over_a_common_sum_are_put_together() {
+        let mut p = Pool::default();
+        let (g, x, y) = (
+            p.leaf(Leaf::Param(ParamId(0))),
+            p.leaf(Leaf::Param(ParamId(1))),
+            p.leaf(Leaf::Param(ParamId(2))),
+        );
+        let e = p.call(crate::expr::Func::Exp, &[x]);
+        let one = p.num(1.0);
+        let two = p.num(2.0);
+        let s = p.add(e, one);
+        let s2 = p.pow(s, two);
+        let ge = p.mul(g, e);
+        let a = p.div(ge, s2);
+        let b = p.div(ge, s);
+        let e2 = p.pow(e, two);
+        let ge2 = p.mul(g, e2);
+        let c = p.div(ge2, s2);
+        let ab = p.add(a, b);
+        let abc = p.sub(ab, c);
+        let sum = p.add(abc, y);
+        let mut simplifier = Simplifier::default();
+        let together = simplifier.together(&mut p, sum);
+        let text = crate::symbolic::Printer::new(&p, |l| match l {
+            Leaf::Param(ParamId(0)) => "g".to_string(),
+            Leaf::Param(ParamId(1)) => "x".to_string(),
+            _ => "y".to_string(),
+        })
+        .text(together);
+        assert_eq!(text, "2 * g * exp(x) / (exp(x) + 1) ^ 2 + y");
+    }
+
     #[test]
     fn integrals_are_linear() {
         let mut p = Pool::default();
