@@ -1,8 +1,9 @@
 //! The front door: a model's text in, the product and every diagnostic out.
 
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use crate::display::Unsimplified;
 use crate::graph::{first_too_large, MAX_EXPANDED};
-use crate::pipeline::{analyse, Unsimplified};
+use crate::pipeline::analyse;
 use crate::product::{build, Compiled};
 use crate::symbolic::rewrite::Limits;
 

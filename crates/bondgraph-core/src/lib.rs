@@ -8,6 +8,7 @@
 mod causality;
 mod compile;
 pub mod diagnostic;
+mod display;
 mod expr;
 mod fdi;
 #[doc(hidden)]
@@ -21,8 +22,8 @@ mod syntax;
 mod verify;
 
 pub use compile::{compile, without_bom, Derive, Options, Output};
+pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
-pub use pipeline::Unsimplified;
 pub use product::*;
 pub use symbolic::rewrite::{Limits, Stop};
 pub use symbolic::{Evaluator, ExprId, LeafKind, Node, Pool, Printer};

@@ -1,0 +1,124 @@
+//! How expressions are shown: the display policy applied to what the pipeline derived, once
+//! the derivations and the FSM are done on canonical forms. Only how each expression is
+//! written changes here, never what it is.
+
+use crate::pipeline::Analysis;
+use crate::symbolic::rewrite::length;
+use crate::symbolic::rewrite::{Limits, Rewriter, Stop};
+use crate::symbolic::{ExprId, Pool, Simplifier};
+
+/// An expression shown in its canonical form because the search for a simpler one was
+/// skipped, and why.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unsimplified {
+    /// What the expression is: `ARR2`, `der(p_Lm)`, the output `y1`.
+    pub what: String,
+    /// Why: [`Stop::TooLarge`] or [`Stop::Budget`].
+    pub stop: Stop,
+}
+
+/// How simplification went: what was left canonical, and whether the clock aborted it.
+pub(crate) struct Simplified {
+    /// Expressions left in canonical form by a count limit.
+    pub skipped: Vec<Unsimplified>,
+    /// The first expression whose search the wall clock stopped, if any.
+    pub timed_out: Option<String>,
+}
+
+impl Analysis<'_> {
+    /// For `--canonical`: every shown expression with the terms that share reciprocals of
+    /// sums over their common denominator (see [`Simplifier::together`]), where that is
+    /// shorter to read.
+    pub fn normalise(&mut self) {
+        let shorter = |pool: &mut Pool, simplifier: &mut Simplifier, e: ExprId| {
+            let together = simplifier.together(pool, e);
+            if length(pool, together) < length(pool, e) {
+                together
+            } else {
+                e
+            }
+        };
+        if let Some((d, _)) = &mut self.diagnosis {
+            let mut simplifier = Simplifier::default();
+            for arr in &mut d.arrs {
+                arr.residual = shorter(&mut d.causal.system.pool, &mut simplifier, arr.residual);
+            }
+        }
+        let mut simplifier = Simplifier::default();
+        let state = &mut self.state;
+        for s in &mut state.states {
+            s.rhs = shorter(&mut state.pool, &mut simplifier, s.rhs);
+        }
+        for (_, e) in &mut state.outputs {
+            *e = shorter(&mut state.pool, &mut simplifier, *e);
+        }
+    }
+
+    /// Rewrites every expression the emitters show (ARRs first, then state equations and
+    /// detector outputs) into the cheapest form egg finds within `limits`. The FSM and the
+    /// derivations are already done on the canonical forms; only how each is written changes.
+    /// Only counts decide the forms; the clock can only abort the whole run.
+    pub fn simplify(&mut self, limits: Limits) -> Simplified {
+        let rewriter = Rewriter::new(limits);
+        let mut spent = 0usize;
+        let mut skipped = Vec::new();
+        let mut timed_out = None;
+        let mut simplifier = Simplifier::default();
+        let mut state_simplifier = Simplifier::default();
+        let mut choose = |pool: &mut Pool,
+                          simplifier: &mut Simplifier,
+                          root: ExprId,
+                          what: &dyn Fn() -> String| {
+            if timed_out.is_some() {
+                return root;
+            }
+            if spent >= limits.budget {
+                skipped.push(Unsimplified {
+                    what: what(),
+                    stop: Stop::Budget,
+                });
+                return root;
+            }
+            let mut r = rewriter.cheapest(pool, root);
+            spent = spent.saturating_add(r.nodes);
+            // The form over a common denominator is a second starting point: kept when its
+            // best form is strictly shorter.
+            let together = simplifier.together(pool, root);
+            if together != root && r.stop != Stop::TimeLimit {
+                let t = rewriter.cheapest(pool, together);
+                spent = spent.saturating_add(t.nodes);
+                if t.stop == Stop::TimeLimit || t.after < r.after {
+                    r = t;
+                }
+            }
+            match r.stop {
+                Stop::TimeLimit => timed_out = Some(what()),
+                Stop::TooLarge => skipped.push(Unsimplified {
+                    what: what(),
+                    stop: r.stop,
+                }),
+                _ => {}
+            }
+            r.expr
+        };
+        if let Some((d, _)) = &mut self.diagnosis {
+            let pool = &mut d.causal.system.pool;
+            for arr in &mut d.arrs {
+                arr.residual = choose(pool, &mut simplifier, arr.residual, &|| arr.name.clone());
+            }
+        }
+        let state = &mut self.state;
+        for s in &mut state.states {
+            s.rhs = choose(&mut state.pool, &mut state_simplifier, s.rhs, &|| {
+                format!("der({})", s.name)
+            });
+        }
+        for (sensor, e) in &mut state.outputs {
+            let name = &self.model.node(*sensor).name;
+            *e = choose(&mut state.pool, &mut state_simplifier, *e, &|| {
+                format!("the output {name}")
+            });
+        }
+        Simplified { skipped, timed_out }
+    }
+}
