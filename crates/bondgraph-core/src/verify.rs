@@ -7,10 +7,12 @@
 //! integrated with the plant (so ARRs assume zero initial values of their integrals, as the
 //! plant starts them). Then:
 //! - every residual must stay at round-off level on the healthy plant, relative to the size
-//!   of its largest term;
+//!   of its terms along the run;
 //! - every FSM entry is checked by a fault in the plant only: each parameter of a component
-//!   at +20 % (a sensor: a smooth additive fault on its measurement); the residuals the FSM
-//!   marks must move, the others must not.
+//!   at +20 % (a sensor: a smooth additive fault of a fifth of its peak on its measurement; a
+//!   source applying an input of its own: the same on the input as the plant receives it);
+//!   the residuals the FSM marks must move, the others must not. A component that none of
+//!   these can fault (a source driven by a modulation) is listed as not checked.
 //!
 //! What is checked is exactly what the emitters print: the product's expressions.
 
@@ -138,6 +140,9 @@ enum V {
     State(Handle<State>),
     /// The n-th derivative of the additive fault on a sensor.
     SensorFault(Handle<Sensor>, u32),
+    /// The n-th derivative of the additive fault on an input as the plant receives it (an
+    /// actuator fault): the ARRs read the input as commanded.
+    InputFault(Handle<Input>, u32),
     Time,
 }
 
@@ -196,6 +201,7 @@ fn verify_with(
         plant_params: nominal.clone(),
         nominal: nominal.clone(),
         faulty_sensor: None,
+        faulty_input: None,
         fault_size: 0.0,
         options,
     };
@@ -242,6 +248,20 @@ fn verify_with(
                 })
                 .into_iter()
                 .collect(),
+            ComponentKind::Element(_) if comp.parameters.is_empty() => {
+                actuator(c, comp)
+                    .map(|u| {
+                        let run = Run {
+                            faulty_input: Some(u),
+                            // A fifth of the inputs' peak, 1.5 times their amplitude.
+                            fault_size: 0.3 * options.input_scale,
+                            ..healthy_run.clone()
+                        };
+                        (run, BTreeSet::new())
+                    })
+                    .into_iter()
+                    .collect()
+            }
             _ => comp
                 .parameters
                 .iter()
@@ -295,6 +315,22 @@ fn verify_with(
     })
 }
 
+/// The input a source applies, when it applies exactly one that no other component applies:
+/// a fault of that actuator is then a fault of the input as the plant receives it.
+fn actuator(c: &Compiled, comp: &Component) -> Option<Handle<Input>> {
+    let [signal] = comp.signals.as_slice() else {
+        return None;
+    };
+    let shared = c
+        .components
+        .values()
+        .filter(|other| other.signals.contains(signal))
+        .count();
+    (shared == 1)
+        .then(|| c.inputs.find(|u| &u.name == signal))
+        .flatten()
+}
+
 /// The ARRs marked for the other components that own parameter `p`.
 fn shared_marks(c: &Compiled, own: Handle<Component>, p: Handle<Parameter>) -> BTreeSet<usize> {
     c.components
@@ -308,7 +344,11 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
     let mut pool: Pool<V> = Pool::default();
     let plant_leaf = |p: &mut Pool<V>, s: Symbol| match s {
         Symbol::Parameter(k) => p.leaf(V::Plant(k)),
-        Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
+        Symbol::Input(u, n) => {
+            let commanded = p.leaf(V::Input(u, n));
+            let fault = p.leaf(V::InputFault(u, n));
+            p.add(commanded, fault)
+        }
         Symbol::State(k) => p.leaf(V::State(k)),
         // State equations and outputs read no measured signal.
         Symbol::Sensor(..) | Symbol::Time => p.leaf(V::Time),
@@ -387,6 +427,7 @@ fn output_derivative(
             V::State(k) => Some(rhs[k.index()]),
             V::Input(u, m) => Some(p.leaf(V::Input(u, m + 1))),
             V::SensorFault(s, m) => Some(p.leaf(V::SensorFault(s, m + 1))),
+            V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
             V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
             V::Time => Some(p.num(1.0)),
         });
@@ -428,6 +469,7 @@ struct Run<'a> {
     plant_params: Vec<f64>,
     nominal: Vec<f64>,
     faulty_sensor: Option<Handle<Sensor>>,
+    faulty_input: Option<Handle<Input>>,
     fault_size: f64,
     options: &'a VerifyOptions,
 }
@@ -444,6 +486,10 @@ impl Run<'_> {
                 sensor_fault(n, t, self.fault_size)
             }
             V::SensorFault(..) => 0.0,
+            V::InputFault(u, n) if Some(u) == self.faulty_input => {
+                sensor_fault(n, t, self.fault_size)
+            }
+            V::InputFault(..) => 0.0,
             V::Time => t,
         }
     }
