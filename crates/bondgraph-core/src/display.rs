@@ -32,7 +32,7 @@ impl Analysis<'_> {
     pub fn normalise(&mut self) {
         let shorter = |pool: &mut Pool, simplifier: &mut Simplifier, e: ExprId| {
             let together = simplifier.together(pool, e);
-            if length(pool, together) < length(pool, e) {
+            if together != e && length(pool, together) < length(pool, e) {
                 together
             } else {
                 e

@@ -270,6 +270,14 @@ impl Simplifier {
     /// `g E/(E+1)^2 + g E/(E+1) - g E^2/(E+1)^2` is `2 g E/(E+1)^2`. The numerator is
     /// expanded within [`MAX_TERMS`]; past it the canonical form is kept.
     pub fn together(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+        // Most expressions hold no reciprocal of a sum: nothing to expand.
+        let mut reciprocal = false;
+        pool.visit_reachable(&[root], |_, node| {
+            reciprocal |= matches!(node, Node::Binary(BinOp::Div | BinOp::Pow, ..));
+        });
+        if !reciprocal {
+            return root;
+        }
         let poly = self.poly(pool, root);
         let mut depth: BTreeMap<ExprId, i32> = BTreeMap::new();
         for (m, _) in poly.iter() {
