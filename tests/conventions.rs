@@ -313,3 +313,110 @@ fn inductors_in_series_share_one_state() {
         ["p_l1' = U / (L2 / L1 + 1) - p_l1 * R1 / (L1 + L2)"]
     );
 }
+
+/// The operator that `expr` (linear in the signals, constant coefficients) applies, read at
+/// d/dt = `s` with each signal's amplitude given by `amplitude`: `Σ P_sig(s) X_sig`.
+fn at_frequency(
+    c: &Compiled,
+    expr: bondgraph_core::Expr,
+    s: f64,
+    amplitude: &dyn Fn(&str) -> f64,
+) -> f64 {
+    let mut eval = Evaluator::new(&c.exprs, |sym: Symbol| match sym {
+        Symbol::Parameter(p) => c.parameters[p].value,
+        Symbol::Input(u, k) => s.powi(k as i32) * amplitude(&c.inputs[u].name),
+        Symbol::Sensor(h, k) => s.powi(k as i32) * amplitude(&c.sensors[h].name),
+        Symbol::State(_) | Symbol::Time => f64::NAN,
+    });
+    eval.value(expr)
+}
+
+#[test]
+fn four_masses_with_two_unmeasured_give_arrs_of_least_order() {
+    // models/four_mass_chain.bg: F -> m1 (y1) -k1,b1- m2 -k2,b2- m3 -k3,b3- m4 (y4), each
+    // spring in parallel with its damper: f_i = (k_i/s + b_i)(v_i - v_i+1) with s = d/dt.
+    // ARR1 by hand, along mass 1, spring 1, mass 2, spring 2, mass 3 to mass 4 (spring 3
+    // left out): f1 = F - m1 s y1, v2 = y1 - s f1/(b1 s + k1), f2 = f1 - m2 s v2,
+    // v3 = v2 - s f2/(b2 s + k2), f3 = f2 - m3 s v3, and f3 - m4 s y4 = 0. Cleared of its
+    // denominators by (1 + b1 s/k1)(1 + b2 s/k2): order 5 in y1, 4 in F, 3 in y4. Eliminating
+    // the two unknown forces one after the other without the operators' common factor
+    // multiplies it once more by (1 + b1 s/k1): order 6, one derivative more of every signal.
+    // ARR2 by hand, along mass 4 and spring 3 from the other end (mass 3 left out):
+    // f3 = m4 s y4, v3 = y4 + s f3/(b3 s + k3), and spring 2, f2 = (k2/s + b2)(v2 - v3), with
+    // f2 and v2 from the left as above. Cleared of its denominators, s f2 - (b2 s + k2)
+    // (v2 - v3) times (1 + b1 s/k1)(1 + b3 s/k3), scaled by -1/k2: order 5 in y1, 4 in F, y4.
+    let text = std::fs::read_to_string(common_models().join("four_mass_chain.bg")).expect("model");
+    let c = compiled(&text);
+    let p = |n: &str| {
+        c.parameters
+            .values()
+            .find(|p| p.name == n)
+            .map(|p| p.value)
+            .expect("parameter")
+    };
+    let (m1, m2, m3, m4) = (p("m1"), p("m2"), p("m3"), p("m4"));
+    let (k1, k2, k3, b1, b2, b3) = (p("k1"), p("k2"), p("k3"), p("b1"), p("b2"), p("b3"));
+    let max_order = |e| {
+        let mut top = 0;
+        c.exprs.visit_reachable(&[e], |_, node| {
+            if let bondgraph_core::Node::Leaf(Symbol::Sensor(_, k) | Symbol::Input(_, k)) = node {
+                top = top.max(k);
+            }
+        });
+        top
+    };
+    assert_eq!(max_order(c.arrs[0].expr), 5);
+    assert_eq!(max_order(c.arrs[1].expr), 5);
+    for (s, xf, x1, x4) in [
+        (0.3, 1.0, 0.7, -0.4),
+        (-1.7, 0.2, 2.0, 1.1),
+        (2.9, -0.5, 0.3, 0.8),
+    ] {
+        let amplitude = |n: &str| match n {
+            "F" => xf,
+            "y1" => x1,
+            "y4" => x4,
+            _ => f64::NAN,
+        };
+        let f1 = xf - m1 * s * x1;
+        let v2 = x1 - s * f1 / (b1 * s + k1);
+        let f2 = f1 - m2 * s * v2;
+        let v3 = v2 - s * f2 / (b2 * s + k2);
+        let f3 = f2 - m3 * s * v3;
+        let arr1 = (1.0 + b1 * s / k1) * (1.0 + b2 * s / k2) * (f3 - m4 * s * x4);
+        let got = at_frequency(&c, c.arrs[0].expr, s, &amplitude);
+        assert!(
+            (got - arr1).abs() <= 1e-9 * arr1.abs().max(1.0),
+            "ARR1 at s = {s}: {got} against {arr1}"
+        );
+        // ARR2 is spring 2's balance times an operator: the same ratio at another mix of the
+        // signals, and that ratio is the clearing factor above.
+        let v3_right = x4 + s * m4 * s * x4 / (b3 * s + k3);
+        let spring2 = f2 - (k2 / s + b2) * (v2 - v3_right);
+        let got2 = at_frequency(&c, c.arrs[1].expr, s, &amplitude);
+        let ratio = got2 / spring2;
+        let other = |n: &str| {
+            amplitude(n) * if n == "y4" { 2.0 } else { 1.0 } + if n == "F" { 0.5 } else { 0.0 }
+        };
+        let f1 = other("F") - m1 * s * other("y1");
+        let v2 = other("y1") - s * f1 / (b1 * s + k1);
+        let f2 = f1 - m2 * s * v2;
+        let v3_right = other("y4") + s * m4 * s * other("y4") / (b3 * s + k3);
+        let spring2_other = f2 - (k2 / s + b2) * (v2 - v3_right);
+        let got2_other = at_frequency(&c, c.arrs[1].expr, s, &other);
+        assert!(
+            (got2_other - ratio * spring2_other).abs() <= 1e-9 * got2_other.abs().max(1.0),
+            "ARR2 at s = {s} is not spring 2's balance: {got2_other} against {}",
+            ratio * spring2_other
+        );
+        let clearing = -(1.0 + b1 * s / k1) * (1.0 + b3 * s / k3) * s / k2;
+        assert!(
+            (ratio / clearing - 1.0).abs() < 1e-9,
+            "ARR2's factor at s = {s}: {ratio} against {clearing}"
+        );
+    }
+}
+
+fn common_models() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+}

@@ -21,6 +21,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 
+use super::operator::{common_factor, common_known_factor, divide, normalised, Operator};
 use crate::causality::solve::Torn;
 use crate::symbolic::{
     known_signal_rule, Derivatives, ExprId, Leaf, Node, Polynomial, Pool, Simplifier,
@@ -68,11 +69,19 @@ struct Linear {
     rest: Polynomial,
 }
 
+/// Pivot operators kept as candidate factors: a bound, so a long chain stays linear.
+const MAX_FACTORS: usize = 16;
+
+/// The longest operator (degree + 1) kept as a candidate factor.
+const MAX_FACTOR_LEN: usize = 5;
+
 type Rule = fn(&mut Pool, Leaf) -> Option<ExprId>;
 
 /// The elimination state: the pool, and the memos of canonical forms and of d/dt.
 struct Eliminator<'p> {
     pool: &'p mut Pool,
+    /// The pivots' operators met so far (monic), tried as common factors of later ones.
+    factors: Vec<Operator>,
     simplifier: Simplifier,
     derivatives: Derivatives<Leaf, Rule>,
 }
@@ -142,6 +151,7 @@ impl<'p> Eliminator<'p> {
     fn new(pool: &'p mut Pool) -> Self {
         Eliminator {
             pool,
+            factors: Vec::new(),
             simplifier: Simplifier::default(),
             derivatives: Derivatives::new(known_signal_rule as Rule),
         }
@@ -267,8 +277,8 @@ impl<'p> Eliminator<'p> {
         true
     }
 
-    /// `t(D) ra − a(D) rt`, with the common factor dropped when `t` is a multiple of `a`, so
-    /// that a unit coefficient gives exactly the substitution.
+    /// `t(D) ra − a(D) rt`, with the common factor of `a` and `t` dropped, so that a unit
+    /// coefficient gives exactly the substitution and shared operators cost no derivatives.
     fn combine(&mut self, pivot: &Linear, target: &Linear) -> Option<Polynomial> {
         let (a, t) = (&pivot.coefficients, &target.coefficients);
         let top = a.len().checked_sub(1)?;
@@ -290,6 +300,23 @@ impl<'p> Eliminator<'p> {
             };
             return Some(pivot.rest.plus(&scaled, -1.0));
         }
+        // With g = gcd(a, t): (t/g) ra − (a/g) rt, the same combination of the two
+        // equations with deg g fewer derivatives (see `operator`).
+        let g = common_factor(a, t).or_else(|| common_known_factor(a, t, &self.factors));
+        let reduced = g.and_then(|g| Some((divide(t, &g)?, divide(a, &g)?)));
+        if let Some(f) = normalised(a).filter(|f| f.len() <= MAX_FACTOR_LEN) {
+            if !self.factors.contains(&f) {
+                // The most recent ones: in a chain, the neighbours' operators.
+                if self.factors.len() == MAX_FACTORS {
+                    self.factors.remove(0);
+                }
+                self.factors.push(f);
+            }
+        }
+        let (t, a) = match &reduced {
+            Some((t, a)) => (t.as_slice(), a.as_slice()),
+            None => (t.as_slice(), a.as_slice()),
+        };
         let left = self.apply(t, &pivot.rest)?;
         let right = self.apply(a, &target.rest)?;
         Some(left.plus(&right, -1.0))

@@ -3,6 +3,7 @@
 mod arr;
 pub mod eliminate;
 mod fsm;
+mod operator;
 mod sensitivity;
 
 pub use arr::{diagnose, Diagnosis};

@@ -190,6 +190,18 @@ impl Polynomial {
         self.0.is_empty()
     }
 
+    /// How many terms it has.
+    pub fn terms(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Without the terms whose coefficient is below `relative` times the largest one: what
+    /// rounding leaves of a cancellation that is exact in real arithmetic.
+    pub fn chop(&mut self, relative: f64) {
+        let largest = self.0.iter().map(|(_, c)| c.abs()).fold(0.0, f64::max);
+        self.0 .0.retain(|(_, c)| c.abs() > relative * largest);
+    }
+
     /// Its single term as `c·m`, if it has one.
     fn monomial(&self) -> Option<(&Monomial, f64)> {
         match self.0 .0.as_slice() {
