@@ -227,7 +227,7 @@ mod tests {
             Some(g.clone())
         );
         assert_eq!(
-            common_known_factor(&first, &[one.clone(), c.clone()], &[g.clone()]),
+            common_known_factor(&first, &[one.clone(), c.clone()], std::slice::from_ref(&g)),
             None
         );
         assert_eq!(g.len(), 2);
