@@ -31,12 +31,15 @@ impl Analysis<'_> {
     /// shorter to read.
     pub fn normalise(&mut self) {
         let shorter = |pool: &mut Pool, simplifier: &mut Simplifier, e: ExprId| {
+            let mut best = e;
             let together = simplifier.together(pool, e);
-            if together != e && length(pool, together) < length(pool, e) {
-                together
-            } else {
-                e
+            let rational = simplifier.rational(pool, e).unwrap_or(e);
+            for candidate in [together, rational] {
+                if candidate != best && length(pool, candidate) < length(pool, best) {
+                    best = candidate;
+                }
             }
+            best
         };
         if let Some((d, _)) = &mut self.diagnosis {
             let mut simplifier = Simplifier::default();
@@ -81,11 +84,16 @@ impl Analysis<'_> {
             }
             let mut r = rewriter.cheapest(pool, root);
             spent = spent.saturating_add(r.nodes);
-            // The form over a common denominator is a second starting point: kept when its
-            // best form is strictly shorter.
+            // The forms over a common denominator are other starting points: the terms over
+            // a sum put together, and the whole in lowest terms (nested fractions opened,
+            // common factors cancelled). Each is kept when its best form is strictly shorter.
             let together = simplifier.together(pool, root);
-            if together != root && r.stop != Stop::TimeLimit {
-                let t = rewriter.cheapest(pool, together);
+            let rational = simplifier.rational(pool, root).unwrap_or(root);
+            for start in [together, rational] {
+                if start == root || r.stop == Stop::TimeLimit {
+                    continue;
+                }
+                let t = rewriter.cheapest(pool, start);
                 spent = spent.saturating_add(t.nodes);
                 if t.stop == Stop::TimeLimit || t.after < r.after {
                     r = t;

@@ -12,6 +12,7 @@ mod monomial;
 mod normal;
 mod pool;
 mod print;
+mod rational;
 pub mod rewrite;
 
 pub use derive::{known_signal_rule, Derivatives};

@@ -26,12 +26,12 @@ pub const MAX_TERMS: usize = 256;
 /// merged with another, never edited term by term, and the cache holds hundreds of
 /// thousands of them, which a vector stores in one allocation.
 #[derive(Clone, Debug, Default, PartialEq)]
-struct Poly(Vec<(Monomial, f64)>);
+pub(super) struct Poly(pub(super) Vec<(Monomial, f64)>);
 
 impl Poly {
     /// The sum of `terms`, in any order: like monomials are added in the order given (so
     /// the result does not depend on how they were sorted), and zero sums dropped.
-    fn from_terms(mut terms: Vec<(Monomial, f64)>) -> Poly {
+    pub(super) fn from_terms(mut terms: Vec<(Monomial, f64)>) -> Poly {
         terms.sort_by(|a, b| a.0.cmp(&b.0)); // stable: like terms keep their order
         let mut out: Vec<(Monomial, f64)> = Vec::with_capacity(terms.len());
         for (m, c) in terms {
@@ -52,23 +52,23 @@ impl Poly {
     }
 
     /// `c·m`, or zero.
-    fn single(m: Monomial, c: f64) -> Poly {
+    pub(super) fn single(m: Monomial, c: f64) -> Poly {
         Poly(if c != 0.0 { vec![(m, c)] } else { Vec::new() })
     }
 
-    fn len(&self) -> usize {
+    pub(super) fn len(&self) -> usize {
         self.0.len()
     }
 
-    fn is_empty(&self) -> bool {
+    pub(super) fn is_empty(&self) -> bool {
         self.0.is_empty()
     }
 
-    fn iter(&self) -> impl Iterator<Item = (&Monomial, &f64)> {
+    pub(super) fn iter(&self) -> impl Iterator<Item = (&Monomial, &f64)> {
         self.0.iter().map(|(m, c)| (m, c))
     }
 
-    fn scale(&mut self, factor: f64) {
+    pub(super) fn scale(&mut self, factor: f64) {
         self.0.iter_mut().for_each(|(_, c)| *c *= factor);
     }
 }
@@ -81,7 +81,7 @@ pub struct Simplifier {
     polys: FastMap<ExprId, Rc<Poly>>,
 }
 
-fn constant(c: f64) -> Poly {
+pub(super) fn constant(c: f64) -> Poly {
     Poly::single(Monomial::new(), c)
 }
 
@@ -94,7 +94,7 @@ fn atom(id: ExprId) -> Poly {
 }
 
 /// `acc += scale·other`, merging the two sorted term lists.
-fn add_into(acc: &mut Poly, other: &Poly, scale: f64) {
+pub(super) fn add_into(acc: &mut Poly, other: &Poly, scale: f64) {
     let mine = std::mem::take(&mut acc.0);
     let mut out = Vec::with_capacity(mine.len() + other.len());
     let mut theirs = other.0.iter().peekable();
@@ -119,7 +119,7 @@ fn push_nonzero(out: &mut Vec<(Monomial, f64)>, m: Monomial, c: f64) {
     }
 }
 
-fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
+pub(super) fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
     let mut out = Monomial::with_capacity(a.len() + b.len());
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
@@ -147,7 +147,7 @@ fn mul_monomials(a: &Monomial, b: &Monomial) -> Monomial {
     out
 }
 
-fn mul(a: &Poly, b: &Poly) -> Poly {
+pub(super) fn mul(a: &Poly, b: &Poly) -> Poly {
     let mut terms = Vec::with_capacity(a.len() * b.len());
     for (ma, ca) in a.iter() {
         for (mb, cb) in b.iter() {
@@ -405,7 +405,7 @@ impl Simplifier {
         Some(Polynomial(Poly::from_terms(out)))
     }
 
-    fn poly(&mut self, pool: &mut Pool, id: ExprId) -> Rc<Poly> {
+    pub(super) fn poly(&mut self, pool: &mut Pool, id: ExprId) -> Rc<Poly> {
         // Shared subexpressions are expanded once.
         if let Some(p) = self.polys.get(&id) {
             return Rc::clone(p);
@@ -617,7 +617,7 @@ fn normalised_sum(pool: &mut Pool, q: &Poly) -> (f64, ExprId) {
 }
 
 /// The polynomial as an expression: terms in canonical order, negative powers as a quotient.
-fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
+pub(super) fn rebuild(pool: &mut Pool, poly: &Poly) -> ExprId {
     let mut terms: Vec<(bool, ExprId)> = Vec::with_capacity(poly.len());
     // Constant last, as people write it.
     let mut ordered: Vec<(&Monomial, &f64)> = poly.iter().filter(|(m, _)| !m.is_empty()).collect();
