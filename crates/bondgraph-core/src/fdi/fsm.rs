@@ -3,7 +3,7 @@
 use std::collections::{BTreeSet, HashMap};
 
 use super::arr::Diagnosis;
-use super::sensitivity::depends_on;
+use super::sensitivity::dependences;
 use crate::graph::{
     BondGraph, DetectorKind, ElementKind, LetId, NodeId, NodeKind, ParamId, Signal, SignalExpr,
 };
@@ -228,11 +228,12 @@ impl Fsm {
             // depends on one of them: a parameter that cancels cannot show a fault, even if
             // it is still written (a factor of both a numerator and a denominator).
             let pool = &diagnosis.causal.system.pool;
+            let depends = dependences(pool, arr.residual, model);
             let survives = |c: &Component| {
                 c.parameters.is_empty()
                     || c.parameters
                         .iter()
-                        .any(|p| params.contains(p) && depends_on(pool, arr.residual, *p, model))
+                        .any(|p| params.contains(p) && depends.contains(p))
             };
             let mut rows: BTreeSet<usize> = BTreeSet::new();
             for n in &arr.nodes {

@@ -1,5 +1,6 @@
 //! Whether a residual really depends on a parameter: its partial derivative, evaluated in
-//! forward mode (dual numbers) at random points of the signals' space, is not zero.
+//! reverse mode (adjoints, all parameters in one pass) at random points of the signals'
+//! space, is not zero.
 //!
 //! A parameter that survives simplification as a leaf may still cancel (a factor common to
 //! a numerator and a denominator): the FSM must not mark it. A polynomial or rational
@@ -7,7 +8,7 @@
 //! (Schwartz–Zippel), so three points from a fixed-seed generator decide, the same way on
 //! every run.
 
-use std::collections::HashMap;
+use std::collections::BTreeSet;
 
 use crate::expr::{BinOp, Func};
 use crate::graph::{BondGraph, ParamId};
@@ -20,24 +21,31 @@ const POINTS: u64 = 3;
 /// Relative size below which a partial derivative counts as zero (round-off).
 const ZERO: f64 = 1e-9;
 
-/// Whether `root` depends on parameter `theta`, judged at random points.
-pub fn depends_on(pool: &Pool, root: ExprId, theta: ParamId, model: &BondGraph) -> bool {
-    let mut inside_integral = false;
+/// The parameters `root` depends on, judged at random points: one reverse (adjoint) pass per
+/// point gives the derivative in every parameter at once, so the cost is the size of the
+/// residual, not that times its number of parameters.
+pub fn dependences(pool: &Pool, root: ExprId, model: &BondGraph) -> BTreeSet<ParamId> {
+    let mut found = BTreeSet::new();
     pool.visit_reachable(&[root], |_, node| {
         if let Node::Int(a) = node {
-            inside_integral |= pool.leaves(a).contains(&Leaf::Param(theta));
+            // Integrals are atoms here; what is inside one is taken as it is written.
+            found.extend(pool.leaves(a).into_iter().filter_map(|l| match l {
+                Leaf::Param(p) => Some(p),
+                _ => None,
+            }));
         }
     });
-    if inside_integral {
-        // Integrals are atoms here; what is inside one is taken as it is written.
-        return true;
+    for seed in 0..POINTS {
+        for (p, slope, size) in Point::new(seed, model).adjoints(pool, root) {
+            // Round-off is relative to the slopes of the terms that cancel, not to the
+            // residual's value: parameters and signals come in every unit (2e-11 m^3/Pa next
+            // to 1 m^3/s).
+            if !slope.is_finite() || (size > 0.0 && slope.abs() > ZERO * size) {
+                found.insert(p);
+            }
+        }
     }
-    (0..POINTS).any(|seed| {
-        let (slope, size) = Point::new(seed, model).dual(pool, root, theta);
-        // Round-off is relative to the slopes of the terms that cancel, not to the residual's
-        // value: parameters and signals come in every unit (2e-11 m^3/Pa next to 1 m^3/s).
-        !slope.is_finite() || (size > 0.0 && slope.abs() > ZERO * size)
-    })
+    found
 }
 
 /// Random values for every leaf, from a fixed seed.
@@ -85,119 +93,106 @@ impl Point<'_> {
         2.0 * self.uniform(key) - 2.0
     }
 
-    /// The derivative of `root` in `theta`, and its gross size: the same derivative with
-    /// every contribution counted by its absolute value, so that what cancels, inside a
-    /// term or between terms, shows as a derivative far below its gross size.
-    fn dual(&self, pool: &Pool, root: ExprId, theta: ParamId) -> (f64, f64) {
-        let mut memo: FastMap<ExprId, Dual> = FastMap::default();
-        let mut integrals: HashMap<ExprId, f64> = HashMap::new();
-        pool.visit_reachable(&[root], |id, node| {
-            let get = |x: ExprId| memo.get(&x).copied().unwrap_or(Dual::constant(f64::NAN));
-            let d = match node {
-                Node::Num(bits) => Dual::constant(f64::from_bits(bits)),
-                Node::Leaf(l) if l == Leaf::Param(theta) => Dual {
-                    value: self.leaf(l),
-                    slope: 1.0,
-                    gross: 1.0,
-                },
-                Node::Leaf(l) => Dual::constant(self.leaf(l)),
-                Node::Neg(a) => {
-                    let a = get(a);
-                    Dual {
-                        value: -a.value,
-                        slope: -a.slope,
-                        gross: a.gross,
-                    }
-                }
-                Node::Binary(op, a, b) => binary(op, get(a), get(b)),
-                Node::Call1(f, a) => call1(f, get(a)),
-                Node::Call2(f, a, b) => {
-                    let (x, y) = (get(a), get(b));
-                    let first = match f {
-                        Func::Min => x.value <= y.value,
-                        _ => x.value >= y.value,
-                    };
-                    if first {
-                        x
-                    } else {
-                        y
-                    }
-                }
+    /// Each parameter leaf of `root` with the derivative of `root` in it and that
+    /// derivative's gross size: the same derivative with every contribution counted by its
+    /// absolute value, so that what cancels, inside a term or between terms, shows as a
+    /// derivative far below its gross size.
+    fn adjoints(&self, pool: &Pool, root: ExprId) -> Vec<(ParamId, f64, f64)> {
+        let mut order: Vec<(ExprId, Node)> = Vec::new();
+        pool.visit_reachable(&[root], |id, node| order.push((id, node)));
+        let index: FastMap<ExprId, usize> = order
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| (*id, i))
+            .collect();
+        let mut value = vec![f64::NAN; order.len()];
+        let mut integrals = 0u64;
+        for (i, &(_, node)) in order.iter().enumerate() {
+            let get = |x: ExprId| index.get(&x).map_or(f64::NAN, |&k| value[k]);
+            value[i] = match node {
+                Node::Num(bits) => f64::from_bits(bits),
+                Node::Leaf(l) => self.leaf(l),
+                Node::Neg(a) => -get(a),
+                Node::Binary(op, a, b) => op.apply(get(a), get(b)),
+                Node::Call1(f, a) => f.apply(&[get(a)]),
+                Node::Call2(f, a, b) => f.apply(&[get(a), get(b)]),
                 Node::Int(_) => {
-                    let n = integrals.len() as u64;
-                    let v = *integrals
-                        .entry(id)
-                        .or_insert_with(|| 2.0 * self.uniform(n << 8 | 9) - 2.0);
-                    Dual::constant(v)
+                    integrals += 1;
+                    2.0 * self.uniform(integrals << 8 | 9) - 2.0
                 }
             };
-            memo.insert(id, d);
-        });
-        memo.get(&root)
-            .map_or((f64::NAN, 0.0), |d| (d.slope, d.gross))
-    }
-}
-
-/// A value, its derivative in one parameter, and that derivative's gross size.
-#[derive(Clone, Copy)]
-struct Dual {
-    value: f64,
-    slope: f64,
-    gross: f64,
-}
-
-impl Dual {
-    fn constant(value: f64) -> Self {
-        Dual {
-            value,
-            slope: 0.0,
-            gross: 0.0,
         }
-    }
-}
-
-fn binary(op: BinOp, a: Dual, b: Dual) -> Dual {
-    let (x, y) = (a.value, b.value);
-    match op {
-        BinOp::Add | BinOp::Sub => {
-            let sign = if op == BinOp::Add { 1.0 } else { -1.0 };
-            Dual {
-                value: x + sign * y,
-                slope: a.slope + sign * b.slope,
-                gross: a.gross + b.gross,
+        // Adjoints, parents before children: (derivative, gross size).
+        let mut adjoint = vec![(0.0f64, 0.0f64); order.len()];
+        if let Some(last) = adjoint.last_mut() {
+            *last = (1.0, 1.0);
+        }
+        let mut out = Vec::new();
+        for i in (0..order.len()).rev() {
+            let (s, g) = adjoint[i];
+            if s == 0.0 && g == 0.0 {
+                continue;
+            }
+            let node = order[i].1;
+            let at = |x: ExprId| index.get(&x).copied();
+            let val = |x: ExprId| at(x).map_or(f64::NAN, |k| value[k]);
+            let mut give = |x: ExprId, local: f64| {
+                if let Some(k) = at(x) {
+                    adjoint[k].0 += s * local;
+                    adjoint[k].1 += g * local.abs();
+                }
+            };
+            match node {
+                Node::Leaf(Leaf::Param(p)) => out.push((p, s, g)),
+                Node::Num(_) | Node::Leaf(_) | Node::Int(_) => {}
+                Node::Neg(a) => give(a, -1.0),
+                Node::Binary(op, a, b) => {
+                    let (x, y) = (val(a), val(b));
+                    match op {
+                        BinOp::Add => {
+                            give(a, 1.0);
+                            give(b, 1.0);
+                        }
+                        BinOp::Sub => {
+                            give(a, 1.0);
+                            give(b, -1.0);
+                        }
+                        BinOp::Mul => {
+                            give(a, y);
+                            give(b, x);
+                        }
+                        BinOp::Div => {
+                            give(a, 1.0 / y);
+                            give(b, -x / (y * y));
+                        }
+                        BinOp::Pow => {
+                            let v = x.powf(y);
+                            give(a, y * x.powf(y - 1.0));
+                            if pool.leaves(b).iter().any(|l| matches!(l, Leaf::Param(_))) {
+                                give(b, v * x.abs().ln());
+                            }
+                        }
+                    }
+                }
+                Node::Call1(f, a) => give(a, outer(f, val(a))),
+                Node::Call2(f, a, b) => {
+                    let (x, y) = (val(a), val(b));
+                    let first = match f {
+                        Func::Min => x <= y,
+                        _ => x >= y,
+                    };
+                    give(if first { a } else { b }, 1.0);
+                }
             }
         }
-        BinOp::Mul => Dual {
-            value: x * y,
-            slope: a.slope * y + x * b.slope,
-            gross: a.gross * y.abs() + x.abs() * b.gross,
-        },
-        BinOp::Div => Dual {
-            value: x / y,
-            slope: (a.slope * y - x * b.slope) / (y * y),
-            gross: (a.gross * y.abs() + x.abs() * b.gross) / (y * y),
-        },
-        BinOp::Pow => {
-            let v = x.powf(y);
-            let (dx, dy) = (y * x.powf(y - 1.0), v * x.abs().ln());
-            Dual {
-                value: v,
-                slope: dx * a.slope + if b.slope == 0.0 { 0.0 } else { dy * b.slope },
-                gross: dx.abs() * a.gross
-                    + if b.gross == 0.0 {
-                        0.0
-                    } else {
-                        dy.abs() * b.gross
-                    },
-            }
-        }
+        out
     }
 }
 
-fn call1(f: Func, a: Dual) -> Dual {
-    let x = a.value;
+/// The derivative of `f` at `x`.
+fn outer(f: Func, x: f64) -> f64 {
     let v = f.apply(&[x]);
-    let outer = match f {
+    match f {
         Func::Exp => v,
         Func::Log => 1.0 / x,
         Func::Sqrt => 0.5 / v,
@@ -209,11 +204,6 @@ fn call1(f: Func, a: Dual) -> Dual {
         Func::Tanh => 1.0 - v * v,
         Func::Atan => 1.0 / (1.0 + x * x),
         Func::Min | Func::Max => 1.0,
-    };
-    Dual {
-        value: v,
-        slope: outer * a.slope,
-        gross: outer.abs() * a.gross,
     }
 }
 
@@ -245,7 +235,8 @@ mod tests {
         let minus_v = p.sub(minus_u, v);
         let bw = p.mul(b, w);
         let r = p.add(minus_v, bw);
-        assert!(!depends_on(&p, r, ParamId(0), &model));
-        assert!(depends_on(&p, r, ParamId(1), &model));
+        let found = dependences(&p, r, &model);
+        assert!(!found.contains(&ParamId(0)), "a cancels");
+        assert!(found.contains(&ParamId(1)), "b is seen");
     }
 }
