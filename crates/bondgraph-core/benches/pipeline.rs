@@ -9,7 +9,7 @@
 
 use std::hint::black_box;
 
-use bondgraph_core::generate::mass_spring_chain;
+use bondgraph_core::generate::{mass_spring_chain, mass_spring_chain_varied};
 use bondgraph_core::{compile, Compiled, Derive, Options};
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
@@ -72,5 +72,29 @@ fn simplify(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, state_equations, full_pipeline, simplify);
+/// Chains whose every stage has parameters of its own, canonical forms: each ARR between two
+/// detectors multiplies out the operators of the two segments beside it, products of
+/// polynomials in a dozen parameters, so the ARRs past the first are refused as too large
+/// (a known limit, see the README); this measures how long it takes to say so. Sizes stay
+/// small for that reason.
+fn per_stage_parameters(c: &mut Criterion) {
+    let mut group = c.benchmark_group("per_stage_parameters");
+    group.sample_size(10);
+    for stages in [5usize, 10, 20] {
+        let text = mass_spring_chain_varied(stages, 5);
+        group.throughput(Throughput::Elements(stages as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
+            b.iter(|| black_box(run(text, Derive::Everything, false).arrs.len()))
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    state_equations,
+    full_pipeline,
+    simplify,
+    per_stage_parameters
+);
 criterion_main!(benches);
