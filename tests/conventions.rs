@@ -340,15 +340,8 @@ fn four_masses_with_two_unmeasured_give_arrs_of_least_order() {
     // f3 = m4 s y4, v3 = y4 + s f3/(b3 s + k3), and spring 2, f2 = (k2/s + b2)(v2 - v3), with
     // f2 and v2 from the left as above. Cleared of its denominators, s f2 - (b2 s + k2)
     // (v2 - v3) times (1 + b1 s/k1)(1 + b3 s/k3), scaled by -1/k2: order 5 in y1, 4 in F, y4.
-    let text = std::fs::read_to_string(common_models().join("four_mass_chain.bg")).expect("model");
-    let c = compiled(&text);
-    let p = |n: &str| {
-        c.parameters
-            .values()
-            .find(|p| p.name == n)
-            .map(|p| p.value)
-            .expect("parameter")
-    };
+    let c = model("four_mass_chain.bg");
+    let p = |n: &str| value_of(&c, n);
     let (m1, m2, m3, m4) = (p("m1"), p("m2"), p("m3"), p("m4"));
     let (k1, k2, k3, b1, b2, b3) = (p("k1"), p("k2"), p("k3"), p("b1"), p("b2"), p("b3"));
     let max_order = |e| {
@@ -412,8 +405,21 @@ fn four_masses_with_two_unmeasured_give_arrs_of_least_order() {
     }
 }
 
-fn common_models() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models")
+/// A model of `models/`, compiled with canonical forms.
+fn model(file: &str) -> Compiled {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../models")
+        .join(file);
+    compiled(&std::fs::read_to_string(path).expect("model"))
+}
+
+/// A parameter's nominal value.
+fn value_of(c: &Compiled, name: &str) -> f64 {
+    c.parameters
+        .values()
+        .find(|p| p.name == name)
+        .map(|p| p.value)
+        .expect("parameter")
 }
 
 #[test]
@@ -425,18 +431,10 @@ fn the_bridge_state_equations_are_one_fraction_in_lowest_terms() {
     // Solved one torn unknown at a time, the right-hand sides were fractions nested three deep
     // (over 3,000 characters); in lowest terms they are one numerator over the bridge's
     // determinant.
-    let text =
-        std::fs::read_to_string(common_models().join("wheatstone_bridge.bg")).expect("model");
-    let c = compiled(&text);
+    let c = model("wheatstone_bridge.bg");
     let printer = Printer::new(&c.exprs, |s| name(&c, s));
     let space = c.state_space.as_ref().expect("state equations");
-    let p = |n: &str| {
-        c.parameters
-            .values()
-            .find(|p| p.name == n)
-            .map(|p| p.value)
-            .expect("parameter")
-    };
+    let p = |n: &str| value_of(&c, n);
     let (ra, rb, rc, rd, rm, rl) = (p("Ra"), p("Rb"), p("Rc"), p("Rd"), p("Rm"), p("RL"));
     let (c1, c2) = (p("C1"), p("C2"));
     for (_, rhs) in &space.equations {

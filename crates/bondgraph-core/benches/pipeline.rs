@@ -24,52 +24,69 @@ fn run(text: &str, derive: Derive, simplify: bool) -> Compiled {
     }
 }
 
-/// Text to state equations, canonical forms (what `--emit state --canonical` needs).
-fn state_equations(c: &mut Criterion) {
-    let mut group = c.benchmark_group("state_equations");
+/// One group: `chain(stages)` compiled to `derive`, with or without the e-graph, at each size.
+fn sweep(
+    c: &mut Criterion,
+    name: &str,
+    sizes: &[usize],
+    chain: fn(usize, usize) -> String,
+    derive: Derive,
+    simplify: bool,
+) {
+    let mut group = c.benchmark_group(name);
     group.sample_size(10);
-    for stages in [100usize, 1_000, 10_000] {
-        let text = mass_spring_chain(stages, 5);
-        group.throughput(Throughput::Elements(stages as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
-            b.iter(|| black_box(run(text, Derive::StateEquations, false).states.len()))
-        });
-    }
-    group.finish();
-}
-
-/// Text to ARRs and FSM, canonical forms (`--canonical`).
-fn full_pipeline(c: &mut Criterion) {
-    let mut group = c.benchmark_group("pipeline");
-    group.sample_size(10);
-    for stages in [100usize, 1_000, 10_000] {
-        let text = mass_spring_chain(stages, 5);
+    for &stages in sizes {
+        let text = chain(stages, 5);
         group.throughput(Throughput::Elements(stages as u64));
         group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
             b.iter(|| {
-                let c = run(black_box(text), Derive::Everything, false);
-                assert_eq!(c.arrs.len(), stages.div_ceil(5));
-                black_box(c.components.len())
+                let c = run(black_box(text), derive, simplify);
+                black_box((c.states.len(), c.arrs.len(), c.components.len()))
             })
         });
     }
     group.finish();
 }
 
+/// Text to state equations, canonical forms (what `--emit state --canonical` needs).
+fn state_equations(c: &mut Criterion) {
+    let sizes = [100, 1_000, 10_000];
+    sweep(
+        c,
+        "state_equations",
+        &sizes,
+        mass_spring_chain,
+        Derive::StateEquations,
+        false,
+    );
+}
+
+/// Text to ARRs and FSM, canonical forms (`--canonical`).
+fn full_pipeline(c: &mut Criterion) {
+    let sizes = [100, 1_000, 10_000];
+    sweep(
+        c,
+        "pipeline",
+        &sizes,
+        mass_spring_chain,
+        Derive::Everything,
+        false,
+    );
+}
+
 /// The default run: the same, with every expression rewritten by the e-graph (default
 /// limits). Each expression gets its own bounded search, so the cost is linear in their
 /// number; 10,000 stages are left out to keep the run short.
 fn simplify(c: &mut Criterion) {
-    let mut group = c.benchmark_group("simplify");
-    group.sample_size(10);
-    for stages in [10usize, 100, 1_000] {
-        let text = mass_spring_chain(stages, 5);
-        group.throughput(Throughput::Elements(stages as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
-            b.iter(|| black_box(run(text, Derive::Everything, true).arrs.len()))
-        });
-    }
-    group.finish();
+    let sizes = [10, 100, 1_000];
+    sweep(
+        c,
+        "simplify",
+        &sizes,
+        mass_spring_chain,
+        Derive::Everything,
+        true,
+    );
 }
 
 /// Chains whose every stage has parameters of its own, canonical forms: each ARR between two
@@ -78,16 +95,16 @@ fn simplify(c: &mut Criterion) {
 /// (a known limit, see the README); this measures how long it takes to say so. Sizes stay
 /// small for that reason.
 fn per_stage_parameters(c: &mut Criterion) {
-    let mut group = c.benchmark_group("per_stage_parameters");
-    group.sample_size(10);
-    for stages in [5usize, 10, 20] {
-        let text = mass_spring_chain_varied(stages, 5);
-        group.throughput(Throughput::Elements(stages as u64));
-        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
-            b.iter(|| black_box(run(text, Derive::Everything, false).arrs.len()))
-        });
-    }
-    group.finish();
+    let sizes = [5, 10, 20];
+    let chain = mass_spring_chain_varied;
+    sweep(
+        c,
+        "per_stage_parameters",
+        &sizes,
+        chain,
+        Derive::Everything,
+        false,
+    );
 }
 
 criterion_group!(
