@@ -36,7 +36,21 @@ pub fn dependences(pool: &Pool, root: ExprId, model: &BondGraph) -> BTreeSet<Par
         }
     });
     for seed in 0..POINTS {
-        for (p, slope, size) in Point::new(seed, model).adjoints(pool, root) {
+        // Two points with the same parameters and other signals: what decides is the ratio
+        // of the residual's values, so that a factor of parameters multiplying the whole
+        // residual (a scale, which does not move its zeros) marks nothing.
+        let (value_a, at_a) = Point::new(seed, 0, model).adjoints(pool, root);
+        let (value_b, at_b) = Point::new(seed, 1, model).adjoints(pool, root);
+        let of = |at: &[(ParamId, f64, f64)], p: ParamId| {
+            at.iter()
+                .find(|(q, _, _)| *q == p)
+                .map_or((0.0, 0.0), |&(_, d, g)| (d, g))
+        };
+        for &(p, _, _) in at_a.iter().chain(&at_b) {
+            let ((da, ga), (db, gb)) = (of(&at_a, p), of(&at_b, p));
+            // d(a/b)/dθ · b² = a' b − a b', with its gross size.
+            let slope = da * value_b - value_a * db;
+            let size = ga * value_b.abs() + value_a.abs() * gb;
             // Round-off is relative to the slopes of the terms that cancel, not to the
             // residual's value: parameters and signals come in every unit (2e-11 m^3/Pa next
             // to 1 m^3/s).
@@ -51,12 +65,14 @@ pub fn dependences(pool: &Pool, root: ExprId, model: &BondGraph) -> BTreeSet<Par
 /// Random values for every leaf, from a fixed seed.
 struct Point<'m> {
     seed: u64,
+    /// Which draw of the signals (the parameters are the same for every draw of a seed).
+    draw: u64,
     model: &'m BondGraph,
 }
 
 impl Point<'_> {
-    fn new(seed: u64, model: &BondGraph) -> Point<'_> {
-        Point { seed, model }
+    fn new(seed: u64, draw: u64, model: &BondGraph) -> Point<'_> {
+        Point { seed, draw, model }
     }
 
     /// A value in [0.5, 1.5) from a hash of the seed and a key: the same key gets the same
@@ -89,15 +105,20 @@ impl Point<'_> {
             Leaf::Tear(v, n) => (u64::from(v) << 16 | u64::from(n)) << 8 | 6,
             Leaf::Time => 7,
         };
-        // Signals may be negative: centre them on zero.
-        2.0 * self.uniform(key) - 2.0
+        self.signal(key)
     }
 
-    /// Each parameter leaf of `root` with the derivative of `root` in it and that
+    /// A signal's value (or an integral's), of this draw: centred on zero, since signals
+    /// may be negative.
+    fn signal(&self, key: u64) -> f64 {
+        2.0 * self.uniform(key ^ self.draw.wrapping_mul(0xA24B_AED4_963E_E407)) - 2.0
+    }
+
+    /// The value of `root`, and each parameter leaf of it with the derivative of `root` in it and that
     /// derivative's gross size: the same derivative with every contribution counted by its
     /// absolute value, so that what cancels, inside a term or between terms, shows as a
     /// derivative far below its gross size.
-    fn adjoints(&self, pool: &Pool, root: ExprId) -> Vec<(ParamId, f64, f64)> {
+    fn adjoints(&self, pool: &Pool, root: ExprId) -> (f64, Vec<(ParamId, f64, f64)>) {
         let mut order: Vec<(ExprId, Node)> = Vec::new();
         pool.visit_reachable(&[root], |id, node| order.push((id, node)));
         let index: FastMap<ExprId, usize> = order
@@ -118,7 +139,7 @@ impl Point<'_> {
                 Node::Call2(f, a, b) => f.apply(&[get(a), get(b)]),
                 Node::Int(_) => {
                     integrals += 1;
-                    2.0 * self.uniform(integrals << 8 | 9) - 2.0
+                    self.signal(integrals << 8 | 9)
                 }
             };
         }
@@ -185,7 +206,7 @@ impl Point<'_> {
                 }
             }
         }
-        out
+        (value.last().copied().unwrap_or(f64::NAN), out)
     }
 }
 
@@ -238,5 +259,13 @@ mod tests {
         let found = dependences(&p, r, &model);
         assert!(!found.contains(&ParamId(0)), "a cancels");
         assert!(found.contains(&ParamId(1)), "b is seen");
+        // (a + b)(u - b v): a only scales the residual, its zeros do not move with it.
+        let ab = p.add(a, b);
+        let bv = p.mul(b, v);
+        let diff = p.sub(u, bv);
+        let scaled = p.mul(ab, diff);
+        let found = dependences(&p, scaled, &model);
+        assert!(!found.contains(&ParamId(0)), "a is a scale");
+        assert!(found.contains(&ParamId(1)), "b moves the zeros");
     }
 }
