@@ -471,3 +471,27 @@ fn the_bridge_state_equations_are_one_fraction_in_lowest_terms() {
         }
     }
 }
+
+#[test]
+fn the_bridge_gives_a_bridge_free_arr_and_an_exact_fsm() {
+    // Each node's balance holds the whole bridge; their sum, the total current balance, holds
+    // none of it: all current into the bridge leaves it at node b. With both voltages measured
+    // the ARRs are node a's balance and C1 v1' + C2 v2' + v2/RL = I0, and a fault of the
+    // bridge moves the first only.
+    let c = model("wheatstone_bridge.bg");
+    let printer = Printer::new(&c.exprs, |s| name(&c, s));
+    let texts: Vec<String> = c.arrs.iter().map(|a| printer.text(a.expr)).collect();
+    assert_eq!(texts[1], "I0 - C1 * der(v1, 1) - C2 * der(v2, 1) - v2 / RL");
+    let marked = |arr: usize| -> Vec<&str> {
+        c.components
+            .values()
+            .filter(|k| k.marks.contains(&arr))
+            .map(|k| k.name.as_str())
+            .collect()
+    };
+    assert_eq!(marked(1), ["src", "cap1", "cap2", "load", "v1", "v2"]);
+    assert_eq!(
+        marked(0),
+        ["src", "cap1", "ra", "rb", "rc", "rd", "rm", "v1", "v2"]
+    );
+}

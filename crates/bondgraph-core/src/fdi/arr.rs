@@ -43,7 +43,8 @@ pub struct Diagnosis {
 pub fn diagnose(model: &BondGraph) -> Diagnosis {
     let mut causal = assign(model, Mode::Diagnosis);
     let redundant = causal.redundant();
-    let eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
+    let mut eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
+    super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);
     let torn: BTreeSet<VarId> = causal.solved.torn.iter().map(|t| t.var).collect();
     let mut arrs: Vec<Arr> = eliminated
         .relations

@@ -354,6 +354,106 @@ impl Simplifier {
     }
 }
 
+impl Simplifier {
+    /// `root` (canonical) divided by the factors its terms share that hold parameters only
+    /// and are sums: grouping the terms by what they hold besides parameters, the first
+    /// group's coefficient is tried as a divisor of the whole, while it divides exactly.
+    /// A relation `root = 0` keeps its zeros; a single-term factor (a scale in the model's
+    /// units) is left as it is.
+    pub fn without_content(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+        let mut poly = Poly::clone(&self.poly(pool, root));
+        let constant = |pool: &Pool, a: ExprId| {
+            pool.leaves(a)
+                .iter()
+                .all(|l| matches!(l, super::Leaf::Param(_)))
+        };
+        let mut changed = false;
+        for _ in 0..4 {
+            let Some((first, _)) = poly.iter().next() else {
+                break;
+            };
+            let rest_of = |m: &Monomial| -> Monomial {
+                m.iter()
+                    .filter(|&&(a, _)| !constant(pool, a))
+                    .copied()
+                    .collect()
+            };
+            let key = rest_of(first);
+            let coefficient = Poly::from_terms(
+                poly.iter()
+                    .filter(|(m, _)| rest_of(m) == key)
+                    .map(|(m, c)| {
+                        (
+                            m.iter()
+                                .filter(|&&(a, _)| constant(pool, a))
+                                .copied()
+                                .collect(),
+                            *c,
+                        )
+                    })
+                    .collect(),
+            );
+            let (_, _, factor) = normalise(&coefficient);
+            if factor.len() < 2 {
+                break;
+            }
+            match exact_quotient(&poly, &factor) {
+                Some(q) => {
+                    poly = q;
+                    changed = true;
+                }
+                None => break,
+            }
+        }
+        if changed {
+            rebuild(pool, &poly)
+        } else {
+            root
+        }
+    }
+}
+
+impl Simplifier {
+    /// `root` (canonical) divided by the monomial of parameters all its terms share and by
+    /// its first term's number: for a relation `root = 0` whose scale is arbitrary (a
+    /// combination of two ARRs), the scale that says least.
+    pub fn without_scale(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+        let poly = Poly::clone(&self.poly(pool, root));
+        let constant = |pool: &Pool, a: ExprId| {
+            pool.leaves(a)
+                .iter()
+                .all(|l| matches!(l, super::Leaf::Param(_)))
+        };
+        // Only atoms present in every term, by their smallest power: dividing never brings
+        // in an atom that some term does not hold (v2/RL stays v2/RL next to I0).
+        let mut scale: Vec<(ExprId, i32)> = poly
+            .iter()
+            .next()
+            .map(|(m, _)| {
+                m.iter()
+                    .filter(|&&(a, _)| constant(pool, a))
+                    .copied()
+                    .collect()
+            })
+            .unwrap_or_default();
+        for (m, _) in poly.iter() {
+            scale.retain_mut(|(a, e)| match m.iter().find(|(b, _)| b == a) {
+                Some(&(_, f)) if f.signum() == e.signum() => {
+                    *e = if e.abs() <= f.abs() { *e } else { f };
+                    true
+                }
+                _ => false,
+            });
+        }
+        let scale: Monomial = scale.into_iter().collect();
+        let lead = poly.iter().next().map_or(1.0, |(_, c)| *c);
+        if scale.is_empty() && lead == 1.0 {
+            return root;
+        }
+        rebuild(pool, &times_monomial(&poly, &inverse(&scale), 1.0 / lead))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
