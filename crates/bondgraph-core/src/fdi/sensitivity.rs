@@ -1,6 +1,7 @@
-//! Whether a residual really depends on a parameter: its partial derivative, evaluated in
-//! reverse mode (adjoints, all parameters in one pass) at random points of the signals'
-//! space, is not zero.
+//! Whether a residual's zeros move with a parameter: the partial derivative of the ratio of
+//! its values at two random points (the same parameters, other signals), evaluated in
+//! reverse mode (adjoints, all parameters in one pass), is not zero. The ratio leaves out a
+//! factor of parameters that only scales the whole residual.
 //!
 //! A parameter that survives simplification as a leaf may still cancel (a factor common to
 //! a numerator and a denominator): the FSM must not mark it. A polynomial or rational
