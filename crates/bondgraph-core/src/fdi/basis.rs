@@ -144,8 +144,6 @@ fn coefficient(pool: &Pool, p: &Polynomial, leaf: Leaf) -> Option<Polynomial> {
     let [c] = coefficients.as_slice() else {
         return None;
     };
-    let constant = c
-        .atoms()
-        .all(|a| pool.leaves(a).iter().all(|l| matches!(l, Leaf::Param(_))));
+    let constant = c.atoms().all(|a| pool.is_constant(a));
     constant.then(|| c.clone())
 }

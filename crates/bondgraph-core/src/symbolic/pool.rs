@@ -83,6 +83,13 @@ pub enum Leaf {
     Time,
 }
 
+impl Pool<Leaf> {
+    /// Whether `a` holds parameters and numbers only: a constant of the model.
+    pub fn is_constant(&self, a: ExprId) -> bool {
+        self.leaves(a).iter().all(|l| matches!(l, Leaf::Param(_)))
+    }
+}
+
 /// One node of the DAG, with leaves of type `L`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Node<L: LeafKind = Leaf> {

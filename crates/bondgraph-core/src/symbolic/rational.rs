@@ -362,11 +362,6 @@ impl Simplifier {
     /// units) is left as it is.
     pub fn without_content(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         let mut poly = Poly::clone(&self.poly(pool, root));
-        let constant = |pool: &Pool, a: ExprId| {
-            pool.leaves(a)
-                .iter()
-                .all(|l| matches!(l, super::Leaf::Param(_)))
-        };
         let mut changed = false;
         for _ in 0..4 {
             let Some((first, _)) = poly.iter().next() else {
@@ -374,7 +369,7 @@ impl Simplifier {
             };
             let rest_of = |m: &Monomial| -> Monomial {
                 m.iter()
-                    .filter(|&&(a, _)| !constant(pool, a))
+                    .filter(|&&(a, _)| !pool.is_constant(a))
                     .copied()
                     .collect()
             };
@@ -385,7 +380,7 @@ impl Simplifier {
                     .map(|(m, c)| {
                         (
                             m.iter()
-                                .filter(|&&(a, _)| constant(pool, a))
+                                .filter(|&&(a, _)| pool.is_constant(a))
                                 .copied()
                                 .collect(),
                             *c,
@@ -419,11 +414,6 @@ impl Simplifier {
     /// combination of two ARRs), the scale that says least.
     pub fn without_scale(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         let poly = Poly::clone(&self.poly(pool, root));
-        let constant = |pool: &Pool, a: ExprId| {
-            pool.leaves(a)
-                .iter()
-                .all(|l| matches!(l, super::Leaf::Param(_)))
-        };
         // Only atoms present in every term, by their smallest power: dividing never brings
         // in an atom that some term does not hold (v2/RL stays v2/RL next to I0).
         let mut scale: Vec<(ExprId, i32)> = poly
@@ -431,7 +421,7 @@ impl Simplifier {
             .next()
             .map(|(m, _)| {
                 m.iter()
-                    .filter(|&&(a, _)| constant(pool, a))
+                    .filter(|&&(a, _)| pool.is_constant(a))
                     .copied()
                     .collect()
             })
