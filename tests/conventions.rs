@@ -43,6 +43,7 @@ fn name(c: &Compiled, s: Symbol) -> String {
         Symbol::Input(u, k) => der(&c.inputs[u].name, k),
         Symbol::Sensor(s, k) => der(&c.sensors[s].name, k),
         Symbol::State(k) => c.states[k].name.clone(),
+        Symbol::Auxiliary(a, k) => der(&c.auxiliaries[a].name, k),
         Symbol::Time => "t".to_string(),
     }
 }
@@ -321,7 +322,7 @@ fn at_frequency(
         Symbol::Parameter(p) => c.parameters[p].value,
         Symbol::Input(u, k) => s.powi(k as i32) * amplitude(&c.inputs[u].name),
         Symbol::Sensor(h, k) => s.powi(k as i32) * amplitude(&c.sensors[h].name),
-        Symbol::State(_) | Symbol::Time => f64::NAN,
+        Symbol::State(_) | Symbol::Auxiliary(..) | Symbol::Time => f64::NAN,
     });
     eval.value(expr)
 }

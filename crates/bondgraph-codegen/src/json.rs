@@ -137,12 +137,21 @@ fn arrs(out: &mut String, c: &Compiled) {
                     r.integral
                 )
             });
+            let auxiliaries = arr.auxiliaries.iter().map(|&a| {
+                let aux = &c.auxiliaries[a];
+                format!(
+                    "{{\"name\": {}, \"expr\": {}}}",
+                    string(&aux.name),
+                    string(&printer.text(aux.definition()))
+                )
+            });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"components\": {}, \"reads\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"reads\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
                 string(&printer.text(arr.expr)),
+                list(auxiliaries),
                 list(components),
                 list(reads)
             )

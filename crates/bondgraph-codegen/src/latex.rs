@@ -41,7 +41,16 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
             .iter()
             .map(|arr| {
                 let head = format!("  \\mathrm{{{}}}:\\quad & ", arr.name);
-                writer.equation(&head, arr.expr, " = 0")
+                let mut lines = vec![writer.equation(&head, arr.expr, " = 0")];
+                for &a in &arr.auxiliaries {
+                    let aux = &c.auxiliaries[a];
+                    let head = format!(
+                        "  \\text{{where}}\\quad & {} = ",
+                        names::latex_name(&aux.name)
+                    );
+                    lines.push(writer.equation(&head, aux.definition(), ""));
+                }
+                lines.join(" \\\\\n")
             })
             .collect();
         out.push_str(&lines.join(" \\\\\n"));

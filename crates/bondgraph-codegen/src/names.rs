@@ -17,6 +17,7 @@ pub fn text(c: &Compiled, symbol: Symbol) -> String {
         Symbol::Parameter(p) => c.parameters[p].name.clone(),
         Symbol::Input(u, n) => derivative(&c.inputs[u].name, n),
         Symbol::Sensor(s, n) => derivative(&c.sensors[s].name, n),
+        Symbol::Auxiliary(a, n) => derivative(&c.auxiliaries[a].name, n),
         Symbol::State(k) => c.states[k].name.clone(),
         Symbol::Time => "t".to_string(),
     }
@@ -81,6 +82,7 @@ pub fn latex(c: &Compiled, symbol: Symbol) -> String {
         Symbol::Parameter(p) => latex_name(&c.parameters[p].name),
         Symbol::Input(u, n) => latex_derivative(&c.inputs[u].name, n),
         Symbol::Sensor(s, n) => latex_derivative(&c.sensors[s].name, n),
+        Symbol::Auxiliary(a, n) => latex_derivative(&c.auxiliaries[a].name, n),
         Symbol::State(k) => latex_name(&c.states[k].name),
         Symbol::Time => "t".to_string(),
     }

@@ -122,6 +122,15 @@ fn arrs(out: &mut String, c: &Compiled) {
             arr.junction,
             printer.text(arr.expr)
         );
+        for &a in &arr.auxiliaries {
+            let aux = &c.auxiliaries[a];
+            let _ = writeln!(
+                out,
+                "    where {} = {}",
+                aux.name,
+                printer.text(aux.definition())
+            );
+        }
     }
 }
 

@@ -19,9 +19,9 @@
 use std::collections::{BTreeSet, HashMap};
 
 use crate::expr::BinOp;
+use crate::product::{Auxiliary, Sensor, Symbol};
 use crate::product::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
-use crate::product::{Sensor, Symbol};
-use crate::symbolic::{Derivatives, Evaluator, ExprId, Node, Pool};
+use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
 
 /// How the check is run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,13 +150,18 @@ type VId = ExprId<V>;
 
 /// The plant and the residuals over its states, in one pool.
 struct Plant {
-    pool: Pool<V>,
     rhs: Vec<VId>,
     /// Each detector's output, to size the faults put on it.
     outputs: Vec<(Handle<Sensor>, VId)>,
     integrals: Vec<VId>,
     residuals: Vec<VId>,
     terms: Vec<Vec<VId>>,
+    /// The right-hand sides, then each integral's argument.
+    derivative_tape: Tape<V>,
+    /// The residuals, then the terms of each in turn.
+    residual_tape: Tape<V>,
+    /// The detectors' outputs.
+    output_tape: Tape<V>,
 }
 
 /// Most times the step is divided by ten for a stiff model.
@@ -351,7 +356,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         }
         Symbol::State(k) => p.leaf(V::State(k)),
         // State equations and outputs read no measured signal.
-        Symbol::Sensor(..) | Symbol::Time => p.leaf(V::Time),
+        Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
     };
     let mut rhs = vec![pool.num(0.0); c.states.len()];
     for (k, e) in &space.equations {
@@ -362,8 +367,19 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         outputs.insert(*s, pool.import_from(&c.exprs, *e, plant_leaf));
     }
     let mut measured: HashMap<(Handle<Sensor>, u32), VId> = HashMap::new();
+    // Auxiliary signals in definition order: each reads earlier ones only.
+    let mut auxiliary: HashMap<(Handle<Auxiliary>, u32), VId> = HashMap::new();
     let mut residuals = Vec::new();
-    for arr in &c.arrs {
+    let roots = c
+        .auxiliaries
+        .iter()
+        .flat_map(|(a, aux)| {
+            (0u32..)
+                .zip(&aux.derivatives)
+                .map(move |(n, &e)| (Some((a, n)), e))
+        })
+        .chain(c.arrs.iter().map(|arr| (None, arr.expr)));
+    for (name, root) in roots {
         let mut signal = |p: &mut Pool<V>, s: Symbol| match s {
             Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
             Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
@@ -372,10 +388,20 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
                 let fault = p.leaf(V::SensorFault(s, n));
                 p.add(y, fault)
             }
+            Symbol::Auxiliary(a, n) => auxiliary
+                .get(&(a, n))
+                .copied()
+                .unwrap_or_else(|| p.num(f64::NAN)),
             Symbol::State(k) => p.leaf(V::State(k)),
             Symbol::Time => p.leaf(V::Time),
         };
-        residuals.push(pool.import_from(&c.exprs, arr.expr, &mut signal));
+        let e = pool.import_from(&c.exprs, root, &mut signal);
+        match name {
+            Some(key) => {
+                auxiliary.insert(key, e);
+            }
+            None => residuals.push(e),
+        }
     }
     let mut roots = rhs.clone();
     roots.extend(&residuals);
@@ -385,7 +411,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
             integrals.push(id);
         }
     });
-    let terms = residuals
+    let terms: Vec<Vec<VId>> = residuals
         .iter()
         .map(|&r| {
             let mut out = Vec::new();
@@ -395,8 +421,18 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         .collect();
     let mut outputs: Vec<(Handle<Sensor>, VId)> = outputs.into_iter().collect();
     outputs.sort();
+    let mut derivative_roots = rhs.clone();
+    derivative_roots.extend(integrals.iter().filter_map(|&id| match pool.node(id) {
+        Node::Int(arg) => Some(arg),
+        _ => None,
+    }));
+    let mut residual_roots = residuals.clone();
+    residual_roots.extend(terms.iter().flatten());
+    let output_roots: Vec<VId> = outputs.iter().map(|&(_, e)| e).collect();
     Plant {
-        pool,
+        derivative_tape: Tape::new(&pool, &derivative_roots),
+        residual_tape: Tape::new(&pool, &residual_roots),
+        output_tape: Tape::new(&pool, &output_roots),
         rhs,
         outputs,
         integrals,
@@ -504,41 +540,37 @@ impl Run<'_> {
             .collect()
     }
 
+    /// The values of `tape`'s roots in state `x` at time `t`.
+    fn values(&self, tape: &Tape<V>, x: &[f64], t: f64) -> Vec<f64> {
+        let integrals = self.integrals(x);
+        let integral = |id: VId| integrals.get(&id).copied().unwrap_or(f64::NAN);
+        tape.values(self.leaf(x, t), integral, &mut Vec::new())
+    }
+
     fn derivative(&self, x: &[f64], t: f64) -> Vec<f64> {
-        let mut ev =
-            Evaluator::new(&self.plant.pool, self.leaf(x, t)).with_integrals(self.integrals(x));
-        let mut out: Vec<f64> = self.plant.rhs.iter().map(|&e| ev.value(e)).collect();
-        for &id in &self.plant.integrals {
-            if let Node::Int(arg) = self.plant.pool.node(id) {
-                out.push(ev.value(arg));
-            }
-        }
-        out
+        self.values(&self.plant.derivative_tape, x, t)
     }
 
     /// Each residual and the size of its largest term.
     fn residuals(&self, x: &[f64], t: f64) -> Vec<(f64, f64)> {
-        let mut ev =
-            Evaluator::new(&self.plant.pool, self.leaf(x, t)).with_integrals(self.integrals(x));
-        self.plant
-            .residuals
-            .iter()
-            .zip(&self.plant.terms)
-            .map(|(&r, terms)| {
-                let size = terms.iter().map(|&e| ev.value(e).abs()).fold(0.0, f64::max);
-                (ev.value(r), size)
-            })
-            .collect()
+        let values = self.values(&self.plant.residual_tape, x, t);
+        let (residuals, mut terms) = values.split_at(self.plant.residuals.len());
+        let mut out = Vec::with_capacity(residuals.len());
+        for (&r, own) in residuals.iter().zip(&self.plant.terms) {
+            let (mine, rest) = terms.split_at(own.len());
+            terms = rest;
+            out.push((r, mine.iter().map(|v| v.abs()).fold(0.0, f64::max)));
+        }
+        out
     }
 
     /// The largest |output| of each detector along an RK4 trajectory from `x0`.
     fn peaks(&self, x0: &[f64]) -> Result<Vec<f64>, VerifyError> {
         let mut peaks = vec![0.0f64; self.plant.outputs.len()];
         self.simulate(x0, |run, x, t| {
-            let mut ev =
-                Evaluator::new(&run.plant.pool, run.leaf(x, t)).with_integrals(run.integrals(x));
-            for (p, (_, e)) in peaks.iter_mut().zip(&run.plant.outputs) {
-                *p = p.max(ev.value(*e).abs());
+            let values = run.values(&run.plant.output_tape, x, t);
+            for (p, v) in peaks.iter_mut().zip(values) {
+                *p = p.max(v.abs());
             }
         })?;
         Ok(peaks)

@@ -42,7 +42,18 @@ pub fn sparsen(pool: &mut Pool, model: &BondGraph, relations: &mut [Constraint])
         .iter()
         .map(|r| simplifier.polynomial(pool, r.expr))
         .collect();
-    let small: Vec<bool> = polys.iter().map(|p| p.terms() <= MAX_TERMS).collect();
+    // One that reads an auxiliary signal keeps its parameters inside it, out of the
+    // dependences judged here: it is left as it is.
+    let named = |r: &Constraint| {
+        pool.leaves(r.expr)
+            .iter()
+            .any(|l| matches!(l, Leaf::Aux(..)))
+    };
+    let small: Vec<bool> = polys
+        .iter()
+        .zip(relations.iter())
+        .map(|(p, r)| p.terms() <= MAX_TERMS && !named(r))
+        .collect();
     let mut polys: Vec<Option<Polynomial>> = polys
         .into_iter()
         .zip(&small)

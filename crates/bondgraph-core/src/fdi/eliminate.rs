@@ -21,6 +21,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 
+use super::auxiliary::Auxiliary;
 use super::operator::{common_factor, common_known_factor, divide, normalised, Operator};
 use crate::causality::solve::Torn;
 use crate::symbolic::{
@@ -45,6 +46,9 @@ pub struct Eliminated {
     /// Torn unknowns (by index) that enter their relations nonlinearly after their value
     /// stopped being explicit: the relations that held them are dropped.
     pub problems: Vec<u32>,
+    /// The auxiliary signals the relations may read ([`Leaf::Aux`] by index), with their
+    /// definitions only.
+    pub auxiliaries: Vec<Auxiliary>,
 }
 
 /// One equation during elimination: `poly = 0`.
@@ -75,6 +79,12 @@ const MAX_FACTORS: usize = 16;
 /// The longest operator (degree + 1) kept as a candidate factor.
 const MAX_FACTOR_LEN: usize = 5;
 
+/// The most products of terms (of an operator's coefficients by a relation's known part)
+/// that applying the operator may multiply out; beyond, the known part is named as an
+/// auxiliary signal. Small enough that two stretches of a chain with parameters of their own
+/// are never multiplied together, large enough that no model of `models/` needs one.
+const MAX_EXPANDED: usize = 20_000;
+
 type Rule = fn(&mut Pool, Leaf) -> Option<ExprId>;
 
 /// The elimination state: the pool, and the memos of canonical forms and of d/dt.
@@ -84,6 +94,8 @@ struct Eliminator<'p> {
     factors: Vec<Operator>,
     simplifier: Simplifier,
     derivatives: Derivatives<Leaf, Rule>,
+    /// The auxiliary signals named so far.
+    auxiliaries: Vec<Auxiliary>,
 }
 
 /// Eliminates the `torn` unknowns from their definitions and the `redundant` equations
@@ -144,6 +156,7 @@ pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) 
     Eliminated {
         relations,
         problems,
+        auxiliaries: e.auxiliaries,
     }
 }
 
@@ -154,6 +167,7 @@ impl<'p> Eliminator<'p> {
             factors: Vec::new(),
             simplifier: Simplifier::default(),
             derivatives: Derivatives::new(known_signal_rule as Rule),
+            auxiliaries: Vec::new(),
         }
     }
 
@@ -178,20 +192,24 @@ impl<'p> Eliminator<'p> {
 
     /// The torn unknowns a polynomial holds, in its atoms or inside them.
     fn torn_in(&self, p: &Polynomial) -> BTreeSet<u32> {
-        let mut out = BTreeSet::new();
-        for a in p.atoms() {
-            match self.pool.node(a) {
-                Node::Leaf(Leaf::Tear(v, _)) => {
-                    out.insert(v);
-                }
-                Node::Leaf(_) => {}
-                _ => out.extend(self.pool.leaves(a).into_iter().filter_map(|l| match l {
+        p.atoms().flat_map(|a| self.torn_in_atom(a)).collect()
+    }
+
+    /// The torn unknowns an atom is or holds.
+    fn torn_in_atom(&self, a: ExprId) -> Vec<u32> {
+        match self.pool.node(a) {
+            Node::Leaf(Leaf::Tear(v, _)) => vec![v],
+            Node::Leaf(_) => Vec::new(),
+            _ => self
+                .pool
+                .leaves(a)
+                .into_iter()
+                .filter_map(|l| match l {
                     Leaf::Tear(v, _) => Some(v),
                     _ => None,
-                })),
-            }
+                })
+                .collect(),
         }
-        out
     }
 
     /// Removes `u` from every holder: by substituting its value when that is local, by a
@@ -322,8 +340,31 @@ impl<'p> Eliminator<'p> {
         Some(left.plus(&right, -1.0))
     }
 
-    /// `c(D) e` = Σ c_k dᵏe/dtᵏ.
+    /// `c(D) e`, with the part of `e` free of torn unknowns named as an auxiliary signal `z`
+    /// (`Σ c_k z⁽ᵏ⁾`) when multiplying it out would cost more than [`MAX_EXPANDED`].
     fn apply(&mut self, c: &[Polynomial], e: &Polynomial) -> Option<Polynomial> {
+        if c.len() < 2 {
+            return self.multiply_out(c, e);
+        }
+        let (known, rest) = e.partition(|a| self.torn_in_atom(a).is_empty());
+        let weight: usize = c.iter().map(Polynomial::terms).sum();
+        if known.terms() < 2 || known.terms().saturating_mul(weight) <= MAX_EXPANDED {
+            return self.multiply_out(c, e);
+        }
+        let k = u32::try_from(self.auxiliaries.len()).ok()?;
+        let definition = known.expr(self.pool);
+        self.auxiliaries.push(Auxiliary::new(definition));
+        let mut out = self.multiply_out(c, &rest)?;
+        for (n, cn) in c.iter().enumerate() {
+            let z = self.pool.leaf(Leaf::Aux(k, u32::try_from(n).ok()?));
+            let z = self.simplifier.polynomial(self.pool, z);
+            out.add_scaled(&cn.times(&z), 1.0);
+        }
+        Some(out)
+    }
+
+    /// `c(D) e` = Σ c_k dᵏe/dtᵏ, multiplied out.
+    fn multiply_out(&mut self, c: &[Polynomial], e: &Polynomial) -> Option<Polynomial> {
         let mut out = Polynomial::default();
         let mut dk = e.clone();
         for (k, ck) in c.iter().enumerate() {

@@ -213,7 +213,7 @@ impl Fsm {
         for (k, arr) in diagnosis.arrs.iter().enumerate() {
             // What the simplified residual still contains.
             let (mut sensors, mut params) = (BTreeSet::new(), BTreeSet::new());
-            for leaf in diagnosis.causal.system.pool.leaves(arr.residual) {
+            for leaf in diagnosis.causal.system.pool.leaves(arr.expanded) {
                 match leaf {
                     Leaf::Sensor(s, _) => {
                         sensors.insert(s);
@@ -228,7 +228,7 @@ impl Fsm {
             // depends on one of them: a parameter that cancels cannot show a fault, even if
             // it is still written (a factor of both a numerator and a denominator).
             let pool = &diagnosis.causal.system.pool;
-            let depends = dependences(pool, arr.residual, model);
+            let depends = dependences(pool, arr.expanded, model);
             let survives = |c: &Component| {
                 c.parameters.is_empty()
                     || c.parameters

@@ -1,6 +1,7 @@
 //! Fault detection and isolation: the ARRs of a model and its fault signature matrix.
 
 mod arr;
+pub mod auxiliary;
 mod basis;
 pub mod eliminate;
 mod fsm;

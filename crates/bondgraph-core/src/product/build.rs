@@ -12,6 +12,7 @@ use crate::pipeline::Analysis;
 use crate::symbolic::{Leaf, Node, Pool};
 
 /// Why an expression cannot enter the product.
+#[derive(Clone, Copy)]
 enum Refusal {
     /// It still holds a solver unknown.
     Unknown,
@@ -48,6 +49,7 @@ pub(crate) fn build(
         exprs: Pool::default(),
         state_space: None,
         arrs: Vec::new(),
+        auxiliaries: Arena::default(),
         diagnosed: false,
         components: Arena::default(),
         causality: Vec::new(),
@@ -105,6 +107,9 @@ fn dedup(stage: Diagnostics) -> Vec<Diagnostic> {
 struct Builder<'m> {
     model: &'m BondGraph,
     sensor_of: HashMap<NodeId, Handle<Sensor>>,
+    /// The auxiliary signals copied so far, by their index in the diagnosis, or why one
+    /// could not be.
+    auxiliary_of: HashMap<u32, Result<Handle<Auxiliary>, Refusal>>,
 }
 
 impl<'m> Builder<'m> {
@@ -112,6 +117,7 @@ impl<'m> Builder<'m> {
         Builder {
             model,
             sensor_of: HashMap::new(),
+            auxiliary_of: HashMap::new(),
         }
     }
 
@@ -181,8 +187,15 @@ impl<'m> Builder<'m> {
                 }
                 Leaf::Sensor(..) => return Err(Refusal::Sensor),
                 Leaf::State(k) if states => Symbol::State(Handle::new(k as usize)),
+                Leaf::Aux(k, n) if !states => match self.auxiliary_of.get(&k) {
+                    Some(Ok(h)) => Symbol::Auxiliary(*h, n),
+                    Some(Err(why)) => return Err(*why),
+                    None => return Err(Refusal::Unknown),
+                },
                 Leaf::Time => Symbol::Time,
-                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) => return Err(Refusal::Unknown),
+                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) => {
+                    return Err(Refusal::Unknown)
+                }
             };
             Ok(p.leaf(symbol))
         })?;
@@ -253,16 +266,54 @@ impl<'m> Builder<'m> {
         }
     }
 
+    /// Copies the auxiliary signals some ARR reads, each after those it reads, named `z1`,
+    /// `z2`… in that order, apart from every name of the model.
+    fn auxiliaries(&mut self, c: &mut Compiled, d: &fdi::Diagnosis) {
+        let pool = &d.causal.system.pool;
+        let roots: Vec<_> = d.arrs.iter().map(|a| a.residual).collect();
+        let mut used = BTreeSet::new();
+        let mut stack: Vec<u32> = aux_leaves(pool, &roots);
+        while let Some(k) = stack.pop() {
+            if let Some(aux) = d.auxiliaries.get(k as usize) {
+                if used.insert(k) {
+                    stack.extend(aux_leaves(pool, &aux.derivatives));
+                }
+            }
+        }
+        let taken = model_names(self.model);
+        let mut number = 0usize;
+        for k in used {
+            let aux = &d.auxiliaries[k as usize];
+            let derivatives: Result<Vec<Expr>, Refusal> = aux
+                .derivatives
+                .iter()
+                .map(|&e| self.import(&mut c.exprs, pool, e, false))
+                .collect();
+            let result = derivatives.map(|derivatives| {
+                let name = loop {
+                    number += 1;
+                    let name = format!("z{number}");
+                    if !taken.contains(&name) {
+                        break name;
+                    }
+                };
+                c.auxiliaries.push(Auxiliary { name, derivatives })
+            });
+            self.auxiliary_of.insert(k, result);
+        }
+    }
+
     /// The ARRs that could be derived, and the FSM over them.
-    fn arrs(&self, c: &mut Compiled, d: &fdi::Diagnosis, fsm: &Fsm, stage: &mut Diagnostics) {
+    fn arrs(&mut self, c: &mut Compiled, d: &fdi::Diagnosis, fsm: &Fsm, stage: &mut Diagnostics) {
         let m = self.model;
         let pool = &d.causal.system.pool;
+        self.auxiliaries(c, d);
         let mut kept: Vec<Option<usize>> = Vec::new();
         for arr in &d.arrs {
             match self.import(&mut c.exprs, pool, arr.residual, false) {
                 Ok(e) => {
                     kept.push(Some(c.arrs.len()));
-                    let (reads, integrals) = reads(&c.exprs, e);
+                    let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, e);
                     c.arrs.push(Arr {
                         name: String::new(),
                         junction: m.node(arr.junction).name.clone(),
@@ -271,13 +322,10 @@ impl<'m> Builder<'m> {
                         components: Vec::new(),
                         reads,
                         integrals,
+                        auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
                     });
                 }
                 Err(why) => {
-                    if std::env::var("BGC_DEBUG").is_ok() {
-                        let pr = crate::symbolic::Printer::new(pool, |l| format!("{l:?}"));
-                        eprintln!("DEBUG {}: {}", arr.name, pr.text(arr.residual));
-                    }
                     kept.push(None);
                     stage.push(refusal(m, &arr.name, arr.junction, why));
                 }
@@ -348,13 +396,75 @@ fn refusal(model: &BondGraph, what: &str, node: NodeId, why: Refusal) -> Diagnos
     )
 }
 
-/// What an expression reads: each signal's derivative orders (those read pointwise, not
-/// only under an integral) and integral, and the arguments of integrals of anything else.
-fn reads(exprs: &Exprs, e: Expr) -> (Vec<SignalUse>, Vec<Expr>) {
+/// The auxiliary signals (by index in the diagnosis) that `roots` read directly.
+fn aux_leaves(pool: &Pool, roots: &[crate::symbolic::ExprId]) -> Vec<u32> {
+    let mut out = BTreeSet::new();
+    for &r in roots {
+        for leaf in pool.leaves(r) {
+            if let Leaf::Aux(k, _) = leaf {
+                out.insert(k);
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// Every name the model gives: an auxiliary signal must not take one.
+fn model_names(model: &BondGraph) -> BTreeSet<String> {
+    let mut out: BTreeSet<String> = BTreeSet::new();
+    out.extend(model.params.iter().map(|p| p.name.clone()));
+    out.extend(model.inputs.iter().map(|u| u.name.clone()));
+    out.extend(model.lets.iter().map(|l| l.name.clone()));
+    out.extend(model.nodes().map(|n| model.node(n).name.clone()));
+    out
+}
+
+/// `e` and the derivatives of auxiliary signals that it reads, directly or through others.
+fn with_auxiliaries(exprs: &Exprs, auxiliaries: &Arena<Auxiliary>, e: Expr) -> Vec<Expr> {
+    let mut seen: BTreeSet<(Handle<Auxiliary>, u32)> = BTreeSet::new();
+    let mut out = vec![e];
+    let mut next = 0;
+    while next < out.len() {
+        let root = out[next];
+        next += 1;
+        for leaf in exprs.leaves(root) {
+            if let Symbol::Auxiliary(a, n) = leaf {
+                let d = auxiliaries[a].derivatives.get(n as usize).copied();
+                if let (true, Some(d)) = (seen.insert((a, n)), d) {
+                    out.push(d);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The auxiliary signals `e` reads, directly or through others, in definition order.
+fn auxiliaries_read(
+    exprs: &Exprs,
+    auxiliaries: &Arena<Auxiliary>,
+    e: Expr,
+) -> Vec<Handle<Auxiliary>> {
+    let mut out = BTreeSet::new();
+    for root in with_auxiliaries(exprs, auxiliaries, e) {
+        for leaf in exprs.leaves(root) {
+            if let Symbol::Auxiliary(a, _) = leaf {
+                out.insert(a);
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
+/// What an expression reads, through the auxiliary signals it reads too: each signal's
+/// derivative orders (those read pointwise, not only under an integral) and integral, and
+/// the arguments of integrals of anything else.
+fn reads(exprs: &Exprs, auxiliaries: &Arena<Auxiliary>, e: Expr) -> (Vec<SignalUse>, Vec<Expr>) {
     let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
     let mut others = Vec::new();
-    let mut pointwise: BTreeSet<Expr> = BTreeSet::from([e]);
-    exprs.visit_reachable(&[e], |_, node| match node {
+    let roots = with_auxiliaries(exprs, auxiliaries, e);
+    let mut pointwise: BTreeSet<Expr> = roots.iter().copied().collect();
+    exprs.visit_reachable(&roots, |_, node| match node {
         Node::Int(arg) => match exprs.node(arg) {
             Node::Leaf(Symbol::Input(u, 0)) => uses.entry(Signal::Input(u)).or_default().1 = true,
             Node::Leaf(Symbol::Sensor(s, 0)) => uses.entry(Signal::Sensor(s)).or_default().1 = true,

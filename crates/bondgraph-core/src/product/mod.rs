@@ -26,6 +26,8 @@ pub enum Symbol {
     Sensor(Handle<Sensor>, u32),
     /// A state variable (in state equations and outputs only).
     State(Handle<State>),
+    /// The n-th time derivative of an auxiliary signal (in ARRs only).
+    Auxiliary(Handle<Auxiliary>, u32),
     /// Time.
     Time,
 }
@@ -127,6 +129,27 @@ pub struct StateSpace {
     pub outputs: Vec<(Handle<Sensor>, Expr)>,
 }
 
+/// A named combination of known signals that ARRs read with its derivatives: applying an
+/// operator in d/dt of high degree to it, rather than to what it stands for multiplied out,
+/// keeps an ARR between two stretches of unmeasured storage (a chain whose stages have
+/// parameters of their own) the sum of their sizes, not their product.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Auxiliary {
+    /// `z1`, `z2`…, chosen apart from the model's names.
+    pub name: String,
+    /// Its time derivatives, each over parameters, inputs, measured signals and earlier
+    /// auxiliary signals: `derivatives[n]` is the n-th, `derivatives[0]` the definition, up
+    /// to the highest order read.
+    pub derivatives: Vec<Expr>,
+}
+
+impl Auxiliary {
+    /// What it is defined as.
+    pub fn definition(&self) -> Expr {
+        self.derivatives[0]
+    }
+}
+
 /// What an ARR reads of one input or measured signal.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SignalUse {
@@ -165,6 +188,9 @@ pub struct Arr {
     pub reads: Vec<SignalUse>,
     /// The arguments of the `int(..)` it holds that are not one signal's integral.
     pub integrals: Vec<Expr>,
+    /// The auxiliary signals it reads, directly or through others, in definition order:
+    /// part of the relation, to be written with it.
+    pub auxiliaries: Vec<Handle<Auxiliary>>,
 }
 
 /// What kind of component an FSM row is.
@@ -343,6 +369,8 @@ pub struct Compiled {
     pub state_space: Option<StateSpace>,
     /// The ARRs that could be derived (when they were asked for).
     pub arrs: Vec<Arr>,
+    /// The auxiliary signals the ARRs read, each defined before it is used.
+    pub auxiliaries: Arena<Auxiliary>,
     /// Whether ARRs were derived at all (`false` when only the state equations were asked for).
     pub diagnosed: bool,
     /// The rows of the fault signature matrix.

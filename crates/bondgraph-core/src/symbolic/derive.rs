@@ -168,7 +168,8 @@ fn outer_derivative<L: LeafKind>(
 }
 
 /// The usual rule for known signals: parameters are constant, the derivative of a measured or
-/// input signal is its next derivative, as is a torn unknown's; dt/dt = 1. States and
+/// input signal is its next derivative, as is a torn unknown's and an auxiliary signal's;
+/// dt/dt = 1. States and
 /// unknowns have no rule.
 pub fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
     match leaf {
@@ -176,6 +177,7 @@ pub fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
         Leaf::Input(u, n) => Some(p.leaf(Leaf::Input(u, n + 1))),
         Leaf::Sensor(s, n) => Some(p.leaf(Leaf::Sensor(s, n + 1))),
         Leaf::Tear(v, n) => Some(p.leaf(Leaf::Tear(v, n + 1))),
+        Leaf::Aux(k, n) => Some(p.leaf(Leaf::Aux(k, n + 1))),
         Leaf::Time => Some(p.num(1.0)),
         Leaf::State(_) | Leaf::Var(_) => None,
     }

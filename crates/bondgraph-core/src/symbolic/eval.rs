@@ -2,6 +2,7 @@
 
 use super::hash::FastMap;
 use super::pool::{ExprId, LeafKind, Node, Pool};
+use crate::expr::{BinOp, Func};
 use std::collections::HashMap;
 
 /// Evaluates expressions of one pool with leaf values from a closure, memoising shared nodes.
@@ -53,5 +54,78 @@ impl<'p, L: LeafKind, F: Fn(L) -> f64> Evaluator<'p, L, F> {
             self.values.insert(id, value);
         }
         self.values.get(&root).copied().unwrap_or(f64::NAN)
+    }
+}
+
+/// One step of a [`Tape`]: a node with its children as positions in the tape.
+#[derive(Clone, Copy, Debug)]
+enum Op<L> {
+    Num(f64),
+    Leaf(L),
+    Neg(u32),
+    Binary(BinOp, u32, u32),
+    Call1(Func, u32),
+    Call2(Func, u32, u32),
+    /// An integral, by its node in the pool: its value comes from outside.
+    Int(u32),
+}
+
+/// Expressions of a pool compiled into a straight-line program, children first: evaluating
+/// them at many points (every step of a simulation) is one pass over an array, with no
+/// hashing, instead of a walk of the DAG per point.
+#[derive(Clone, Debug)]
+pub struct Tape<L: LeafKind> {
+    ops: Vec<Op<L>>,
+    /// The position of each root's value.
+    roots: Vec<u32>,
+}
+
+impl<L: LeafKind> Tape<L> {
+    /// The program that evaluates `roots` of `pool`.
+    pub fn new(pool: &Pool<L>, roots: &[ExprId<L>]) -> Tape<L> {
+        let mut position: FastMap<ExprId<L>, u32> = FastMap::default();
+        let mut ops = Vec::new();
+        pool.visit_reachable(roots, |id, node| {
+            let at = |x: ExprId<L>| position.get(&x).copied().unwrap_or(0);
+            let op = match node {
+                Node::Num(bits) => Op::Num(f64::from_bits(bits)),
+                Node::Leaf(l) => Op::Leaf(l),
+                Node::Neg(a) => Op::Neg(at(a)),
+                Node::Binary(op, a, b) => Op::Binary(op, at(a), at(b)),
+                Node::Call1(f, a) => Op::Call1(f, at(a)),
+                Node::Call2(f, a, b) => Op::Call2(f, at(a), at(b)),
+                Node::Int(_) => Op::Int(id.index() as u32),
+            };
+            position.insert(id, ops.len() as u32);
+            ops.push(op);
+        });
+        let roots = roots.iter().map(|r| position[r]).collect();
+        Tape { ops, roots }
+    }
+
+    /// The values of the roots, in order, with leaves read by `leaf` and each integral's
+    /// current value by `integral`; `scratch` is reused between calls.
+    pub fn values(
+        &self,
+        leaf: impl Fn(L) -> f64,
+        integral: impl Fn(ExprId<L>) -> f64,
+        scratch: &mut Vec<f64>,
+    ) -> Vec<f64> {
+        scratch.clear();
+        scratch.reserve(self.ops.len());
+        for op in &self.ops {
+            let v = |x: u32| scratch[x as usize];
+            let value = match *op {
+                Op::Num(x) => x,
+                Op::Leaf(l) => leaf(l),
+                Op::Neg(a) => -v(a),
+                Op::Binary(op, a, b) => op.apply(v(a), v(b)),
+                Op::Call1(f, a) => f.apply(&[v(a)]),
+                Op::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
+                Op::Int(id) => integral(ExprId::from_index(id)),
+            };
+            scratch.push(value);
+        }
+        self.roots.iter().map(|&r| scratch[r as usize]).collect()
     }
 }

@@ -16,7 +16,7 @@ mod rational;
 pub mod rewrite;
 
 pub use derive::{known_signal_rule, Derivatives};
-pub use eval::Evaluator;
+pub use eval::{Evaluator, Tape};
 pub use normal::{Polynomial, Simplifier};
 pub(crate) use pool::children;
 pub use pool::{ExprId, Leaf, LeafKind, Node, Pool};

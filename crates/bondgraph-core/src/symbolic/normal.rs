@@ -222,6 +222,21 @@ impl Polynomial {
         self.0.iter().flat_map(|(m, _)| m.iter().map(|&(a, _)| a))
     }
 
+    /// `(with, without)`: the terms whose atoms all pass `keep`, and the others.
+    pub fn partition(&self, mut keep: impl FnMut(ExprId) -> bool) -> (Polynomial, Polynomial) {
+        let (mut with, mut without) = (Vec::new(), Vec::new());
+        for (m, &c) in self.0.iter() {
+            let side = if m.iter().all(|&(a, _)| keep(a)) {
+                &mut with
+            } else {
+                &mut without
+            };
+            side.push((m.clone(), c));
+        }
+        // Each half of a sorted list of distinct monomials is one too.
+        (Polynomial(Poly(with)), Polynomial(Poly(without)))
+    }
+
     /// The polynomial read as `Σₖ cₖ·xₖ + rest`, where `var` tells which leaf atoms are the
     /// `xₖ` (and gives k): `c₀..c_top` and `rest`, or `None` if some `xₖ` enters otherwise than
     /// linearly (a power, a product of two, or inside another atom) or none occurs.

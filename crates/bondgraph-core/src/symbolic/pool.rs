@@ -79,6 +79,10 @@ pub enum Leaf {
     /// The `n`-th time derivative of an unknown held as a symbol (a differential tear, by
     /// the index of the unknown), until the ARRs are freed of it.
     Tear(u32, u32),
+    /// The `n`-th time derivative of an auxiliary signal (by index): a combination of known
+    /// signals that an elimination step applies an operator in d/dt to, named instead of
+    /// multiplied out (see `fdi::auxiliary`).
+    Aux(u32, u32),
     /// Time.
     Time,
 }
