@@ -161,6 +161,8 @@ enum Target {
     State,
     /// Graphviz DOT of the bond graph with causal strokes (`dot -Tsvg` draws it).
     Dot,
+    /// Rust residual code (needs the `bondgraph` crate); not written when any error was found.
+    Rust,
 }
 
 /// How the JSON writes the FSM.
@@ -265,6 +267,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
                 Target::State => bondgraph_codegen::text::state(&c),
                 Target::Dot => bondgraph_codegen::dot::emit(&c),
+                // Code that misses an ARR or reads a refused one would run and mislead.
+                Target::Rust if c.has_errors() => return succeeded(&c),
+                Target::Rust => bondgraph_codegen::rust::emit(&c),
             };
             write(args.output.as_deref(), &text)?;
             succeeded(&c)

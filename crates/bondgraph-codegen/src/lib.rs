@@ -4,4 +4,5 @@ pub mod dot;
 pub mod json;
 pub mod latex;
 mod names;
+pub mod rust;
 pub mod text;

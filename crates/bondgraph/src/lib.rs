@@ -19,6 +19,11 @@ pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVari
 pub use integrate::Trapezoid;
 pub use threshold::Threshold;
 
+/// Compiles a bond-graph model at build time into its residual code (see the crate
+/// `bondgraph-macros`).
+#[cfg(feature = "macros")]
+pub use bondgraph_macros::bond_graph;
+
 /// The sign of `x` as bgc's `sign()` defines it: -1, 0 or 1 (0 at 0, unlike `f64::signum`).
 #[inline]
 #[must_use]

@@ -1,0 +1,795 @@
+//! Residual code: the items a user's crate compiles to evaluate the ARRs on a bench.
+//!
+//! [`tokens`] builds them as a token stream (what `bond_graph!` returns), [`emit`] formats
+//! them with prettyplease (what `bgc --emit rust` writes). The file is items only, no inner
+//! attributes and no wrapping `mod`, so that it can be a module file or `include!`d. It calls
+//! the `bondgraph` runtime crate for the FSM decision and the estimators.
+//!
+//! Every expression node that is used more than once (across all ARRs and the auxiliary
+//! signals they read) is computed once, as a `let`: the bench's `exp(gamma (N y2_int −
+//! y1_int))` is evaluated once per call.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+
+use bondgraph_core::{
+    Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Signal, Symbol,
+};
+use proc_macro2::{Ident, Literal, Span, TokenStream};
+use quote::{format_ident, quote};
+
+use crate::names;
+
+/// The model's items, formatted, with a header naming the model.
+pub fn emit(c: &Compiled) -> String {
+    let file = match syn::parse2::<syn::File>(tokens(c)) {
+        Ok(file) => prettyplease::unparse(&file),
+        // The generator writes only what parses; if not, the tokens as they are.
+        Err(_) => tokens(c).to_string(),
+    };
+    format!(
+        "// Residual code for the model `{}` ({}), written by bgc.\n// It needs the `bondgraph` runtime crate.\n\n{file}",
+        c.name, c.file_name
+    )
+}
+
+/// A Rust identifier for a model name: itself, raw when it is a keyword (`r#type`), or with
+/// a trailing `_` when it cannot be raw (`self_`).
+pub fn ident(name: &str) -> Ident {
+    if syn::parse_str::<Ident>(name).is_ok() {
+        return Ident::new(name, Span::call_site());
+    }
+    if syn::parse_str::<Ident>(&format!("r#{name}")).is_ok() {
+        return Ident::new_raw(name, Span::call_site());
+    }
+    format_ident!("{}_", name)
+}
+
+/// What a quantity of [`Signals`] is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum Quantity {
+    /// The n-th derivative of a signal.
+    Derivative(Signal, u32),
+    /// Its integral from the start of the record.
+    Integral(Signal),
+    /// The integral of a nonlinear expression, by its position in the list of those.
+    Other(usize),
+}
+
+/// One field of `Signals`.
+struct Field {
+    name: String,
+    quantity: Quantity,
+    doc: String,
+}
+
+/// The fields of `Signals`, in order: per signal its value, derivatives and integral, then
+/// the integrals of nonlinear expressions.
+fn fields(c: &Compiled, others: &[Expr]) -> Vec<Field> {
+    let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
+    for arr in &c.arrs {
+        for r in &arr.reads {
+            let entry = uses.entry(r.signal).or_default();
+            entry.0.extend(r.orders.iter().copied());
+            entry.1 |= r.integral;
+        }
+    }
+    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
+    let mut out = Vec::new();
+    for (signal, (orders, integral)) in uses {
+        let (name, what) = match signal {
+            Signal::Input(u) => (&c.inputs[u].name, "input"),
+            Signal::Sensor(s) => (&c.sensors[s].name, "measured signal"),
+        };
+        for n in orders {
+            let (field, doc) = match n {
+                0 => (name.clone(), format!("The {what} `{name}`.")),
+                n => (
+                    format!("{name}_d{n}"),
+                    format!("The time derivative of order {n} of `{name}`."),
+                ),
+            };
+            out.push(Field {
+                name: field,
+                quantity: Quantity::Derivative(signal, n),
+                doc,
+            });
+        }
+        if integral {
+            out.push(Field {
+                name: format!("{name}_int"),
+                quantity: Quantity::Integral(signal),
+                doc: format!("The integral of `{name}` from the start of the record."),
+            });
+        }
+    }
+    for (k, &e) in others.iter().enumerate() {
+        out.push(Field {
+            name: format!("int{}", k + 1),
+            quantity: Quantity::Other(k),
+            doc: format!(
+                "`int({})`: the integral from the start of the record of an expression that is not linear in the signals.",
+                printer.text(e)
+            ),
+        });
+    }
+    out
+}
+
+/// The arguments of `int(..)` that are not a linear combination of signals with constant
+/// coefficients: each needs a field of its own.
+fn nonlinear_integrals(c: &Compiled) -> Vec<Expr> {
+    let mut out: Vec<Expr> = Vec::new();
+    for arr in &c.arrs {
+        for &e in &arr.integrals {
+            if linear(c, e).is_none() && !out.contains(&e) {
+                out.push(e);
+            }
+        }
+    }
+    out
+}
+
+/// One term `± coefficient · signal` of a linear combination.
+type Term = (bool, Option<Expr>, Signal);
+
+/// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then
+/// `int(e) = Σ ±cᵢ·int(signalᵢ)`.
+fn linear(c: &Compiled, e: Expr) -> Option<Vec<Term>> {
+    let constant = |e: Expr| {
+        c.exprs
+            .leaves(e)
+            .iter()
+            .all(|l| matches!(l, Symbol::Parameter(_)))
+    };
+    let signal = |x: Expr| match c.exprs.node(x) {
+        Node::Leaf(Symbol::Input(u, 0)) => Some(Signal::Input(u)),
+        Node::Leaf(Symbol::Sensor(s, 0)) => Some(Signal::Sensor(s)),
+        _ => None,
+    };
+    let mut out = Vec::new();
+    let mut stack = vec![(true, e)];
+    while let Some((positive, e)) = stack.pop() {
+        match c.exprs.node(e) {
+            Node::Binary(BinOp::Add, a, b) => stack.extend([(positive, b), (positive, a)]),
+            Node::Binary(BinOp::Sub, a, b) => stack.extend([(!positive, b), (positive, a)]),
+            Node::Neg(a) => stack.push((!positive, a)),
+            Node::Binary(BinOp::Mul, a, b) => match (signal(a), signal(b)) {
+                (_, Some(s)) if constant(a) => out.push((positive, Some(a), s)),
+                (Some(s), _) if constant(b) => out.push((positive, Some(b), s)),
+                _ => return None,
+            },
+            _ => out.push((positive, None, signal(e)?)),
+        }
+    }
+    Some(out)
+}
+
+/// Binding strengths of Rust expressions as the lowering writes them.
+const SUM: u8 = 1;
+const PRODUCT: u8 = 2;
+const UNARY: u8 = 3;
+const ATOM: u8 = 5;
+
+/// Lowers product expressions to Rust, with shared nodes bound once.
+struct Lowering<'c> {
+    c: &'c Compiled,
+    /// Each signal quantity's field.
+    field: HashMap<Quantity, Ident>,
+    /// Nodes already bound to a `let`.
+    bound: HashMap<Expr, Ident>,
+    /// Each auxiliary signal's derivative, once bound.
+    auxiliary: HashMap<(Handle<Auxiliary>, u32), Ident>,
+    others: Vec<Expr>,
+}
+
+impl Lowering<'_> {
+    fn wrap(ts: TokenStream, prec: u8, needed: u8) -> TokenStream {
+        if prec < needed {
+            quote!((#ts))
+        } else {
+            ts
+        }
+    }
+
+    /// `e` as Rust, with its binding strength.
+    fn expr(&self, e: Expr) -> (TokenStream, u8) {
+        if let Some(name) = self.bound.get(&e) {
+            return (quote!(#name), ATOM);
+        }
+        match self.c.exprs.node(e) {
+            Node::Num(bits) => number(f64::from_bits(bits)),
+            Node::Leaf(s) => (self.leaf(s), ATOM),
+            Node::Neg(a) => {
+                let a = self.operand(a, UNARY);
+                (quote!(-#a), UNARY)
+            }
+            Node::Binary(BinOp::Pow, a, b) => {
+                let base = self.receiver(a);
+                match self.c.exprs.node(b) {
+                    Node::Num(bits)
+                        if f64::from_bits(bits).fract() == 0.0
+                            && f64::from_bits(bits).abs() < 64.0 =>
+                    {
+                        let n = Literal::i32_unsuffixed(f64::from_bits(bits) as i32);
+                        (quote!(#base.powi(#n)), ATOM)
+                    }
+                    _ => {
+                        let (exponent, _) = self.expr(b);
+                        (quote!(#base.powf(#exponent)), ATOM)
+                    }
+                }
+            }
+            Node::Binary(op, a, b) => {
+                let (prec, right) = match op {
+                    BinOp::Add => (SUM, SUM),
+                    BinOp::Sub => (SUM, PRODUCT),
+                    BinOp::Mul => (PRODUCT, PRODUCT),
+                    _ => (PRODUCT, UNARY),
+                };
+                let left = self.operand(a, prec);
+                let right = self.operand(b, right);
+                let ts = match op {
+                    BinOp::Add => quote!(#left + #right),
+                    BinOp::Sub => quote!(#left - #right),
+                    BinOp::Mul => quote!(#left * #right),
+                    _ => quote!(#left / #right),
+                };
+                (ts, prec)
+            }
+            Node::Call1(f, a) => {
+                let x = self.receiver(a);
+                let ts = match f {
+                    Func::Exp => quote!(#x.exp()),
+                    Func::Log => quote!(#x.ln()),
+                    Func::Sqrt => quote!(#x.sqrt()),
+                    Func::Abs => quote!(#x.abs()),
+                    Func::Sin => quote!(#x.sin()),
+                    Func::Cos => quote!(#x.cos()),
+                    Func::Tan => quote!(#x.tan()),
+                    Func::Tanh => quote!(#x.tanh()),
+                    Func::Atan => quote!(#x.atan()),
+                    _ => {
+                        let (arg, _) = self.expr(a);
+                        quote!(::bondgraph::sign(#arg))
+                    }
+                };
+                (ts, ATOM)
+            }
+            Node::Call2(f, a, b) => {
+                let x = self.receiver(a);
+                let (y, _) = self.expr(b);
+                let ts = match f {
+                    Func::Min => quote!(#x.min(#y)),
+                    _ => quote!(#x.max(#y)),
+                };
+                (ts, ATOM)
+            }
+            Node::Int(a) => {
+                let single =
+                    linear(self.c, a).is_some_and(|t| t.len() == 1 && t[0].0 && t[0].1.is_none());
+                (self.integral(a), if single { ATOM } else { SUM })
+            }
+        }
+    }
+
+    fn operand(&self, e: Expr, needed: u8) -> TokenStream {
+        let (ts, prec) = self.expr(e);
+        Self::wrap(ts, prec, needed)
+    }
+
+    /// `e` as the receiver of a method call: a number needs its type (`2.0_f64.exp()`).
+    fn receiver(&self, e: Expr) -> TokenStream {
+        match self.c.exprs.node(e) {
+            Node::Num(bits) if !self.bound.contains_key(&e) => {
+                let lit = Literal::f64_suffixed(f64::from_bits(bits));
+                quote!((#lit))
+            }
+            _ => self.operand(e, ATOM),
+        }
+    }
+
+    fn leaf(&self, s: Symbol) -> TokenStream {
+        let field = |q: Quantity| match self.field.get(&q) {
+            Some(name) => quote!(s.#name),
+            // Every quantity an ARR reads has a field (see `fields`).
+            None => quote!(f64::NAN),
+        };
+        match s {
+            Symbol::Parameter(p) => {
+                let name = ident(&self.c.parameters[p].name);
+                quote!(p.#name)
+            }
+            Symbol::Input(u, n) => field(Quantity::Derivative(Signal::Input(u), n)),
+            Symbol::Sensor(h, n) => field(Quantity::Derivative(Signal::Sensor(h), n)),
+            Symbol::Auxiliary(a, n) => match self.auxiliary.get(&(a, n)) {
+                Some(name) => quote!(#name),
+                None => quote!(f64::NAN),
+            },
+            // ARRs read neither states nor time.
+            Symbol::State(_) | Symbol::Time => quote!(f64::NAN),
+        }
+    }
+
+    /// `int(a)`: the integrals of the signals it combines linearly, or its own field.
+    fn integral(&self, a: Expr) -> TokenStream {
+        if let Some(k) = self.others.iter().position(|&e| e == a) {
+            let name = &self.field[&Quantity::Other(k)];
+            return quote!(s.#name);
+        }
+        let mut out: Option<TokenStream> = None;
+        for (positive, coefficient, signal) in linear(self.c, a).unwrap_or_default() {
+            let Some(name) = self.field.get(&Quantity::Integral(signal)) else {
+                continue;
+            };
+            let term = match coefficient {
+                Some(k) => {
+                    let k = self.operand(k, PRODUCT);
+                    quote!(#k * s.#name)
+                }
+                None => quote!(s.#name),
+            };
+            out = Some(match (out, positive) {
+                (None, true) => term,
+                (None, false) => quote!(-#term),
+                (Some(o), true) => quote!(#o + #term),
+                (Some(o), false) => quote!(#o - #term),
+            });
+        }
+        out.unwrap_or_else(|| quote!(0.0))
+    }
+}
+
+/// A count as a Rust literal, without a suffix.
+fn count(n: usize) -> Literal {
+    Literal::usize_unsuffixed(n)
+}
+
+/// A number as a Rust literal (negative ones as a negation).
+fn number(x: f64) -> (TokenStream, u8) {
+    let lit = Literal::f64_unsuffixed(x.abs());
+    if x.is_sign_negative() && x != 0.0 {
+        (quote!(-#lit), UNARY)
+    } else {
+        (quote!(#lit), ATOM)
+    }
+}
+
+/// How many times each node is reached from `roots` (once per parent edge), children first.
+fn uses(c: &Compiled, roots: &[Expr]) -> (Vec<Expr>, HashMap<Expr, usize>) {
+    let mut order = Vec::new();
+    let mut count: HashMap<Expr, usize> = HashMap::new();
+    c.exprs.visit_reachable(roots, |id, node| {
+        order.push(id);
+        for child in children(node) {
+            *count.entry(child).or_default() += 1;
+        }
+    });
+    for &r in roots {
+        *count.entry(r).or_default() += 1;
+    }
+    (order, count)
+}
+
+fn children(node: Node<Symbol>) -> Vec<Expr> {
+    match node {
+        Node::Num(_) | Node::Leaf(_) => Vec::new(),
+        Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => vec![a],
+        Node::Binary(_, a, b) | Node::Call2(_, a, b) => vec![a, b],
+    }
+}
+
+/// The derivatives of auxiliary signals that `roots` read, directly or through others.
+fn auxiliaries_read(c: &Compiled, roots: &[Expr]) -> BTreeSet<(Handle<Auxiliary>, u32)> {
+    let mut out = BTreeSet::new();
+    let mut stack: Vec<Expr> = roots.to_vec();
+    while let Some(e) = stack.pop() {
+        for leaf in c.exprs.leaves(e) {
+            if let Symbol::Auxiliary(a, n) = leaf {
+                if out.insert((a, n)) {
+                    if let Some(&d) = c.auxiliaries[a].derivatives.get(n as usize) {
+                        stack.push(d);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The body of `residuals`: `let`s for shared nodes and auxiliary signals, then the array.
+fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
+    let roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+    let read = auxiliaries_read(c, &roots);
+    let mut all_roots = roots.clone();
+    for &(a, n) in &read {
+        all_roots.push(c.auxiliaries[a].derivatives[n as usize]);
+    }
+    let (order, count) = uses(c, &all_roots);
+    let aux_root: HashMap<Expr, Vec<(Handle<Auxiliary>, u32)>> =
+        read.iter().fold(HashMap::new(), |mut m, &(a, n)| {
+            let e = c.auxiliaries[a].derivatives[n as usize];
+            m.entry(e).or_default().push((a, n));
+            m
+        });
+    let mut lets = Vec::new();
+    let mut next = 0usize;
+    for id in order {
+        let shared = count.get(&id).copied().unwrap_or(0) >= 2
+            && !matches!(c.exprs.node(id), Node::Num(_) | Node::Leaf(_));
+        let named = aux_root.get(&id);
+        if !shared && named.is_none() {
+            continue;
+        }
+        let (value, _) = lower.expr(id);
+        let name = match named.and_then(|v| v.first()) {
+            Some(&(a, n)) => {
+                let aux = &c.auxiliaries[a];
+                match n {
+                    0 => format_ident!("{}", aux.name),
+                    n => format_ident!("{}_d{}", aux.name, n),
+                }
+            }
+            None => {
+                next += 1;
+                format_ident!("t{}", next)
+            }
+        };
+        lets.push(quote!(let #name = #value;));
+        for &key in named.into_iter().flatten() {
+            lower.auxiliary.insert(key, name.clone());
+        }
+        lower.bound.insert(id, name);
+    }
+    let values: Vec<TokenStream> = roots.iter().map(|&r| lower.expr(r).0).collect();
+    quote! {
+        #(#lets)*
+        [#(#values),*]
+    }
+}
+
+/// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
+/// streaming `ResidualGenerator`.
+pub fn tokens(c: &Compiled) -> TokenStream {
+    let others = nonlinear_integrals(c);
+    let fields = fields(c, &others);
+    let mut lower = Lowering {
+        c,
+        field: fields
+            .iter()
+            .map(|f| (f.quantity, ident(&f.name)))
+            .collect(),
+        bound: HashMap::new(),
+        auxiliary: HashMap::new(),
+        others: others.clone(),
+    };
+    let params = params(c);
+    let signals = signals(&fields);
+    let n = count(c.arrs.len());
+    let body = residual_body(&mut lower, c);
+    let printer = Printer::new(&c.exprs, |s| names::latex(c, s));
+    let docs: Vec<String> = c
+        .arrs
+        .iter()
+        .map(|a| format!(" - {}: $${} = 0$$", a.name, printer.latex(a.expr)))
+        .collect();
+    let arr_names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let fsm = fsm(c);
+    let generator = generator(c, &fields, &others, &lower);
+    quote! {
+        #params
+        #signals
+
+        /// How many residuals [`residuals`] returns: one per ARR.
+        pub const RESIDUAL_COUNT: usize = #n;
+
+        /// The ARRs' names, in the order of [`residuals`].
+        pub const RESIDUALS: [&str; #n] = [#(#arr_names),*];
+
+        /// Every ARR's residual, in the order of [`RESIDUALS`]; each is zero (up to the
+        /// estimation of the signals) while the machine is healthy.
+        ///
+        #(#[doc = #docs])*
+        #[allow(non_snake_case, unused_variables, clippy::all)]
+        #[must_use]
+        pub fn residuals(p: &Params, s: &Signals) -> [f64; #n] {
+            #body
+        }
+
+        #fsm
+        #generator
+    }
+}
+
+fn params(c: &Compiled) -> TokenStream {
+    let names: Vec<Ident> = c.parameters.values().map(|p| ident(&p.name)).collect();
+    let docs: Vec<String> = c
+        .parameters
+        .values()
+        .map(|p| {
+            let mut doc = format!(" `{}`", p.name);
+            if let Some(u) = &p.unit {
+                doc += &format!(" [{u}]");
+            }
+            if let Some(d) = &p.description {
+                doc += &format!(": {d}");
+            }
+            doc + &format!(" (model value {})", p.value)
+        })
+        .collect();
+    let values: Vec<TokenStream> = c.parameters.values().map(|p| number(p.value).0).collect();
+    quote! {
+        /// The model's parameters; [`Default`] gives the values the model declares.
+        #[allow(non_snake_case)]
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub struct Params {
+            #(#[doc = #docs] pub #names: f64,)*
+        }
+
+        impl Default for Params {
+            fn default() -> Self {
+                Params { #(#names: #values,)* }
+            }
+        }
+    }
+}
+
+fn signals(fields: &[Field]) -> TokenStream {
+    let names: Vec<Ident> = fields.iter().map(|f| ident(&f.name)).collect();
+    let strings: Vec<&str> = fields.iter().map(|f| f.name.as_str()).collect();
+    let docs: Vec<String> = fields.iter().map(|f| format!(" {}", f.doc)).collect();
+    let k = count(fields.len());
+    quote! {
+        /// What the residuals read: the inputs and measured signals, their time derivatives
+        /// (`NAME_d1`, `NAME_d2`…) and integrals from the start of the record (`NAME_int`).
+        #[allow(non_snake_case)]
+        #[derive(Clone, Copy, Debug, Default, PartialEq)]
+        pub struct Signals {
+            #(#[doc = #docs] pub #names: f64,)*
+        }
+
+        impl Signals {
+            /// The fields' names, in order.
+            pub const NAMES: [&'static str; #k] = [#(#strings),*];
+
+            /// The fields from an array in the order of [`Signals::NAMES`].
+            #[must_use]
+            pub fn from_array(a: [f64; #k]) -> Self {
+                let [#(#names),*] = a;
+                Signals { #(#names),* }
+            }
+
+            /// The fields as an array in the order of [`Signals::NAMES`].
+            #[must_use]
+            pub fn to_array(&self) -> [f64; #k] {
+                [#(self.#names),*]
+            }
+        }
+    }
+}
+
+fn fsm(c: &Compiled) -> TokenStream {
+    let n = count(c.arrs.len());
+    let rows: Vec<TokenStream> = c
+        .components
+        .values()
+        .map(|comp| {
+            let name = &comp.name;
+            let kind = comp.kind.name();
+            let bits = comp.signature(c.arrs.len());
+            let (db, ib) = (comp.detectable, comp.isolable);
+            quote! {
+                ::bondgraph::Component {
+                    name: #name,
+                    kind: #kind,
+                    signature: &[#(#bits),*],
+                    detectable: #db,
+                    isolable: #ib,
+                }
+            }
+        })
+        .collect();
+    quote! {
+        /// The fault signature matrix: which residuals a fault of each component moves.
+        pub const FSM: ::bondgraph::Fsm = ::bondgraph::Fsm {
+            residuals: &RESIDUALS,
+            components: &[#(#rows),*],
+        };
+
+        /// The components whose fault explains the residuals in alarm (see
+        /// [`bondgraph::Fsm::candidates`]).
+        #[must_use]
+        pub fn candidates(alarms: &[bool; #n]) -> Vec<&'static str> {
+            FSM.candidates(alarms)
+        }
+    }
+}
+
+/// The streaming generator: raw samples in, residuals out.
+fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'_>) -> TokenStream {
+    // The raw signals: each input or sensor some field reads, with the highest order read.
+    let mut raw: BTreeMap<Signal, u32> = BTreeMap::new();
+    let mut integrated: Vec<Signal> = Vec::new();
+    for f in fields {
+        match f.quantity {
+            Quantity::Derivative(s, n) => {
+                let top = raw.entry(s).or_default();
+                *top = (*top).max(n);
+            }
+            Quantity::Integral(s) => {
+                raw.entry(s).or_default();
+                integrated.push(s);
+            }
+            Quantity::Other(_) => {}
+        }
+    }
+    let signal_name = |s: Signal| match s {
+        Signal::Input(u) => c.inputs[u].name.clone(),
+        Signal::Sensor(h) => c.sensors[h].name.clone(),
+    };
+    let raw_names: Vec<String> = raw.keys().map(|&s| signal_name(s)).collect();
+    let raw_index: HashMap<Signal, usize> = raw.keys().enumerate().map(|(i, &s)| (s, i)).collect();
+    let orders: Vec<u32> = raw.values().copied().collect();
+    let order_literals: Vec<Literal> = orders.iter().map(|&n| Literal::u32_unsuffixed(n)).collect();
+    let r = count(raw.len());
+    let top = orders.iter().copied().max().unwrap_or(0);
+    let width = count(top as usize + 1);
+    let i = count(integrated.len());
+    // How each field is filled from the estimates.
+    let fill: Vec<TokenStream> = fields
+        .iter()
+        .map(|f| {
+            let name = ident(&f.name);
+            match f.quantity {
+                Quantity::Derivative(s, n) => {
+                    let (k, n) = (count(raw_index[&s]), count(n as usize));
+                    quote!(s.#name = estimates[#k][#n];)
+                }
+                Quantity::Integral(s) => {
+                    let k = count(integrated.iter().position(|&x| x == s).unwrap_or(0));
+                    quote!(s.#name = integrals[#k];)
+                }
+                Quantity::Other(_) => quote!(),
+            }
+        })
+        .collect();
+    let integrated_raw: Vec<Literal> = integrated.iter().map(|s| count(raw_index[s])).collect();
+    let o = count(others.len());
+    // Inside `push`, none of `residuals`' `let`s exist: a lowering of its own.
+    let fresh = Lowering {
+        c,
+        field: lower.field.clone(),
+        bound: HashMap::new(),
+        auxiliary: HashMap::new(),
+        others: Vec::new(),
+    };
+    let integrands: Vec<TokenStream> = others.iter().map(|&e| fresh.expr(e).0).collect();
+    let other_fields: Vec<Ident> = (0..others.len())
+        .map(|k| format_ident!("int{}", k + 1))
+        .collect();
+    let other_index: Vec<Literal> = (0..others.len()).map(count).collect();
+    quote! {
+        /// The raw signals [`ResidualGenerator::push`] takes, in order: the inputs and
+        /// measured signals the ARRs read.
+        pub const RAW_SIGNALS: [&str; #r] = [#(#raw_names),*];
+
+        /// The highest derivative of each raw signal the ARRs read.
+        pub const RAW_ORDERS: [u32; #r] = [#(#order_literals),*];
+
+        /// Residuals from raw samples: each raw signal's derivatives come from an estimator
+        /// (`D`), and each integral is the trapezoidal integral of the raw signal passed
+        /// through the same estimator, so that every term of an ARR is filtered alike and
+        /// refers to the same instant, [`ResidualGenerator::delay`] seconds before the
+        /// newest sample.
+        #[derive(Clone, Debug)]
+        pub struct ResidualGenerator<D = ::bondgraph::SavitzkyGolay> {
+            params: Params,
+            estimators: Vec<D>,
+            integrators: Vec<(::bondgraph::Trapezoid, D)>,
+            others: [::bondgraph::Trapezoid; #o],
+        }
+
+        impl<D: ::bondgraph::Differentiator> ResidualGenerator<D> {
+            /// A generator with the estimator `estimator(order)` for each raw signal (`order`
+            /// the highest derivative it must give, see [`RAW_ORDERS`]) and each integral
+            /// (order 0). Every estimator should have the same delay.
+            pub fn new(params: Params, mut estimator: impl FnMut(u32) -> D) -> Self {
+                let built: Result<Self, ::core::convert::Infallible> =
+                    Self::try_new(params, |order| Ok(estimator(order)));
+                match built {
+                    Ok(g) => g,
+                    Err(never) => match never {},
+                }
+            }
+
+            /// [`ResidualGenerator::new`] with estimators that may be refused.
+            pub fn try_new<E>(
+                params: Params,
+                mut estimator: impl FnMut(u32) -> Result<D, E>,
+            ) -> Result<Self, E> {
+                let estimators = RAW_ORDERS
+                    .iter()
+                    .map(|&n| estimator(n))
+                    .collect::<Result<Vec<D>, E>>()?;
+                let integrators = (0..#i)
+                    .map(|_| Ok((::bondgraph::Trapezoid::new(), estimator(0)?)))
+                    .collect::<Result<Vec<_>, E>>()?;
+                Ok(ResidualGenerator {
+                    params,
+                    estimators,
+                    integrators,
+                    others: [::bondgraph::Trapezoid::new(); #o],
+                })
+            }
+
+            /// The parameters the residuals are computed with.
+            #[must_use]
+            pub fn params(&self) -> &Params {
+                &self.params
+            }
+
+            /// How far the residuals lag the newest sample, in seconds.
+            #[must_use]
+            pub fn delay(&self) -> f64 {
+                self.estimators.iter().map(|e| e.delay()).fold(0.0, f64::max)
+            }
+
+            /// Takes the samples of [`RAW_SIGNALS`] at time `t` (uniform steps) and returns
+            /// the residuals at `t - self.delay()`, once the estimators' windows are full.
+            #[allow(unused_mut, unused_variables, clippy::all)]
+            pub fn push(&mut self, t: f64, raw: [f64; #r]) -> Option<[f64; RESIDUAL_COUNT]> {
+                let mut estimates: [[f64; #width]; #r] = [[0.0; #width]; #r];
+                let mut ready = true;
+                for ((e, &x), out) in self.estimators.iter_mut().zip(&raw).zip(&mut estimates) {
+                    match e.push(x) {
+                        Some(d) => {
+                            for (o, v) in out.iter_mut().zip(d) {
+                                *o = *v;
+                            }
+                        }
+                        None => ready = false,
+                    }
+                }
+                let raw_of: [usize; #i] = [#(#integrated_raw),*];
+                let mut integrals = [0.0; #i];
+                for (((integ, e), &k), out) in self
+                    .integrators
+                    .iter_mut()
+                    .zip(&raw_of)
+                    .zip(&mut integrals)
+                {
+                    let value = integ.push(t, raw[k]);
+                    match e.push(value) {
+                        Some(d) => *out = d[0],
+                        None => ready = false,
+                    }
+                }
+                if !ready {
+                    return None;
+                }
+                let mut s = Signals::default();
+                #(#fill)*
+                let p = &self.params;
+                let at = t - self.delay();
+                #(
+                    s.#other_fields = self.others[#other_index].push(at, { #integrands });
+                )*
+                Some(residuals(p, &s))
+            }
+        }
+
+        impl ResidualGenerator<::bondgraph::SavitzkyGolay> {
+            /// A generator with centred Savitzky–Golay fits of `degree` over `window` samples
+            /// (odd) taken every `step` seconds: delay `(window − 1)/2` samples.
+            pub fn savitzky_golay(
+                params: Params,
+                step: f64,
+                window: usize,
+                degree: u32,
+            ) -> Result<Self, ::bondgraph::EstimatorError> {
+                Self::try_new(params, |order| {
+                    ::bondgraph::SavitzkyGolay::new(order, degree, window, step, true)
+                })
+            }
+        }
+    }
+}
