@@ -167,14 +167,25 @@ const IMPLAUSIBLE: [&str; 5] = ["NaN", "inf", "unknown", "Var(", "Tear("];
 
 /// Every emitter's output on a valid mutant holds nothing implausible.
 fn assert_plausible(name: &str, what: &str, text: &str, c: &bondgraph_core::Compiled) {
-    use bondgraph_codegen::{dot, json, latex, text as summary};
-    for output in [
+    use bondgraph_codegen::{dot, json, latex, rust, text as summary};
+    let mut outputs = vec![
         summary::emit(c),
         json::emit(c),
         latex::emit(c, true),
         dot::emit(c),
         summary::causality(c),
-    ] {
+    ];
+    // Rust is written only for a model without errors (the CLI refuses it otherwise); its
+    // tokens, unformatted (formatting is the same for every model, and costs).
+    if !c.has_errors() {
+        let code = rust::tokens(c).to_string();
+        assert!(
+            !code.contains("NAN"),
+            "{name} ({what}): the Rust reads something it has no value for\n{text}\n{code}"
+        );
+        outputs.push(code);
+    }
+    for output in outputs {
         for word in IMPLAUSIBLE {
             // Names the user chose may contain these letters; only bare words count.
             let bare = output

@@ -169,7 +169,7 @@ fn twenty_runs_of_the_bench_are_byte_identical_under_any_limits() {
         (&["--egg-nodes", "300", "--egg-iterations", "3"], 3),
         (&["--egg-seconds", "0.02"], 3),
     ];
-    let emitters = ["text", "json", "latex", "state", "dot"];
+    let emitters = ["text", "json", "latex", "state", "dot", "rust"];
     let defaults: Vec<_> = emitters
         .iter()
         .map(|e| bgc(&["models/backlash_bench.bg", "--emit", e]))

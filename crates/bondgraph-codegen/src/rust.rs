@@ -32,16 +32,28 @@ pub fn emit(c: &Compiled) -> String {
     )
 }
 
-/// A Rust identifier for a model name: itself, raw when it is a keyword (`r#type`), or with
-/// a trailing `_` when it cannot be raw (`self_`).
+/// Rust's keywords, strict and reserved (2021 edition): a model name among them is written
+/// raw.
+const KEYWORDS: [&str; 51] = [
+    "as", "break", "const", "continue", "crate", "else", "enum", "extern", "false", "fn", "for",
+    "if", "impl", "in", "let", "loop", "match", "mod", "move", "mut", "pub", "ref", "return",
+    "self", "Self", "static", "struct", "super", "trait", "true", "type", "unsafe", "use", "where",
+    "while", "async", "await", "dyn", "abstract", "become", "box", "do", "final", "macro",
+    "override", "priv", "typeof", "unsized", "virtual", "yield", "try",
+];
+
+/// A Rust identifier for a model name (letters, digits and `_`, as the model language
+/// allows): itself, raw when it is a keyword (`r#type`), or with a trailing `_` when it
+/// cannot be raw (`self_`, `crate_`).
 pub fn ident(name: &str) -> Ident {
-    if syn::parse_str::<Ident>(name).is_ok() {
-        return Ident::new(name, Span::call_site());
+    let cannot_be_raw = ["self", "Self", "super", "crate", "_"];
+    if cannot_be_raw.contains(&name) {
+        format_ident!("{}_", name)
+    } else if KEYWORDS.contains(&name) {
+        Ident::new_raw(name, Span::call_site())
+    } else {
+        Ident::new(name, Span::call_site())
     }
-    if syn::parse_str::<Ident>(&format!("r#{name}")).is_ok() {
-        return Ident::new_raw(name, Span::call_site());
-    }
-    format_ident!("{}_", name)
 }
 
 /// What a quantity of [`Signals`] is.
@@ -790,6 +802,27 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
                     ::bondgraph::SavitzkyGolay::new(order, degree, window, step, true)
                 })
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Model names become Rust identifiers that compile: keywords raw, the few that cannot be
+    /// raw with a trailing underscore.
+    #[test]
+    fn model_names_become_identifiers() {
+        assert_eq!(ident("Re").to_string(), "Re");
+        assert_eq!(ident("type").to_string(), "r#type");
+        assert_eq!(ident("self").to_string(), "self_");
+        assert_eq!(ident("_").to_string(), "__");
+        for k in KEYWORDS {
+            assert!(
+                syn::parse_str::<syn::Ident>(&ident(k).to_string()).is_ok(),
+                "{k}"
+            );
         }
     }
 }
