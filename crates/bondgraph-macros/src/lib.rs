@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use bondgraph_core::diagnostic::{Diagnostics, LineIndex};
 use bondgraph_core::{compile, Options};
-use proc_macro::{Delimiter, TokenStream, TokenTree};
+use proc_macro::{Delimiter, Spacing, TokenStream, TokenTree};
 use quote::quote;
 
 /// Compiles the model at the path given (relative to the calling crate's
@@ -35,6 +35,8 @@ struct Source {
     text: String,
     name: String,
     path: Option<PathBuf>,
+    /// For an inline model, where each token starts in `text`, and its span in the caller.
+    tokens: Vec<(usize, proc_macro::Span)>,
 }
 
 fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::TokenStream> {
@@ -44,11 +46,22 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
         quote!(::core::compile_error!(#message);)
     };
     let source = read(input).map_err(fail)?;
-    let out = compile(&source.text, &source.name, &Options::default())
-        .map_err(|d| fail(first_error(&source, &d)))?;
+    let refuse = |d: &Diagnostics| {
+        let (message, offset) = first_error(&source, d);
+        // Inline, the error points at the offending token itself.
+        match source.tokens.iter().rev().find(|(at, _)| *at <= offset) {
+            Some((_, span)) if source.path.is_none() => {
+                let span: proc_macro2::Span = (*span).into();
+                let message = syn::LitStr::new(&message, span);
+                quote::quote_spanned!(span=> ::core::compile_error!(#message);)
+            }
+            _ => fail(message),
+        }
+    };
+    let out = compile(&source.text, &source.name, &Options::default()).map_err(|d| refuse(&d))?;
     let c = out.compiled;
     if c.has_errors() {
-        return Err(fail(first_error(&source, &c.diagnostics)));
+        return Err(refuse(&c.diagnostics));
     }
     let module = bondgraph_codegen::rust::ident(&c.name);
     let items = bondgraph_codegen::rust::tokens(&c);
@@ -68,33 +81,39 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     })
 }
 
-/// The first error (or, without one, the first diagnostic) as `FILE:LINE:COLUMN: message`.
-fn first_error(source: &Source, diagnostics: &Diagnostics) -> String {
+/// The first error (or, without one, the first diagnostic) as `FILE:LINE:COLUMN: message`
+/// (for an inline model, the message alone: the compiler shows where), and its offset in the
+/// text.
+fn first_error(source: &Source, diagnostics: &Diagnostics) -> (String, usize) {
     let lines = LineIndex::new(&source.text);
     let all: Vec<_> = diagnostics.iter().collect();
-    let first = all.iter().find(|d| d.is_error()).or_else(|| all.first());
-    match first {
-        Some(d) => {
+    let Some(d) = all.iter().find(|d| d.is_error()).or_else(|| all.first()) else {
+        return (
+            format!("{}: the model could not be compiled", source.name),
+            0,
+        );
+    };
+    let more = all
+        .iter()
+        .filter(|d| d.is_error())
+        .count()
+        .saturating_sub(1);
+    let tail = match more {
+        0 => String::new(),
+        1 => " (and 1 more error; `bgc check` lists them)".to_string(),
+        n => format!(" (and {n} more errors; `bgc check` lists them)"),
+    };
+    let message = match source.path {
+        Some(_) => {
             let at = lines.line_col(&source.text, d.span.start);
-            let more = all
-                .iter()
-                .filter(|d| d.is_error())
-                .count()
-                .saturating_sub(1);
-            let tail = match more {
-                0 => String::new(),
-                n => format!(
-                    " (and {n} more error{}; `bgc check` lists them)",
-                    if n == 1 { "" } else { "s" }
-                ),
-            };
             format!(
                 "{}:{}:{}: {}{tail}",
                 source.name, at.line, at.col, d.message
             )
         }
-        None => format!("{}: the model could not be compiled", source.name),
-    }
+        None => format!("in the model: {}{tail}", d.message),
+    };
+    (message, d.span.start)
 }
 
 /// The model from a path literal or inline tokens.
@@ -111,15 +130,23 @@ fn read(input: TokenStream) -> Result<Source, String> {
                 .to_string(),
         );
     }
+    let (text, tokens) = inline(input);
     Ok(Source {
-        text: inline(input),
+        text,
         name: "inline model".to_string(),
         path: None,
+        tokens,
     })
 }
 
+/// Overrides the directory model paths are relative to: trybuild compiles its cases in a
+/// crate of its own, whose `CARGO_MANIFEST_DIR` is not the one the paths were written for.
+const ROOT_OVERRIDE: &str = "BOND_GRAPH_ROOT";
+
 fn from_file(relative: &str) -> Result<Source, String> {
-    let root = std::env::var("CARGO_MANIFEST_DIR").unwrap_or_else(|_| ".".to_string());
+    let root = std::env::var(ROOT_OVERRIDE)
+        .or_else(|_| std::env::var("CARGO_MANIFEST_DIR"))
+        .unwrap_or_else(|_| ".".to_string());
     let path = Path::new(&root).join(relative);
     let text = std::fs::read_to_string(&path).map_err(|e| {
         format!(
@@ -131,69 +158,67 @@ fn from_file(relative: &str) -> Result<Source, String> {
         text,
         name: relative.to_string(),
         path: Some(path),
+        tokens: Vec::new(),
     })
 }
 
-/// The inline model's text, rebuilt with its line breaks and columns from the tokens'
-/// positions: the model language ends statements at line ends, which tokens do not keep.
-fn inline(input: TokenStream) -> String {
-    let mut out = String::new();
-    let mut at: Option<(usize, usize)> = None;
-    let mut base = None;
-    write_tokens(input, &mut out, &mut at, &mut base);
-    out.push('\n');
-    out
+/// The inline model's text, rebuilt with its line breaks from the tokens' lines (the model
+/// language ends statements at line ends, which tokens do not keep); tokens on one line are
+/// separated by a space, except after a joint punctuation (`->`). With it, where each token
+/// starts in the text and its span.
+fn inline(input: TokenStream) -> (String, Vec<(usize, proc_macro::Span)>) {
+    let mut w = Writer::default();
+    w.tokens(input);
+    w.out.push('\n');
+    (w.out, w.spans)
 }
 
-fn place(
-    out: &mut String,
-    at: &mut Option<(usize, usize)>,
-    base: &mut Option<usize>,
-    span: proc_macro::Span,
-    text: &str,
-) {
-    let (line, column) = (span.line(), span.column());
-    let base = *base.get_or_insert(column);
-    match *at {
-        Some((l, c)) if l == line => {
-            if column > c {
-                out.push_str(&" ".repeat(column - c));
-            } else if !out.ends_with(' ') {
-                out.push(' ');
-            }
+/// Writes tokens back as text.
+#[derive(Default)]
+struct Writer {
+    out: String,
+    spans: Vec<(usize, proc_macro::Span)>,
+    line: Option<usize>,
+    joint: bool,
+}
+
+impl Writer {
+    fn place(&mut self, span: proc_macro::Span, text: &str, joint_before: bool) {
+        let line = span.line();
+        match self.line {
+            Some(l) if l < line => self.out.push_str(&"\n".repeat(line - l)),
+            Some(_) if !joint_before => self.out.push(' '),
+            _ => {}
         }
-        Some((l, _)) => {
-            out.push_str(&"\n".repeat(line.saturating_sub(l).max(1)));
-            out.push_str(&" ".repeat(column.saturating_sub(base)));
-        }
-        None => {}
+        self.spans.push((self.out.len(), span));
+        self.out.push_str(text);
+        self.line = Some(self.line.map_or(line, |l| l.max(line)));
     }
-    out.push_str(text);
-    *at = Some((line, column + text.chars().count()));
-}
 
-fn write_tokens(
-    input: TokenStream,
-    out: &mut String,
-    at: &mut Option<(usize, usize)>,
-    base: &mut Option<usize>,
-) {
-    for tt in input {
-        match tt {
-            TokenTree::Group(g) => {
-                let (open, close) = match g.delimiter() {
-                    Delimiter::Parenthesis => ("(", ")"),
-                    Delimiter::Brace => ("{", "}"),
-                    Delimiter::Bracket => ("[", "]"),
-                    Delimiter::None => ("", ""),
-                };
-                place(out, at, base, g.span_open(), open);
-                write_tokens(g.stream(), out, at, base);
-                place(out, at, base, g.span_close(), close);
-            }
-            other => {
-                let text = other.to_string();
-                place(out, at, base, other.span(), &text);
+    fn tokens(&mut self, input: TokenStream) {
+        for tt in input {
+            match tt {
+                TokenTree::Group(g) => {
+                    let (open, close) = match g.delimiter() {
+                        Delimiter::Parenthesis => ("(", ")"),
+                        Delimiter::Brace => ("{", "}"),
+                        Delimiter::Bracket => ("[", "]"),
+                        Delimiter::None => ("", ""),
+                    };
+                    self.place(g.span_open(), open, self.joint);
+                    self.joint = true;
+                    self.tokens(g.stream());
+                    self.place(g.span_close(), close, true);
+                    self.joint = false;
+                }
+                TokenTree::Punct(p) => {
+                    self.place(p.span(), &p.to_string(), self.joint);
+                    self.joint = p.spacing() == Spacing::Joint;
+                }
+                other => {
+                    self.place(other.span(), &other.to_string(), self.joint);
+                    self.joint = false;
+                }
             }
         }
     }
