@@ -76,6 +76,9 @@ pub struct SavitzkyGolay {
     seen: usize,
     out: Vec<f64>,
     delay: f64,
+    degree: u32,
+    /// `|t_j − t_eval|^(degree+1)` of each sample of the window, in seconds.
+    reach: Vec<f64>,
 }
 
 impl SavitzkyGolay {
@@ -105,6 +108,9 @@ impl SavitzkyGolay {
         };
         let weights =
             fit_weights(order, degree, window, at, step).ok_or(EstimatorError::Window(window))?;
+        let reach = (0..window)
+            .map(|j| ((j as f64 - at as f64).abs() * step).powi(degree as i32 + 1))
+            .collect();
         Ok(SavitzkyGolay {
             weights,
             buffer: vec![0.0; window],
@@ -112,6 +118,25 @@ impl SavitzkyGolay {
             seen: 0,
             out: vec![0.0; order as usize + 1],
             delay: (window - 1 - at) as f64 * step,
+            degree,
+            reach,
+        })
+    }
+
+    /// A bound on the error of the `k`-th derivative estimate for a noise-free signal whose
+    /// derivative of order `degree + 1` stays within `±max_next` over the window: the fit is
+    /// exact on polynomials of its degree, so only each sample's Taylor remainder,
+    /// `max_next |t_j − t|^(d+1) / (d+1)!`, passes through the weights.
+    #[must_use]
+    pub fn error_bound(&self, k: u32, max_next: f64) -> f64 {
+        let factorial: f64 = (1..=self.degree + 1).map(f64::from).product();
+        self.weights.get(k as usize).map_or(f64::INFINITY, |w| {
+            w.iter()
+                .zip(&self.reach)
+                .map(|(w, r)| w.abs() * r)
+                .sum::<f64>()
+                * max_next
+                / factorial
         })
     }
 }
@@ -426,6 +451,30 @@ mod tests {
         let second = (omega * h).powi(2) / 8.0;
         assert!(worst[0] < 2e-7 && worst[1] < 2e-7, "{worst:?}");
         assert!(worst[2] < second * 1.01, "{worst:?} against {second}");
+    }
+
+    /// The stated bound holds on a sine (every derivative within ±1). It is conservative: a
+    /// centred window cancels the odd remainders, so the first derivative is far better.
+    #[test]
+    fn the_error_bound_holds_and_is_tight() {
+        let h = 1e-2;
+        let mut sg = SavitzkyGolay::new(2, 3, 15, h, true).expect("valid");
+        let delay = sg.delay();
+        let mut worst = [0.0f64; 3];
+        for k in 0..2000 {
+            let t = k as f64 * h;
+            if let Some(d) = sg.push(t.sin()) {
+                let at = t - delay;
+                let want = [at.sin(), at.cos(), -at.sin()];
+                for i in 0..3 {
+                    worst[i] = worst[i].max((d[i] - want[i]).abs());
+                }
+            }
+        }
+        for (k, w) in worst.iter().enumerate() {
+            let bound = sg.error_bound(k as u32, 1.0);
+            assert!(*w <= bound, "order {k}: {w} against {bound}");
+        }
     }
 
     #[test]

@@ -1,0 +1,262 @@
+//! The bench's residual generator on simulated data: healthy, its residuals stay below a
+//! bound derived from the estimator and the sampling step; with a fault in the simulated
+//! plant (the armature resistance +50 %, or the dead zone ×3), the residuals the FSM marks
+//! rise at least ten times above it, and the candidates include the faulty component.
+//!
+//! The bound. A centred Savitzky–Golay fit of degree d over w samples is exact on
+//! polynomials of degree d, so on a noise-free signal the error of its k-th derivative is
+//! at most `M_{d+1} Σ_j |c_kj| |t_j − t|^{d+1} / (d+1)!`
+//! ([`bondgraph::SavitzkyGolay::error_bound`]), with `M_{d+1}` the largest |y^(d+1)| (taken
+//! from the samples' (d+1)-th differences, with a margin). An integral adds the trapezoid's
+//! `T h² max|y''| / 12`. The residual's error is then at most `Σ_i |∂r/∂s_i| E_i` over its
+//! fields `s_i`, the partial derivatives taken at each sample (finite differences of the
+//! generated `residuals`): the bound is the largest over the record. The plant is integrated
+//! with RK4 at the sampling step (error O(h⁴), some 1e-12 here, far below).
+
+use std::collections::HashMap;
+
+use bondgraph::SavitzkyGolay;
+use bondgraph_core::{compile, Compiled, Evaluator, Expr, Node, Options, Symbol};
+
+bondgraph::bond_graph!("../../models/backlash_bench.bg");
+
+use backlash_bench as bench;
+
+const STEP: f64 = 1e-3;
+const SECONDS: f64 = 8.0;
+const WINDOW: usize = 31;
+const DEGREE: u32 = 3;
+
+fn product() -> Compiled {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../models/backlash_bench.bg"
+    );
+    let text = std::fs::read_to_string(path).expect("the bench");
+    compile(&text, "backlash_bench.bg", &Options::default())
+        .expect("valid")
+        .compiled
+}
+
+/// The armature voltage: a step-free, slowly varying drive that turns the shafts both ways.
+fn voltage(t: f64) -> f64 {
+    2.0 * (0.8 * t).sin() + 0.5 * (2.3 * t).sin()
+}
+
+/// Samples `[U0, y1, y2]` of the plant with the parameters `scale`d by name, every STEP.
+fn simulate(c: &Compiled, scale: &HashMap<&str, f64>) -> Vec<(f64, [f64; 3])> {
+    let space = c.state_space.as_ref().expect("state equations");
+    let params: Vec<f64> = c
+        .parameters
+        .values()
+        .map(|p| p.value * scale.get(p.name.as_str()).copied().unwrap_or(1.0))
+        .collect();
+    let rhs: Vec<Expr> = space.equations.iter().map(|(_, e)| *e).collect();
+    // Integrals of states are states too: their rates are their arguments.
+    let mut integrals: Vec<Expr> = Vec::new();
+    c.exprs.visit_reachable(&rhs, |id, node| {
+        if matches!(node, Node::Int(_)) {
+            integrals.push(id);
+        }
+    });
+    let n = rhs.len();
+    let eval = |x: &[f64], t: f64, roots: &[Expr]| -> Vec<f64> {
+        let leaf = |s: Symbol| match s {
+            Symbol::Parameter(p) => params[p.index()],
+            Symbol::State(k) => x[k.index()],
+            Symbol::Input(_, 0) => voltage(t),
+            Symbol::Time => t,
+            _ => f64::NAN,
+        };
+        let ints = integrals
+            .iter()
+            .enumerate()
+            .map(|(i, &id)| (id, x[n + i]))
+            .collect();
+        let mut ev = Evaluator::new(&c.exprs, leaf).with_integrals(ints);
+        roots.iter().map(|&r| ev.value(r)).collect()
+    };
+    let mut rates = rhs.clone();
+    rates.extend(integrals.iter().map(|&id| match c.exprs.node(id) {
+        Node::Int(arg) => arg,
+        _ => id,
+    }));
+    let outputs: Vec<Expr> = space.outputs.iter().map(|(_, e)| *e).collect();
+    let mut x = vec![0.0; rates.len()];
+    let mut out = Vec::new();
+    let steps = (SECONDS / STEP) as usize;
+    for k in 0..=steps {
+        let t = k as f64 * STEP;
+        let y = eval(&x, t, &outputs);
+        out.push((t, [voltage(t), y[0], y[1]]));
+        let add = |x: &[f64], d: &[f64], s: f64| -> Vec<f64> {
+            x.iter().zip(d).map(|(a, b)| a + s * b).collect()
+        };
+        let k1 = eval(&x, t, &rates);
+        let k2 = eval(&add(&x, &k1, STEP / 2.0), t + STEP / 2.0, &rates);
+        let k3 = eval(&add(&x, &k2, STEP / 2.0), t + STEP / 2.0, &rates);
+        let k4 = eval(&add(&x, &k3, STEP), t + STEP, &rates);
+        for i in 0..x.len() {
+            x[i] += STEP / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+    }
+    out
+}
+
+/// The largest |y^(m)| of a sampled signal, from its m-th differences, with a 20 % margin.
+fn largest_derivative(samples: &[f64], m: u32) -> f64 {
+    let mut d = samples.to_vec();
+    for _ in 0..m {
+        d = d.windows(2).map(|w| (w[1] - w[0]) / STEP).collect();
+    }
+    1.2 * d.iter().fold(0.0f64, |a, v| a.max(v.abs()))
+}
+
+/// Each residual's worst |value| over the record once the window is full, and the bound
+/// on each (see the module's doc).
+fn run(samples: &[(f64, [f64; 3])]) -> ([f64; 2], [f64; 2]) {
+    assert_eq!(bench::RAW_SIGNALS, ["U0", "y1", "y2"]);
+    let p = bench::Params::default();
+    let mut g = bench::ResidualGenerator::savitzky_golay(p, STEP, WINDOW, DEGREE).expect("valid");
+    // The error bound of each field of Signals.
+    let probe = SavitzkyGolay::new(2, DEGREE, WINDOW, STEP, true).expect("valid");
+    let column = |i: usize| -> Vec<f64> { samples.iter().map(|(_, s)| s[i]).collect() };
+    let raw: Vec<Vec<f64>> = (0..3).map(column).collect();
+    let next: Vec<f64> = raw
+        .iter()
+        .map(|y| largest_derivative(y, DEGREE + 1))
+        .collect();
+    let within: Vec<f64> = raw.iter().map(|y| largest_derivative(y, DEGREE)).collect();
+    let curvature: Vec<f64> = raw.iter().map(|y| largest_derivative(y, 2)).collect();
+    let error: Vec<f64> = bench::Signals::NAMES
+        .iter()
+        .map(|name| {
+            let (signal, what) = name.split_once('_').unwrap_or((name, ""));
+            let i = bench::RAW_SIGNALS
+                .iter()
+                .position(|s| *s == signal)
+                .expect("raw");
+            match what {
+                "" => probe.error_bound(0, next[i]),
+                "d1" => probe.error_bound(1, next[i]),
+                "d2" => probe.error_bound(2, next[i]),
+                // The trapezoid, then the fit of the integral (whose (d+1)-th derivative
+                // is the signal's d-th).
+                "int" => {
+                    SECONDS * STEP * STEP * curvature[i] / 12.0 + probe.error_bound(0, within[i])
+                }
+                other => panic!("no bound for {other}"),
+            }
+        })
+        .collect();
+    let (mut worst, mut bound) = ([0.0f64; 2], [0.0f64; 2]);
+    for &(t, s) in samples {
+        let Some(r) = g.push(t, s) else { continue };
+        // Only once the integrals have settled past the window's start.
+        if t < 1.0 {
+            continue;
+        }
+        for k in 0..2 {
+            worst[k] = worst[k].max(r[k].abs());
+        }
+    }
+    // Sensitivities at the healthy trajectory, estimated exactly enough by the raw signals
+    // (the partial derivatives vary slowly): largest Σ |∂r/∂s_i| E_i over the record.
+    let mut fields = bench::Signals::default();
+    let mut integ = [bondgraph::Trapezoid::new(), bondgraph::Trapezoid::new()];
+    let mut prev: Option<[f64; 3]> = None;
+    let mut prev2: Option<[f64; 3]> = None;
+    for &(t, s) in samples {
+        let ints = [integ[0].push(t, s[1]), integ[1].push(t, s[2])];
+        if let (Some(a), Some(b)) = (prev, prev2) {
+            // Central differences at the previous sample, from its neighbours.
+            let d1 = |i: usize| (s[i] - b[i]) / (2.0 * STEP);
+            let d2 = |i: usize| (s[i] - 2.0 * a[i] + b[i]) / (STEP * STEP);
+            fields.U0 = a[0];
+            fields.y1 = a[1];
+            fields.y1_d1 = d1(1);
+            fields.y1_d2 = d2(1);
+            fields.y1_int = ints[0];
+            fields.y2 = a[2];
+            fields.y2_d1 = d1(2);
+            fields.y2_d2 = d2(2);
+            fields.y2_int = ints[1];
+            if t >= 1.0 {
+                let slope = sensitivities(&p, &fields);
+                for k in 0..2 {
+                    let b: f64 = slope[k].iter().zip(&error).map(|(d, e)| d.abs() * e).sum();
+                    bound[k] = bound[k].max(b);
+                }
+            }
+        }
+        prev2 = prev;
+        prev = Some(s);
+    }
+    (worst, bound)
+}
+
+/// ∂r_k/∂s_i for every field, by central differences of the generated residuals.
+fn sensitivities(p: &bench::Params, s: &bench::Signals) -> [Vec<f64>; 2] {
+    let base = s.to_array();
+    let mut out = [Vec::new(), Vec::new()];
+    for i in 0..base.len() {
+        let h = 1e-6 * (1.0 + base[i].abs());
+        let (mut up, mut down) = (base, base);
+        up[i] += h;
+        down[i] -= h;
+        let (ru, rd) = (
+            bench::residuals(p, &bench::Signals::from_array(up)),
+            bench::residuals(p, &bench::Signals::from_array(down)),
+        );
+        for k in 0..2 {
+            out[k].push((ru[k] - rd[k]) / (2.0 * h));
+        }
+    }
+    out
+}
+
+#[test]
+fn streaming_residuals_stay_below_their_bound_and_faults_rise_ten_times_above_it() {
+    let c = product();
+    let healthy = simulate(&c, &HashMap::new());
+    let (worst, bound) = run(&healthy);
+    eprintln!("healthy: worst {worst:?}, bound {bound:?}");
+    for k in 0..2 {
+        assert!(
+            worst[k] <= bound[k],
+            "healthy {}: {:e} above its bound {:e}",
+            bench::RESIDUALS[k],
+            worst[k],
+            bound[k]
+        );
+    }
+    for (parameter, factor, component) in [("Re", 1.5, "Rm"), ("j0", 3.0, "w")] {
+        let faulty = simulate(&c, &HashMap::from([(parameter, factor)]));
+        let (seen, _) = run(&faulty);
+        eprintln!("{parameter} x{factor}: worst {seen:?}");
+        let alarms = [seen[0] > bound[0], seen[1] > bound[1]];
+        let row = bench::FSM
+            .components
+            .iter()
+            .find(|r| r.name == component)
+            .expect("an FSM row");
+        for k in 0..2 {
+            if row.signature[k] {
+                assert!(
+                    seen[k] >= 10.0 * bound[k],
+                    "{parameter} x{factor}: {} reaches {:e}, under 10x its bound {:e}",
+                    bench::RESIDUALS[k],
+                    seen[k],
+                    bound[k]
+                );
+            }
+        }
+        let candidates = bench::candidates(&alarms);
+        assert!(
+            candidates.contains(&component),
+            "{parameter} x{factor}: alarms {alarms:?}, candidates {candidates:?}"
+        );
+    }
+    // The bound is not vacuous: it is small against the residuals' own terms.
+    assert!(bound[0] < 1e-3 && bound[1] < 1e-3, "{bound:?}");
+}
