@@ -68,8 +68,11 @@ impl std::error::Error for EstimatorError {}
 /// about `σ / (w^(k+1/2) h^k)`: widen the window against noise, narrow it against bias.
 #[derive(Clone, Debug)]
 pub struct SavitzkyGolay {
-    /// `weights[k][j]`: the k-th derivative's weight of the j-th oldest sample.
-    weights: Vec<Vec<f64>>,
+    /// `weights[k·window + j]`: the k-th derivative's weight of the j-th oldest sample, one
+    /// flat array so that a sample's estimates read one block of memory.
+    weights: Vec<f64>,
+    window: usize,
+    /// The last `window` samples, each twice (see `push`).
     buffer: Vec<f64>,
     /// Where the next sample goes (the oldest one once the buffer is full).
     next: usize,
@@ -112,8 +115,9 @@ impl SavitzkyGolay {
             .map(|j| ((j as f64 - at as f64).abs() * step).powi(degree as i32 + 1))
             .collect();
         Ok(SavitzkyGolay {
-            weights,
-            buffer: vec![0.0; window],
+            weights: weights.concat(),
+            window,
+            buffer: vec![0.0; 2 * window],
             next: 0,
             seen: 0,
             out: vec![0.0; order as usize + 1],
@@ -130,14 +134,17 @@ impl SavitzkyGolay {
     #[must_use]
     pub fn error_bound(&self, k: u32, max_next: f64) -> f64 {
         let factorial: f64 = (1..=self.degree + 1).map(f64::from).product();
-        self.weights.get(k as usize).map_or(f64::INFINITY, |w| {
-            w.iter()
-                .zip(&self.reach)
-                .map(|(w, r)| w.abs() * r)
-                .sum::<f64>()
-                * max_next
-                / factorial
-        })
+        let row = k as usize * self.window;
+        self.weights
+            .get(row..row + self.window)
+            .map_or(f64::INFINITY, |w| {
+                w.iter()
+                    .zip(&self.reach)
+                    .map(|(w, r)| w.abs() * r)
+                    .sum::<f64>()
+                    * max_next
+                    / factorial
+            })
     }
 }
 
@@ -205,20 +212,41 @@ fn fit_weights(
     Some(out)
 }
 
+/// `Σ aᵢ bᵢ` with four running sums: independent additions keep the floating-point unit
+/// busy where one sum would wait on each addition.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [0.0f64; 4];
+    let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
+    let (b4, b_rest) = b.split_at(a4.len().min(b.len()));
+    for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
+        for k in 0..4 {
+            sums[k] += x[k] * y[k];
+        }
+    }
+    let rest: f64 = a_rest.iter().zip(b_rest).map(|(x, y)| x * y).sum();
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + rest
+}
+
 impl Differentiator for SavitzkyGolay {
     fn push(&mut self, x: f64) -> Option<&[f64]> {
-        let window = self.buffer.len();
+        // Each sample is stored twice, `window` apart, so that the last `window` samples
+        // are always one contiguous slice, oldest first.
+        let window = self.window;
         self.buffer[self.next] = x;
-        self.next = (self.next + 1) % window;
+        self.buffer[self.next + window] = x;
+        // A compare, not a division: this runs once per sample and signal.
+        self.next = if self.next + 1 == window {
+            0
+        } else {
+            self.next + 1
+        };
         self.seen = self.seen.saturating_add(1);
         if self.seen < window {
             return None;
         }
-        let (newer, older) = self.buffer.split_at(self.next);
-        for (out, weights) in self.out.iter_mut().zip(&self.weights) {
-            let (first, second) = weights.split_at(older.len());
-            *out = older.iter().zip(first).map(|(y, w)| y * w).sum::<f64>()
-                + newer.iter().zip(second).map(|(y, w)| y * w).sum::<f64>();
+        let samples = &self.buffer[self.next..self.next + window];
+        for (out, weights) in self.out.iter_mut().zip(self.weights.chunks_exact(window)) {
+            *out = dot(samples, weights);
         }
         Some(&self.out)
     }
