@@ -12,7 +12,7 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use bondgraph_core::{
-    Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Signal, Symbol,
+    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Signal, Symbol,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -382,36 +382,10 @@ fn uses(c: &Compiled, roots: &[Expr]) -> (Vec<Expr>, HashMap<Expr, usize>) {
     (order, count)
 }
 
-fn children(node: Node<Symbol>) -> Vec<Expr> {
-    match node {
-        Node::Num(_) | Node::Leaf(_) => Vec::new(),
-        Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => vec![a],
-        Node::Binary(_, a, b) | Node::Call2(_, a, b) => vec![a, b],
-    }
-}
-
-/// The derivatives of auxiliary signals that `roots` read, directly or through others.
-fn auxiliaries_read(c: &Compiled, roots: &[Expr]) -> BTreeSet<(Handle<Auxiliary>, u32)> {
-    let mut out = BTreeSet::new();
-    let mut stack: Vec<Expr> = roots.to_vec();
-    while let Some(e) = stack.pop() {
-        for leaf in c.exprs.leaves(e) {
-            if let Symbol::Auxiliary(a, n) = leaf {
-                if out.insert((a, n)) {
-                    if let Some(&d) = c.auxiliaries[a].derivatives.get(n as usize) {
-                        stack.push(d);
-                    }
-                }
-            }
-        }
-    }
-    out
-}
-
 /// The body of `residuals`: `let`s for shared nodes and auxiliary signals, then the array.
 fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
     let roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
-    let read = auxiliaries_read(c, &roots);
+    let read = c.auxiliary_derivatives_read(&roots);
     let mut all_roots = roots.clone();
     for &(a, n) in &read {
         all_roots.push(c.auxiliaries[a].derivatives[n as usize]);

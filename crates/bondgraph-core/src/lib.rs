@@ -26,7 +26,7 @@ pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
 pub use product::*;
 pub use symbolic::rewrite::{Limits, Stop};
-pub use symbolic::{Evaluator, ExprId, LeafKind, Node, Pool, Printer};
+pub use symbolic::{children, Evaluator, ExprId, LeafKind, Node, Pool, Printer};
 pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};
 
 use diagnostic::Diagnostics;

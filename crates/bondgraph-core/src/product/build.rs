@@ -421,22 +421,13 @@ fn model_names(model: &BondGraph) -> BTreeSet<String> {
 
 /// `e` and the derivatives of auxiliary signals that it reads, directly or through others.
 fn with_auxiliaries(exprs: &Exprs, auxiliaries: &Arena<Auxiliary>, e: Expr) -> Vec<Expr> {
-    let mut seen: BTreeSet<(Handle<Auxiliary>, u32)> = BTreeSet::new();
-    let mut out = vec![e];
-    let mut next = 0;
-    while next < out.len() {
-        let root = out[next];
-        next += 1;
-        for leaf in exprs.leaves(root) {
-            if let Symbol::Auxiliary(a, n) = leaf {
-                let d = auxiliaries[a].derivatives.get(n as usize).copied();
-                if let (true, Some(d)) = (seen.insert((a, n)), d) {
-                    out.push(d);
-                }
-            }
-        }
-    }
-    out
+    let read = super::auxiliary_derivatives_read(exprs, auxiliaries, &[e]);
+    std::iter::once(e)
+        .chain(
+            read.into_iter()
+                .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
+        )
+        .collect()
 }
 
 /// The auxiliary signals `e` reads, directly or through others, in definition order.
@@ -445,15 +436,9 @@ fn auxiliaries_read(
     auxiliaries: &Arena<Auxiliary>,
     e: Expr,
 ) -> Vec<Handle<Auxiliary>> {
-    let mut out = BTreeSet::new();
-    for root in with_auxiliaries(exprs, auxiliaries, e) {
-        for leaf in exprs.leaves(root) {
-            if let Symbol::Auxiliary(a, _) = leaf {
-                out.insert(a);
-            }
-        }
-    }
-    out.into_iter().collect()
+    let read = super::auxiliary_derivatives_read(exprs, auxiliaries, &[e]);
+    let handles: BTreeSet<Handle<Auxiliary>> = read.into_iter().map(|(a, _)| a).collect();
+    handles.into_iter().collect()
 }
 
 /// What an expression reads, through the auxiliary signals it reads too: each signal's

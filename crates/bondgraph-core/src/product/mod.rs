@@ -385,7 +385,37 @@ pub struct Compiled {
     source: String,
 }
 
+/// The derivatives of auxiliary signals (signal, order) that `roots` read, directly or
+/// through the derivatives of others.
+pub(crate) fn auxiliary_derivatives_read(
+    exprs: &Exprs,
+    auxiliaries: &Arena<Auxiliary>,
+    roots: &[Expr],
+) -> std::collections::BTreeSet<(Handle<Auxiliary>, u32)> {
+    let mut out = std::collections::BTreeSet::new();
+    let mut stack: Vec<Expr> = roots.to_vec();
+    while let Some(e) = stack.pop() {
+        for leaf in exprs.leaves(e) {
+            if let Symbol::Auxiliary(a, n) = leaf {
+                if out.insert((a, n)) {
+                    stack.extend(auxiliaries[a].derivatives.get(n as usize).copied());
+                }
+            }
+        }
+    }
+    out
+}
+
 impl Compiled {
+    /// The derivatives of auxiliary signals (signal, order) that `roots` read, directly or
+    /// through the derivatives of others: what code evaluating `roots` must compute first.
+    pub fn auxiliary_derivatives_read(
+        &self,
+        roots: &[Expr],
+    ) -> std::collections::BTreeSet<(Handle<Auxiliary>, u32)> {
+        auxiliary_derivatives_read(&self.exprs, &self.auxiliaries, roots)
+    }
+
     /// The line and column of a span's start.
     pub fn line_col(&self, span: Span) -> LineCol {
         self.lines.line_col(&self.source, span.start)

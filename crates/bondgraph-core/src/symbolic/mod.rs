@@ -18,6 +18,5 @@ pub mod rewrite;
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::{Evaluator, Tape};
 pub use normal::{Polynomial, Simplifier};
-pub(crate) use pool::children;
-pub use pool::{ExprId, Leaf, LeafKind, Node, Pool};
+pub use pool::{children, ExprId, Leaf, LeafKind, Node, Pool};
 pub use print::Printer;

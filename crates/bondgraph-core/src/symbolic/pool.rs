@@ -475,7 +475,7 @@ impl<L: LeafKind> Pool<L> {
 }
 
 /// The children of a node.
-pub(crate) fn children<L: LeafKind>(node: Node<L>) -> impl Iterator<Item = ExprId<L>> {
+pub fn children<L: LeafKind>(node: Node<L>) -> impl Iterator<Item = ExprId<L>> {
     let (a, b) = match node {
         Node::Num(_) | Node::Leaf(_) => (None, None),
         Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => (Some(a), None),
