@@ -620,6 +620,26 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
     let top = orders.iter().copied().max().unwrap_or(0);
     let width = count(top as usize + 1);
     let i = count(integrated.len());
+    // Each raw signal's estimates, copied by fixed positions: a slice pattern that cannot
+    // panic, where a loop over the estimator's slice would be a call to `memcpy`.
+    let take: Vec<TokenStream> = orders
+        .iter()
+        .enumerate()
+        .map(|(k, &n)| {
+            let k = count(k);
+            let names: Vec<Ident> = (0..=n).map(|j| format_ident!("d{}", j)).collect();
+            let slots: Vec<Literal> = (0..=n as usize).map(count).collect();
+            quote! {
+                match self.estimators[#k].push(raw[#k]) {
+                    Some(&[#(#names,)* ..]) => {
+                        #(estimates[#k][#slots] = #names;)*
+                        fresh[#k] = true;
+                    }
+                    _ => ready = false,
+                }
+            }
+        })
+        .collect();
     // How each field is filled from the estimates.
     let fill: Vec<TokenStream> = fields
         .iter()
@@ -670,8 +690,9 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
         pub struct ResidualGenerator<D = ::bondgraph::SavitzkyGolay> {
             params: Params,
             estimators: Vec<D>,
-            integrators: Vec<(::bondgraph::Trapezoid, D)>,
+            integrals: Vec<::bondgraph::EstimatedIntegral<D>>,
             others: [::bondgraph::Trapezoid; #o],
+            delay: f64,
         }
 
         impl<D: ::bondgraph::Differentiator> ResidualGenerator<D> {
@@ -696,14 +717,16 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
                     .iter()
                     .map(|&n| estimator(n))
                     .collect::<Result<Vec<D>, E>>()?;
-                let integrators = (0..#i)
-                    .map(|_| Ok((::bondgraph::Trapezoid::new(), estimator(0)?)))
+                let integrals = (0..#i)
+                    .map(|_| Ok(::bondgraph::EstimatedIntegral::new(estimator(0)?)))
                     .collect::<Result<Vec<_>, E>>()?;
+                let delay = estimators.iter().map(|e| e.delay()).fold(0.0, f64::max);
                 Ok(ResidualGenerator {
                     params,
                     estimators,
-                    integrators,
+                    integrals,
                     others: [::bondgraph::Trapezoid::new(); #o],
+                    delay,
                 })
             }
 
@@ -716,7 +739,7 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
             /// How far the residuals lag the newest sample, in seconds.
             #[must_use]
             pub fn delay(&self) -> f64 {
-                self.estimators.iter().map(|e| e.delay()).fold(0.0, f64::max)
+                self.delay
             }
 
             /// Takes the samples of [`RAW_SIGNALS`] at time `t` (uniform steps) and returns
@@ -724,28 +747,15 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
             #[allow(unused_mut, unused_variables, clippy::all)]
             pub fn push(&mut self, t: f64, raw: [f64; #r]) -> Option<[f64; RESIDUAL_COUNT]> {
                 let mut estimates: [[f64; #width]; #r] = [[0.0; #width]; #r];
+                let mut fresh = [false; #r];
                 let mut ready = true;
-                for ((e, &x), out) in self.estimators.iter_mut().zip(&raw).zip(&mut estimates) {
-                    match e.push(x) {
-                        Some(d) => {
-                            for (o, v) in out.iter_mut().zip(d) {
-                                *o = *v;
-                            }
-                        }
-                        None => ready = false,
-                    }
-                }
+                #(#take)*
                 let raw_of: [usize; #i] = [#(#integrated_raw),*];
                 let mut integrals = [0.0; #i];
-                for (((integ, e), &k), out) in self
-                    .integrators
-                    .iter_mut()
-                    .zip(&raw_of)
-                    .zip(&mut integrals)
-                {
-                    let value = integ.push(t, raw[k]);
-                    match e.push(value) {
-                        Some(d) => *out = d[0],
+                for ((integral, &k), out) in self.integrals.iter_mut().zip(&raw_of).zip(&mut integrals) {
+                    let estimate = if fresh[k] { Some(estimates[k][0]) } else { None };
+                    match integral.push(t, raw[k], estimate) {
+                        Some(v) => *out = v,
                         None => ready = false,
                     }
                 }
@@ -755,7 +765,7 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
                 let mut s = Signals::default();
                 #(#fill)*
                 let p = &self.params;
-                let at = t - self.delay();
+                let at = t - self.delay;
                 #(
                     s.#other_fields = self.others[#other_index].push(at, { #integrands });
                 )*

@@ -245,8 +245,11 @@ impl Differentiator for SavitzkyGolay {
             return None;
         }
         let samples = &self.buffer[self.next..self.next + window];
-        for (out, weights) in self.out.iter_mut().zip(self.weights.chunks_exact(window)) {
-            *out = dot(samples, weights);
+        // Rows by offset, not `chunks_exact`, whose count costs an integer division.
+        let mut row = 0;
+        for out in &mut self.out {
+            *out = dot(samples, &self.weights[row..row + window]);
+            row += window;
         }
         Some(&self.out)
     }

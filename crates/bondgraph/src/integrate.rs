@@ -1,5 +1,7 @@
 //! Integrals of sampled signals from the start of the record.
 
+use crate::Differentiator;
+
 /// The trapezoidal rule over irregular or regular samples: exact for signals linear between
 /// samples, error `h² T max|x''| / 12` over a record of length `T` at step `h`.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -24,6 +26,15 @@ impl Trapezoid {
         self.sum
     }
 
+    /// An integral that continues from `sum` at time `t`, where the signal is `x`.
+    #[must_use]
+    pub fn resume(t: f64, x: f64, sum: f64) -> Trapezoid {
+        Trapezoid {
+            last: Some((t, x)),
+            sum,
+        }
+    }
+
     /// The integral so far.
     #[must_use]
     pub fn value(&self) -> f64 {
@@ -31,9 +42,64 @@ impl Trapezoid {
     }
 }
 
+/// A signal's integral from the start of the record, passed through the same estimator as
+/// the signal so that it refers to the same instant as the signal's derivatives.
+///
+/// Until the estimator's window is full, the raw samples' trapezoidal integral is fed to the
+/// estimator. From its first estimate on, the integral continues as the trapezoidal integral
+/// of the signal's own estimate: an estimator that is linear and time-invariant commutes with
+/// the rule's increments, so for a fixed-window fit such as [`SavitzkyGolay`](crate::SavitzkyGolay)
+/// this is the estimate of the integral up to rounding, without a second estimator per
+/// integral. For a recursive filter the two differ by a start-up transient that decays at
+/// the filter's rate.
+#[derive(Clone, Debug)]
+pub struct EstimatedIntegral<D> {
+    phase: Phase<D>,
+}
+
+#[derive(Clone, Debug)]
+enum Phase<D> {
+    /// The raw integral goes through the estimator until it gives its first estimate.
+    Warming { raw: Trapezoid, estimator: D },
+    /// The integral of the signal's estimate, from the estimator's first estimate.
+    Running(Trapezoid),
+}
+
+impl<D: Differentiator> EstimatedIntegral<D> {
+    /// An integral that starts at zero with the first sample, estimated by `estimator`
+    /// (which should be the signal's estimator, or one like it, built for order 0).
+    #[must_use]
+    pub fn new(estimator: D) -> EstimatedIntegral<D> {
+        EstimatedIntegral {
+            phase: Phase::Warming {
+                raw: Trapezoid::new(),
+                estimator,
+            },
+        }
+    }
+
+    /// Takes the raw sample `x` at time `t` (uniform steps) and the signal's own estimate at
+    /// this sample, if its estimator gave one; returns the integral's estimate at the same
+    /// instant once both exist.
+    pub fn push(&mut self, t: f64, x: f64, estimate: Option<f64>) -> Option<f64> {
+        match &mut self.phase {
+            Phase::Running(integral) => estimate.map(|y| integral.push(t, y)),
+            Phase::Warming { raw, estimator } => {
+                let value = raw.push(t, x);
+                let first = estimator.push(value).and_then(|d| d.first().copied())?;
+                // The estimates lag `t` by the estimator's delay; with uniform steps the
+                // rule's increments are the same whichever instant they are labelled with.
+                self.phase = Phase::Running(Trapezoid::resume(t, estimate?, first));
+                Some(first)
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::SavitzkyGolay;
 
     /// ∫₀¹ t dt = 1/2 exactly (linear), ∫₀^π sin = 2 to h²-accuracy.
     #[test]
@@ -59,5 +125,33 @@ mod tests {
             (sine.value() - 2.0).abs() > bound * 0.5,
             "the error is second order"
         );
+    }
+
+    /// After the window fills, the integral of the estimate is the estimate of the integral:
+    /// the same numbers, up to rounding, as a second fit over the raw integral.
+    #[test]
+    fn the_integral_of_the_estimate_is_the_estimate_of_the_integral() {
+        let h = 1e-3;
+        let fit = || SavitzkyGolay::new(0, 3, 11, h, true).expect("valid");
+        let (mut signal, mut both, mut raw, mut reference) = (
+            fit(),
+            EstimatedIntegral::new(fit()),
+            Trapezoid::new(),
+            fit(),
+        );
+        let mut compared = 0;
+        for k in 0..20_000 {
+            let t = k as f64 * h;
+            let x = (3.0 * t).sin() + 0.2 * (40.0 * t).cos() + 1.0;
+            let estimate = signal.push(x).map(|d| d[0]);
+            let got = both.push(t, x, estimate);
+            let want = reference.push(raw.push(t, x)).map(|d| d[0]);
+            assert_eq!(got.is_some(), want.is_some(), "sample {k}");
+            if let (Some(g), Some(w)) = (got, want) {
+                assert!((g - w).abs() <= 1e-12 * (1.0 + w.abs()), "{k}: {g} {w}");
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 20_000 - 10);
     }
 }

@@ -16,7 +16,7 @@ mod threshold;
 
 pub use decision::{Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
-pub use integrate::Trapezoid;
+pub use integrate::{EstimatedIntegral, Trapezoid};
 pub use threshold::Threshold;
 
 /// Compiles a bond-graph model at build time into its residual code (see the crate
