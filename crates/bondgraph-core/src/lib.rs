@@ -25,6 +25,9 @@ pub use compile::{compile, without_bom, Derive, Options, Output};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
 pub use product::*;
+pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
+#[cfg(feature = "simulate")]
+pub use sim::{Simulation, SimulationError, Trajectory};
 pub use symbolic::rewrite::{Limits, Stop};
 pub use symbolic::{children, Evaluator, ExprId, LeafKind, Node, Pool, Printer};
 pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};

@@ -1,251 +1,183 @@
-//! State equations: the model in integral causality, dx/dt = f(x, u), and its detector outputs.
+//! Simulation: the model in integral causality as state equations, and their integration
+//! under a scenario (inputs, closed loops, faults, noise) into sampled signals.
 
-use std::collections::HashMap;
+#[cfg(feature = "simulate")]
+mod noise;
+#[cfg(feature = "simulate")]
+mod plant;
+#[cfg(feature = "simulate")]
+mod run;
+mod scenario;
+mod state_space;
 
-use crate::causality::equations::{Relation, Var};
-use crate::causality::solve::Use;
-use crate::causality::{report, Causal};
-use crate::diagnostic::{Code, Diagnostic, Severity};
-use crate::graph::{BondGraph, NodeId, NodeKind};
-use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
+#[cfg(feature = "simulate")]
+pub use run::{SimulationError, Trajectory};
+pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
+pub(crate) use state_space::{state_space_of, StateSpace};
 
-/// One state equation, `d(name)/dt = rhs`.
+#[cfg(feature = "simulate")]
+use crate::diagnostic::Diagnostics;
+#[cfg(feature = "simulate")]
+use crate::product::Compiled;
+
+/// A model under a scenario, ready to run.
+#[cfg(feature = "simulate")]
 #[derive(Clone, Debug)]
-pub struct StateEquation {
-    /// `p_NAME` or `q_NAME`.
-    pub name: String,
-    /// The storage element.
-    pub element: NodeId,
-    /// The right-hand side, over states (`Leaf::State`), parameters, inputs and time.
-    pub rhs: ExprId,
+pub struct Simulation {
+    plant: plant::Plant,
+    scenario: Scenario,
 }
 
-/// The state-space form of a model.
-pub struct StateSpace {
-    /// The expressions.
-    pub pool: Pool,
-    /// One equation per state, in declaration order of the storage elements.
-    pub states: Vec<StateEquation>,
-    /// Each detector's output, over states and inputs.
-    pub outputs: Vec<(NodeId, ExprId)>,
-    /// Why the state equations are incomplete, if they are.
-    pub problems: Vec<Diagnostic>,
+#[cfg(feature = "simulate")]
+impl Simulation {
+    /// The plant of `c` driven as `scenario` says, or the scenario's mistakes (their spans are
+    /// in the scenario's text).
+    pub fn new(c: &Compiled, scenario: &Scenario) -> Result<Simulation, Diagnostics> {
+        Ok(Simulation {
+            plant: plant::build(c, scenario)?,
+            scenario: scenario.clone(),
+        })
+    }
+
+    /// Integrates over the scenario's duration; `progress` hears the fraction done as it goes.
+    pub fn run(&self, progress: impl FnMut(f64)) -> Result<Trajectory, SimulationError> {
+        run::run(&self.plant, &self.scenario, progress)
+    }
 }
 
-/// The state equations of `model` from its equations in integral causality.
-pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
-    let mut pool = causal.system.pool.clone();
-    let mut problems = report::refusals(model, causal);
-    // What a refused law leaves unsolved follows from it: reported once, at the law.
-    if problems.is_empty() {
-        problems.extend(report::unsolved(model, causal));
+#[cfg(all(test, feature = "simulate"))]
+mod tests {
+    use super::*;
+    use crate::{compile, Options};
+
+    pub(super) const RC: &str = "model rc\nparam R1 = 2 [Ohm]\nparam C1 = 0.5 [F]\ninput I [A]\n\
+                      Sf src = I\nC cap = C1\nR res = R1\nDe v on n\nsrc -> 0:n -> cap, res\n";
+
+    fn simulate(model: &str, scenario: &str) -> Result<Trajectory, String> {
+        let c = compile(model, "m.bg", &Options::default())
+            .map_err(|d| format!("{d:?}"))?
+            .compiled;
+        let (s, d) = parse_scenario(scenario);
+        let s = s.ok_or_else(|| format!("{d:?}"))?;
+        let sim = Simulation::new(&c, &s).map_err(|d| format!("{d:?}"))?;
+        sim.run(|_| {}).map_err(|e| e.to_string())
     }
-    problems.extend(report::conflicts(model, causal));
-    let nan = pool.num(f64::NAN);
-    let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
-    for id in model.nodes() {
-        if let NodeKind::Detector(_) = model.node(id).kind {
-            let value = model
-                .detector_junction(id)
-                .and_then(|j| causal.value(Var::Common(j)))
-                .unwrap_or(nan);
-            outputs.push((id, value));
-        }
+
+    fn column<'a>(t: &'a Trajectory, name: &str) -> &'a [f64] {
+        let k = t.columns.iter().position(|c| c == name).expect("column");
+        &t.values[k]
     }
-    let pool = &mut pool;
-    // Modulations may read detectors; replace measured signals by the outputs they measure.
-    // Rounds until nothing changes: as many as the longest chain of detectors read by
-    // modulations, usually none at all.
-    for _ in 0..=outputs.len() {
-        let reads = |pool: &Pool, e: ExprId| {
-            pool.leaves(e)
-                .iter()
-                .any(|l| matches!(l, Leaf::Sensor(_, 0)))
-        };
-        if !outputs.iter().any(|(_, e)| reads(pool, *e)) {
-            break;
-        }
-        let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
-        for (_, e) in outputs.iter_mut() {
-            *e = measured(pool, *e, &map);
-        }
-    }
-    let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
-    let kept = independent(causal);
-    let mut states: Vec<StateEquation> = Vec::new();
-    let mut rates: Vec<u32> = Vec::new();
-    for (s, _) in causal.system.states.iter().zip(&kept).filter(|(_, k)| **k) {
-        let rhs = causal.solved.values[s.rate.0 as usize].unwrap_or(nan);
-        rates.push(s.rate.0);
-        states.push(StateEquation {
-            name: s.name.clone(),
-            element: s.element,
-            rhs: measured(pool, rhs, &map),
-        });
-    }
-    let mut simplifier = Simplifier::default();
-    if let Err(element) = solve_rates(pool, &mut states, &mut outputs, &rates) {
-        problems.push(report::at_nodes(
-            model,
-            Severity::Error,
-            Code::AlgebraicLoop,
-            &[element],
-            format!(
-                "the derivative of `{}`'s state appears nonlinearly in the state equations, through storage elements in derivative causality",
-                model.node(element).name
-            ),
-        ));
-    }
-    renumber(pool, &mut states, &mut outputs, &kept);
-    for s in &mut states {
-        s.rhs = simplifier.simplify(pool, s.rhs);
-    }
-    for (_, e) in &mut outputs {
-        *e = simplifier.simplify(pool, *e);
-    }
-    let all: Vec<ExprId> = states
-        .iter()
-        .map(|s| s.rhs)
-        .chain(outputs.iter().map(|o| o.1))
-        .collect();
-    let mut readers: Vec<NodeId> = Vec::new();
-    for e in all {
-        for l in pool.leaves(e) {
-            if let Leaf::Sensor(s, _) = l {
-                readers.push(s);
-            }
-        }
-    }
-    if !readers.is_empty() {
-        let names: Vec<String> = readers
+
+    /// Largest |simulated - exact| over the samples of `name`.
+    fn worst(t: &Trajectory, name: &str, exact: impl Fn(f64) -> f64) -> f64 {
+        column(t, "t")
             .iter()
-            .map(|&s| format!("`{}`", model.node(s).name))
-            .collect();
-        problems.push(report::at_nodes(
-            model,
-            Severity::Error,
-            Code::Refused,
-            &readers,
-            format!(
-                "a modulation reads the measured signal(s) {}, which depend on themselves or are differentiated: \
-                 not a state-space model",
-                names.join(", ")
-            ),
-        ));
+            .zip(column(t, name))
+            .map(|(&t, &v)| (v - exact(t)).abs())
+            .fold(0.0, f64::max)
     }
-    StateSpace {
-        pool: std::mem::take(pool),
-        states,
-        outputs,
-        problems,
-    }
-}
 
-/// Which states are independent: those whose storage element took integral causality. A
-/// storage element in derivative causality (an inertia behind a rigid gear) holds none.
-fn independent(causal: &Causal) -> Vec<bool> {
-    // The storage equation that set each element's co-energy variable from its state.
-    let mut integral: HashMap<NodeId, bool> = HashMap::new();
-    for (i, eq) in causal.system.equations.iter().enumerate() {
-        if let (
-            Relation::Storage {
-                integral: Some((co, _)),
-                ..
-            },
-            Use::Solves { var, .. },
-        ) = (&eq.relation, causal.solved.uses[i])
-        {
-            if *co == var {
-                integral.insert(eq.owner, true);
-            }
+    /// An RC discharge, v = v0 exp(-t / RC), to 1e-7 of v0 with both solvers.
+    #[test]
+    fn an_rc_discharge_follows_its_exponential() {
+        for solver in ["dopri5", "implicit"] {
+            let t = simulate(
+                RC,
+                &format!(
+                    "duration 5\nstep 0.01\nsolver {solver}\ninput I = 0\ninitial q_cap = 2\n"
+                ),
+            )
+            .expect("runs");
+            assert_eq!(column(&t, "t").len(), 501);
+            let err = worst(&t, "v", |t| 4.0 * (-t).exp());
+            assert!(err < 4e-7, "{solver}: {err}");
+            assert!(err > 0.0);
         }
     }
-    causal
-        .system
-        .states
-        .iter()
-        .map(|s| integral.contains_key(&s.element))
-        .collect()
-}
 
-/// Solves the state equations for the state derivatives they hold (`Tear(rate, 0)`: a
-/// storage element in derivative causality differentiates states), when they enter linearly:
-/// Gaussian elimination, one rate at a time. `Err` names the element whose rate does not.
-fn solve_rates(
-    pool: &mut Pool,
-    states: &mut [StateEquation],
-    outputs: &mut [(NodeId, ExprId)],
-    rates: &[u32],
-) -> Result<(), NodeId> {
-    let holds = |pool: &Pool, e: ExprId| pool.leaves(e).iter().any(|l| matches!(l, Leaf::Tear(..)));
-    if !states.iter().any(|s| holds(pool, s.rhs)) && !outputs.iter().any(|o| holds(pool, o.1)) {
-        return Ok(());
+    /// The series RLC with no source is a damped oscillator: q = e^(-at)(q0 cos wt + a q0/w sin wt).
+    #[test]
+    fn a_damped_oscillator_follows_its_closed_form() {
+        let model = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/rlc_series.bg"
+        ))
+        .expect("model");
+        let t = simulate(
+            &model,
+            "duration 0.2\nstep 1e-4\ninput V = 0\ninitial q_cap = 1e-3\n",
+        )
+        .expect("runs");
+        let (a, w) = (50.0f64, (10_000.0f64 - 2500.0).sqrt());
+        let q = |t: f64| (-a * t).exp() * 1e-3 * ((w * t).cos() + a / w * (w * t).sin());
+        let err = worst(&t, "q_cap", q);
+        assert!(err < 1e-10, "{err}");
     }
-    let mut simplifier = Simplifier::default();
-    // rate_k - rhs_k = 0, with each solved rate substituted into the others as it is found.
-    let mut solved: Vec<(Leaf, ExprId)> = Vec::new();
-    for k in 0..states.len() {
-        let x = Leaf::Tear(rates[k], 0);
-        let own = pool.leaf(x);
-        let equation = pool.sub(own, states[k].rhs);
-        let equation = simplifier.simplify(pool, equation);
-        let root =
-            crate::causality::solve::linear_root_of(pool, equation, x).ok_or(states[k].element)?;
-        for (_, value) in &mut solved {
-            *value = pool.substitute(*value, &mut |_, l| (l == x).then_some(root));
-        }
-        solved.push((x, root));
-        for s in states.iter_mut().skip(k + 1) {
-            s.rhs = pool.substitute(s.rhs, &mut |_, l| (l == x).then_some(root));
-        }
-    }
-    let put = |pool: &mut Pool, e: ExprId| {
-        pool.substitute(e, &mut |_, l| {
-            solved.iter().find(|(x, _)| *x == l).map(|(_, v)| *v)
-        })
-    };
-    for (s, (_, value)) in states.iter_mut().zip(&solved) {
-        s.rhs = *value;
-    }
-    for (_, e) in outputs.iter_mut() {
-        *e = put(pool, *e);
-    }
-    Ok(())
-}
 
-/// Renumbers `Leaf::State` to the independent states only.
-fn renumber(
-    pool: &mut Pool,
-    states: &mut [StateEquation],
-    outputs: &mut [(NodeId, ExprId)],
-    kept: &[bool],
-) {
-    if kept.iter().all(|k| *k) {
-        return;
+    /// `int(..)` in an input is a state of its own: a current equal to t (the integral of 1)
+    /// charges the RC as q = RC t - (RC)^2 (1 - exp(-t/RC)).
+    #[test]
+    fn an_integral_in_an_input_is_integrated_with_the_plant() {
+        let t = simulate(RC, "duration 3\nstep 0.01\ninput I = int(1)\n").expect("runs");
+        let err = worst(&t, "q_cap", |t| t - (1.0 - (-t).exp()));
+        assert!(err < 1e-7, "{err}");
+        let err = worst(&t, "I", |t| t);
+        assert!(err < 1e-9, "{err}");
     }
-    let mut index = Vec::with_capacity(kept.len());
-    let mut next = 0u32;
-    for &k in kept {
-        index.push(next);
-        next += u32::from(k);
-    }
-    let map = |pool: &mut Pool, e: ExprId| {
-        pool.substitute(e, &mut |p, l| match l {
-            Leaf::State(k) => Some(p.leaf(Leaf::State(index[k as usize]))),
-            _ => None,
-        })
-    };
-    for s in states.iter_mut() {
-        s.rhs = map(pool, s.rhs);
-    }
-    for (_, e) in outputs.iter_mut() {
-        *e = map(pool, *e);
-    }
-}
 
-fn measured(pool: &mut Pool, e: ExprId, outputs: &HashMap<NodeId, ExprId>) -> ExprId {
-    pool.substitute(e, &mut |_, leaf| match leaf {
-        Leaf::Sensor(s, 0) => outputs.get(&s).copied(),
-        _ => None,
-    })
+    /// A loop closed on a measured signal: I = -k v makes the decay rate 1/RC + k/C.
+    #[test]
+    fn a_loop_closed_on_a_measured_signal_changes_the_dynamics() {
+        let t = simulate(
+            RC,
+            "duration 2\nstep 0.01\nlet k = 0.25\ninput I = -k*v\ninitial q_cap = 1\n",
+        )
+        .expect("runs");
+        let err = worst(&t, "q_cap", |t| (-1.5 * t).exp());
+        assert!(err < 1e-7, "{err}");
+    }
+
+    /// An input that reads its own effect at the same instant is refused, at the input.
+    #[test]
+    fn an_algebraic_loop_through_an_input_is_refused() {
+        let scenario = "input I = 1 + der(v)\n";
+        let err = simulate(RC, scenario).expect_err("refused");
+        assert!(err.contains("AlgebraicLoop"), "{err}");
+    }
+
+    /// Faults: a parameter step, a sensor offset and an actuator gain, each from its time on.
+    #[test]
+    fn faults_act_from_their_time() {
+        let t = simulate(
+            RC,
+            "duration 2\nstep 0.5\ninput I = 1\nfault sensor v + 0.5 at 1\nfault actuator I * 0 at 1.5\n",
+        )
+        .expect("runs");
+        let v = column(&t, "v");
+        let q = column(&t, "q_cap");
+        // Before 1 s the sensor reads q / C; after, 0.5 more.
+        assert!((v[1] - q[1] / 0.5).abs() < 1e-12);
+        assert!((v[2] - q[2] / 0.5 - 0.5).abs() < 1e-12);
+        // The record keeps the commanded current; the plant gets none after 1.5 s.
+        assert_eq!(column(&t, "I"), &[1.0; 5]);
+        let q_15 = q[3];
+        assert!((q[4] - q_15 * (-0.5f64).exp()).abs() < 1e-7, "{q:?}");
+        let drift = simulate(
+            RC,
+            "duration 1\nstep 0.5\ninput I = 0\ninitial q_cap = 1\nfault C1 = 2*C1 from 0 to 1\n",
+        );
+        assert!(drift.is_ok());
+    }
+
+    /// Names the model does not have are reported at the name, with what was expected.
+    #[test]
+    fn unknown_names_are_reported_where_written() {
+        let scenario = "input I = 1 + w\nnoise y9 0.1\n";
+        let err = simulate(RC, scenario).expect_err("refused");
+        assert!(err.contains("`w` is not a name"), "{err}");
+        assert!(
+            err.contains("`y9` is not a input or measured signal"),
+            "{err}"
+        );
+    }
 }

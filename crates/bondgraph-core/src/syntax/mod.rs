@@ -7,4 +7,4 @@ mod parser;
 mod recover;
 mod split;
 
-pub use parser::parse;
+pub use parser::{parse, parse_expr};

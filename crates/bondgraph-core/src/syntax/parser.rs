@@ -69,6 +69,34 @@ fn parse_statement(text: &str, offset: usize) -> Result<ast::Statement, Vec<Diag
     }
 }
 
+/// Parses an expression on its own (a scenario's right-hand side), whose text starts at byte
+/// `offset` of its file.
+pub fn parse_expr(text: &str, offset: usize) -> Result<AstExpr, Vec<Diagnostic>> {
+    too_complex(text, offset).map_or(Ok(()), |d| Err(vec![d]))?;
+    let mut pairs =
+        BgParser::parse(Rule::lone_expr, text).map_err(|e| vec![syntax_error(&e, text, offset)])?;
+    let Some(pair) = pairs
+        .next()
+        .and_then(|p| p.into_inner().find(|p| p.as_rule() == Rule::expr))
+    else {
+        return Err(vec![Diagnostic::error(
+            Code::Syntax,
+            Span::new(offset, offset + text.len()),
+            "expected an expression",
+        )]);
+    };
+    let mut builder = Builder {
+        offset,
+        errors: Vec::new(),
+    };
+    let expr = builder.expr(pair);
+    if builder.errors.is_empty() {
+        Ok(expr)
+    } else {
+        Err(builder.errors)
+    }
+}
+
 /// Most operators in one statement; also bounds the depth of every expression tree.
 pub(crate) const MAX_OPERATORS: usize = 1000;
 /// Deepest nesting of parentheses.
@@ -586,6 +614,7 @@ fn rule_name(rule: Rule) -> Option<&'static str> {
         Rule::add | Rule::sub | Rule::mul | Rule::div | Rule::pow => "an operator",
         Rule::neg | Rule::pos => "an expression",
         Rule::EOI => "the end of the statement",
+        Rule::lone_expr => "an expression",
         _ => return None,
     })
 }
