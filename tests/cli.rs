@@ -187,3 +187,52 @@ fn verify_checks_a_model_and_says_so() {
     assert!(table.contains("ARR1") && table.contains("pass"), "{table}");
     assert!(table.trim_end().ends_with("0 failed"), "{table}");
 }
+
+/// `bgc simulate` writes CSV: a header of time, inputs, states and measured signals, one row
+/// per output step, the same bytes on every run (the noise is seeded).
+#[test]
+fn simulate_writes_the_same_csv_every_time() {
+    let args = [
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "duration 0.5",
+        "-e",
+        "step 0.01",
+        "-e",
+        "input U0 = 12*(t >= 0)",
+        "-e",
+        "noise y1 0.01",
+    ];
+    // `>=` is not in the language: the statement is reported where it is wrong.
+    let wrong = bgc(&args);
+    assert_eq!(code(&wrong), 1, "{}", stderr(&wrong));
+    assert!(
+        stderr(&wrong).contains("<command line>:3:"),
+        "{}",
+        stderr(&wrong)
+    );
+    let mut args = args;
+    args[7] = "input U0 = 12";
+    let first = bgc(&args);
+    assert_eq!(code(&first), 0, "{}", stderr(&first));
+    let csv = stdout(&first);
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("t,U0,p_Lm,p_Jm,i,y1"), "{csv}");
+    assert_eq!(lines.count(), 51);
+    assert_eq!(stdout(&bgc(&args)), csv, "deterministic");
+    let unknown = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "input U0 = 1",
+        "-e",
+        "fault Rx = 2 at 1",
+    ]);
+    assert_eq!(code(&unknown), 1);
+    assert!(
+        stderr(&unknown).contains("`Rx` is not a parameter of `dc_motor`"),
+        "{}",
+        stderr(&unknown)
+    );
+}

@@ -136,6 +136,9 @@ enum Command {
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
     },
+    /// Simulate a model under a scenario (inputs, closed loops, faults, noise) and write the
+    /// samples as CSV: time, inputs as commanded, states, measured signals as reported.
+    Simulate(crate::simulate::SimulateArgs),
     /// Print the causality of a model in both modes: storage causality, what sets each
     /// junction, conflicts and algebraic loops.
     Causality {
@@ -200,6 +203,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             write(output.as_deref(), &summary::check(&c))?;
             succeeded(&c)
         }
+        (Some(Command::Simulate(simulate)), _) => crate::simulate::run(simulate),
         (Some(Command::Causality { model, output }), _) => {
             let c = compile(&model, Derive::Everything, None)?;
             write(output.as_deref(), &bondgraph_codegen::text::causality(&c))?;
@@ -312,7 +316,11 @@ fn warn_unsimplified(skipped: &[Unsimplified]) {
 
 /// Reads a model (a file, or standard input for `-`) and compiles it, reporting every
 /// diagnostic on standard error.
-fn compile(path: &Path, derive: Derive, simplify: Option<Limits>) -> Result<Compiled, Failure> {
+pub(crate) fn compile(
+    path: &Path,
+    derive: Derive,
+    simplify: Option<Limits>,
+) -> Result<Compiled, Failure> {
     let (name, bytes) = read(path)?;
     let options = Options { derive, simplify };
     let out = report::compile(&name, bytes, &options).ok_or(Failure::Invalid)?;
@@ -320,7 +328,7 @@ fn compile(path: &Path, derive: Derive, simplify: Option<Limits>) -> Result<Comp
     Ok(out.compiled)
 }
 
-fn read(path: &Path) -> Result<(String, Vec<u8>), Failure> {
+pub(crate) fn read(path: &Path) -> Result<(String, Vec<u8>), Failure> {
     use std::io::Read as _;
     if path == Path::new("-") {
         let mut bytes = Vec::new();
@@ -340,7 +348,7 @@ fn read(path: &Path) -> Result<(String, Vec<u8>), Failure> {
     Ok((path.display().to_string(), bytes))
 }
 
-fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {
+pub(crate) fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {
     use std::io::Write as _;
     let result = match path {
         Some(path) => std::fs::write(path, text).map_err(|e| (path.display().to_string(), e)),

@@ -5,6 +5,7 @@
 
 mod cli;
 mod report;
+mod simulate;
 mod summary;
 
 use std::process::ExitCode;

@@ -66,7 +66,8 @@ fn not_text(e: &std::string::FromUtf8Error) -> (String, Diagnostics) {
     (text, diagnostics)
 }
 
-fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
+/// Prints each diagnostic against `text` (named `name`), then a count of the errors.
+pub fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
     for d in diagnostics.iter() {
         let report = Report {
             diagnostic: d.clone(),

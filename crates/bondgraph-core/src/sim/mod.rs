@@ -176,7 +176,7 @@ mod tests {
         let err = simulate(RC, scenario).expect_err("refused");
         assert!(err.contains("`w` is not a name"), "{err}");
         assert!(
-            err.contains("`y9` is not a input or measured signal"),
+            err.contains("`y9` is not an input or measured signal"),
             "{err}"
         );
     }

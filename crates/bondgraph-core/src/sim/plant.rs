@@ -156,6 +156,7 @@ pub(crate) fn build(c: &Compiled, scenario: &Scenario) -> Result<Plant, Diagnost
     let (commands, written) = b.commands(scenario);
     let commands = b.close_loops(commands, &written);
     if b.errors.has_errors() {
+        b.errors.sort();
         return Err(b.errors);
     }
     b.finish(scenario, &commands, noise)
@@ -403,6 +404,7 @@ impl Builder<'_> {
             .chain(c.sensors.iter().map(|(_, s)| s.name.clone()))
             .collect();
         if self.errors.has_errors() {
+            self.errors.sort();
             return Err(self.errors);
         }
         let mut breaks: Vec<f64> = scenario
@@ -576,10 +578,23 @@ impl Builder<'_> {
             Diagnostic::error(
                 Code::Undefined,
                 name.span,
-                format!("`{}` is not a {what} of `{}`", name.name, self.c.name),
+                format!(
+                    "`{}` is not {} {what} of `{}`",
+                    name.name,
+                    article(what),
+                    self.c.name
+                ),
             )
-            .with_label(format!("expected a {what}")),
+            .with_label(format!("expected {} {what}", article(what))),
         );
+    }
+}
+
+fn article(what: &str) -> &'static str {
+    if what.starts_with(['a', 'e', 'i', 'o', 'u']) {
+        "an"
+    } else {
+        "a"
     }
 }
 

@@ -1,0 +1,159 @@
+//! `bgc simulate`: a model under a scenario, integrated and written as CSV.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use bondgraph_core::{parse_scenario, Derive, Simulation, Solver, Trajectory};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::cli::{self, Failure};
+use crate::report;
+
+/// What `bgc simulate` takes.
+#[derive(clap::Args, Debug)]
+pub struct SimulateArgs {
+    /// The model.
+    #[arg(value_name = "MODEL")]
+    model: PathBuf,
+    /// The scenario file (see docs/simulation.md); statements given with `-e` follow it.
+    #[arg(value_name = "SCENARIO")]
+    scenario: Option<PathBuf>,
+    /// A scenario statement, e.g. `-e 'input U0 = 12'` or `-e 'fault Re = 1.5*Re at 5'`;
+    /// repeat for more.
+    #[arg(short = 'e', long = "set", value_name = "STATEMENT")]
+    statements: Vec<String>,
+    /// How long to simulate, in seconds (overrides the scenario).
+    #[arg(long, value_name = "SECONDS")]
+    duration: Option<f64>,
+    /// The step of the written samples, in seconds (overrides the scenario).
+    #[arg(long, value_name = "SECONDS")]
+    step: Option<f64>,
+    /// The noise's seed (overrides the scenario).
+    #[arg(long, value_name = "N")]
+    seed: Option<u64>,
+    /// The integration method (overrides the scenario).
+    #[arg(long, value_enum, value_name = "METHOD")]
+    solver: Option<SolverArg>,
+    /// Write the CSV to FILE instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+}
+
+/// The integration methods.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum SolverArg {
+    /// Dormand–Prince 5(4), explicit: for models that are not stiff.
+    Dopri5,
+    /// ESDIRK 5(4), implicit: for stiff models.
+    Implicit,
+    /// Dormand–Prince, then the implicit method if the model proves stiff.
+    Auto,
+}
+
+/// Runs `bgc simulate`.
+pub fn run(args: SimulateArgs) -> Result<(), Failure> {
+    let c = cli::compile(&args.model, Derive::StateEquations, None)?;
+    let (name, text) = scenario_text(&args)?;
+    let (scenario, diagnostics) = parse_scenario(&text);
+    report::print(&name, &text, &diagnostics);
+    let mut scenario = scenario.ok_or(Failure::Invalid)?;
+    override_settings(&mut scenario, &args);
+    let simulation = Simulation::new(&c, &scenario).map_err(|d| {
+        report::print(&name, &text, &d);
+        Failure::Invalid
+    })?;
+    let bar = progress(scenario.duration / scenario.output_step);
+    let trajectory = simulation
+        .run(|done| {
+            if let Some(bar) = &bar {
+                bar.set_position((done * 1000.0) as u64);
+            }
+        })
+        .map_err(|e| {
+            eprintln!("error: {}: {e}", c.file_name);
+            Failure::Invalid
+        })?;
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    cli::write(args.output.as_deref(), &csv(&trajectory))
+}
+
+/// The scenario file's text and the `-e` statements after it, under one name for reports.
+fn scenario_text(args: &SimulateArgs) -> Result<(String, String), Failure> {
+    let (mut name, mut text) = match &args.scenario {
+        Some(path) => {
+            let (name, bytes) = cli::read(path)?;
+            let text = String::from_utf8(bytes).map_err(|_| {
+                eprintln!("error: `{name}` is not UTF-8 text");
+                Failure::Usage
+            })?;
+            (name, text)
+        }
+        None => ("<command line>".to_string(), String::new()),
+    };
+    if !args.statements.is_empty() {
+        if args.scenario.is_some() {
+            name.push_str(" + -e");
+        }
+        if !text.is_empty() && !text.ends_with('\n') {
+            text.push('\n');
+        }
+        for s in &args.statements {
+            text.push_str(s);
+            text.push('\n');
+        }
+    }
+    Ok((name, text))
+}
+
+fn override_settings(s: &mut bondgraph_core::Scenario, args: &SimulateArgs) {
+    if let Some(d) = args.duration {
+        s.duration = d;
+    }
+    if let Some(h) = args.step {
+        s.output_step = h;
+    }
+    if let Some(seed) = args.seed {
+        s.seed = seed;
+    }
+    if let Some(solver) = args.solver {
+        s.solver = match solver {
+            SolverArg::Dopri5 => Solver::DormandPrince,
+            SolverArg::Implicit => Solver::Implicit,
+            SolverArg::Auto => Solver::Auto,
+        };
+    }
+}
+
+/// A progress bar on standard error for a long run (it draws nothing when standard error is
+/// not a terminal).
+fn progress(samples: f64) -> Option<ProgressBar> {
+    (samples > 1e6).then(|| {
+        let bar = ProgressBar::new(1000);
+        bar.set_style(
+            ProgressStyle::with_template("simulating {bar:40} {percent:>3}% ({eta} left)")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        bar
+    })
+}
+
+/// The samples as CSV: a header of column names, then one row per sample. Numbers are
+/// written in Rust's shortest form that reads back to the same `f64`.
+pub fn csv(t: &Trajectory) -> String {
+    let rows = t.values.first().map_or(0, Vec::len);
+    let mut out = String::with_capacity(rows * t.columns.len() * 20);
+    out.push_str(&t.columns.join(","));
+    out.push('\n');
+    for k in 0..rows {
+        for (i, column) in t.values.iter().enumerate() {
+            if i > 0 {
+                out.push(',');
+            }
+            let _ = write!(out, "{}", column[k]);
+        }
+        out.push('\n');
+    }
+    out
+}
