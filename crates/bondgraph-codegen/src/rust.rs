@@ -9,10 +9,11 @@
 //! signals they read) is computed once, as a `let`: the bench's `exp(gamma (N y2_int −
 //! y1_int))` is evaluated once per call.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, HashMap};
 
 use bondgraph_core::{
-    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Signal, Symbol,
+    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Quantity, Readings,
+    Signal, Symbol,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -56,17 +57,6 @@ pub fn ident(name: &str) -> Ident {
     }
 }
 
-/// What a quantity of [`Signals`] is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-enum Quantity {
-    /// The n-th derivative of a signal.
-    Derivative(Signal, u32),
-    /// Its integral from the start of the record.
-    Integral(Signal),
-    /// The integral of a nonlinear expression, by its position in the list of those.
-    Other(usize),
-}
-
 /// One field of `Signals`.
 struct Field {
     name: String,
@@ -74,106 +64,52 @@ struct Field {
     doc: String,
 }
 
-/// The fields of `Signals`, in order: per signal its value, derivatives and integral, then
-/// the integrals of nonlinear expressions.
-fn fields(c: &Compiled, others: &[Expr]) -> Vec<Field> {
-    let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
-    for arr in &c.arrs {
-        for r in &arr.reads {
-            let entry = uses.entry(r.signal).or_default();
-            entry.0.extend(r.orders.iter().copied());
-            entry.1 |= r.integral;
-        }
-    }
+/// The fields of `Signals`, in the order of the product's readings: per signal its value,
+/// derivatives and integral, then the integrals of nonlinear expressions.
+fn fields(c: &Compiled, readings: &Readings) -> Vec<Field> {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
-    let mut out = Vec::new();
-    for (signal, (orders, integral)) in uses {
-        let (name, what) = match signal {
-            Signal::Input(u) => (&c.inputs[u].name, "input"),
-            Signal::Sensor(s) => (&c.sensors[s].name, "measured signal"),
-        };
-        for n in orders {
-            let (field, doc) = match n {
-                0 => (name.clone(), format!("The {what} `{name}`.")),
-                n => (
-                    format!("{name}_d{n}"),
-                    format!("The time derivative of order {n} of `{name}`."),
+    let name_of = |signal: Signal| match signal {
+        Signal::Input(u) => (&c.inputs[u].name, "input"),
+        Signal::Sensor(s) => (&c.sensors[s].name, "measured signal"),
+    };
+    readings
+        .quantities
+        .iter()
+        .map(|&quantity| {
+            let (name, doc) = match quantity {
+                Quantity::Derivative(signal, 0) => {
+                    let (name, what) = name_of(signal);
+                    (name.clone(), format!("The {what} `{name}`."))
+                }
+                Quantity::Derivative(signal, n) => {
+                    let (name, _) = name_of(signal);
+                    (
+                        format!("{name}_d{n}"),
+                        format!("The time derivative of order {n} of `{name}`."),
+                    )
+                }
+                Quantity::Integral(signal) => {
+                    let (name, _) = name_of(signal);
+                    (
+                        format!("{name}_int"),
+                        format!("The integral of `{name}` from the start of the record."),
+                    )
+                }
+                Quantity::Nonlinear(k) => (
+                    format!("int{}", k + 1),
+                    format!(
+                        "`int({})`: the integral from the start of the record of an expression that is not linear in the signals.",
+                        printer.text(readings.nonlinear[k])
+                    ),
                 ),
             };
-            out.push(Field {
-                name: field,
-                quantity: Quantity::Derivative(signal, n),
+            Field {
+                name,
+                quantity,
                 doc,
-            });
-        }
-        if integral {
-            out.push(Field {
-                name: format!("{name}_int"),
-                quantity: Quantity::Integral(signal),
-                doc: format!("The integral of `{name}` from the start of the record."),
-            });
-        }
-    }
-    for (k, &e) in others.iter().enumerate() {
-        out.push(Field {
-            name: format!("int{}", k + 1),
-            quantity: Quantity::Other(k),
-            doc: format!(
-                "`int({})`: the integral from the start of the record of an expression that is not linear in the signals.",
-                printer.text(e)
-            ),
-        });
-    }
-    out
-}
-
-/// The arguments of `int(..)` that are not a linear combination of signals with constant
-/// coefficients: each needs a field of its own.
-fn nonlinear_integrals(c: &Compiled) -> Vec<Expr> {
-    let mut out: Vec<Expr> = Vec::new();
-    for arr in &c.arrs {
-        for &e in &arr.integrals {
-            if linear(c, e).is_none() && !out.contains(&e) {
-                out.push(e);
             }
-        }
-    }
-    out
-}
-
-/// One term `± coefficient · signal` of a linear combination.
-type Term = (bool, Option<Expr>, Signal);
-
-/// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then
-/// `int(e) = Σ ±cᵢ·int(signalᵢ)`.
-fn linear(c: &Compiled, e: Expr) -> Option<Vec<Term>> {
-    let constant = |e: Expr| {
-        c.exprs
-            .leaves(e)
-            .iter()
-            .all(|l| matches!(l, Symbol::Parameter(_)))
-    };
-    let signal = |x: Expr| match c.exprs.node(x) {
-        Node::Leaf(Symbol::Input(u, 0)) => Some(Signal::Input(u)),
-        Node::Leaf(Symbol::Sensor(s, 0)) => Some(Signal::Sensor(s)),
-        _ => None,
-    };
-    let mut out = Vec::new();
-    let mut stack = vec![(true, e)];
-    while let Some((positive, e)) = stack.pop() {
-        match c.exprs.node(e) {
-            Node::Binary(BinOp::Add, a, b) => stack.extend([(positive, b), (positive, a)]),
-            Node::Binary(BinOp::Sub, a, b) => stack.extend([(!positive, b), (positive, a)]),
-            Node::Neg(a) => stack.push((!positive, a)),
-            Node::Binary(BinOp::Mul, a, b) => match (signal(a), signal(b)) {
-                (_, Some(s)) if constant(a) => out.push((positive, Some(a), s)),
-                (Some(s), _) if constant(b) => out.push((positive, Some(b), s)),
-                _ => return None,
-            },
-            _ => out.push((positive, None, signal(e)?)),
-        }
-    }
-    Some(out)
+        })
+        .collect()
 }
 
 /// Binding strengths of Rust expressions as the lowering writes them.
@@ -277,8 +213,10 @@ impl Lowering<'_> {
                 (ts, ATOM)
             }
             Node::Int(a) => {
-                let single =
-                    linear(self.c, a).is_some_and(|t| t.len() == 1 && t[0].0 && t[0].1.is_none());
+                let single = self
+                    .c
+                    .linear_terms(a)
+                    .is_some_and(|t| t.len() == 1 && t[0].0 && t[0].1.is_none());
                 (self.integral(a), if single { ATOM } else { SUM })
             }
         }
@@ -325,11 +263,11 @@ impl Lowering<'_> {
     /// `int(a)`: the integrals of the signals it combines linearly, or its own field.
     fn integral(&self, a: Expr) -> TokenStream {
         if let Some(k) = self.others.iter().position(|&e| e == a) {
-            let name = &self.field[&Quantity::Other(k)];
+            let name = &self.field[&Quantity::Nonlinear(k)];
             return quote!(s.#name);
         }
         let mut out: Option<TokenStream> = None;
-        for (positive, coefficient, signal) in linear(self.c, a).unwrap_or_default() {
+        for (positive, coefficient, signal) in self.c.linear_terms(a).unwrap_or_default() {
             let Some(name) = self.field.get(&Quantity::Integral(signal)) else {
                 continue;
             };
@@ -436,8 +374,9 @@ fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
 /// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
 /// streaming `ResidualGenerator`.
 pub fn tokens(c: &Compiled) -> TokenStream {
-    let others = nonlinear_integrals(c);
-    let fields = fields(c, &others);
+    let readings = c.readings();
+    let others = readings.nonlinear.clone();
+    let fields = fields(c, &readings);
     let mut lower = Lowering {
         c,
         field: fields
@@ -460,7 +399,7 @@ pub fn tokens(c: &Compiled) -> TokenStream {
         .collect();
     let arr_names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
     let fsm = fsm(c);
-    let generator = generator(c, &fields, &others, &lower);
+    let generator = generator(c, &readings, &fields, &lower);
     quote! {
         #params
         #signals
@@ -591,23 +530,15 @@ fn fsm(c: &Compiled) -> TokenStream {
 }
 
 /// The streaming generator: raw samples in, residuals out.
-fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'_>) -> TokenStream {
-    // The raw signals: each input or sensor some field reads, with the highest order read.
-    let mut raw: BTreeMap<Signal, u32> = BTreeMap::new();
-    let mut integrated: Vec<Signal> = Vec::new();
-    for f in fields {
-        match f.quantity {
-            Quantity::Derivative(s, n) => {
-                let top = raw.entry(s).or_default();
-                *top = (*top).max(n);
-            }
-            Quantity::Integral(s) => {
-                raw.entry(s).or_default();
-                integrated.push(s);
-            }
-            Quantity::Other(_) => {}
-        }
-    }
+fn generator(
+    c: &Compiled,
+    readings: &Readings,
+    fields: &[Field],
+    lower: &Lowering<'_>,
+) -> TokenStream {
+    let raw: BTreeMap<Signal, u32> = readings.raw.iter().copied().collect();
+    let integrated = &readings.integrated;
+    let others = &readings.nonlinear;
     let signal_name = |s: Signal| match s {
         Signal::Input(u) => c.inputs[u].name.clone(),
         Signal::Sensor(h) => c.sensors[h].name.clone(),
@@ -654,7 +585,7 @@ fn generator(c: &Compiled, fields: &[Field], others: &[Expr], lower: &Lowering<'
                     let k = count(integrated.iter().position(|&x| x == s).unwrap_or(0));
                     quote!(s.#name = integrals[#k];)
                 }
-                Quantity::Other(_) => quote!(),
+                Quantity::Nonlinear(_) => quote!(),
             }
         })
         .collect();

@@ -8,9 +8,11 @@
 
 mod arena;
 mod build;
+mod readings;
 
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
+pub use readings::{LinearTerm, Quantity, Readings};
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
 use crate::symbolic::{ExprId, Pool};

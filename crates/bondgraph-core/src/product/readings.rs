@@ -1,0 +1,110 @@
+//! What a residual generator must estimate from a bench's samples to evaluate the ARRs: each
+//! signal's value and derivatives, integrals of signals, and integrals of expressions that are
+//! not linear in the signals. The Rust generator and `bgc residuals` read the same list, so
+//! the two compute the same numbers.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use super::{Compiled, Expr, Signal, Symbol};
+use crate::expr::BinOp;
+use crate::symbolic::Node;
+
+/// One quantity the ARRs read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Quantity {
+    /// The n-th time derivative of a signal (0: the signal).
+    Derivative(Signal, u32),
+    /// A signal's integral from the start of the record.
+    Integral(Signal),
+    /// The integral from the start of the record of [`Readings::nonlinear`]'s k-th expression.
+    Nonlinear(usize),
+}
+
+/// Everything the ARRs read from a bench, in a fixed order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Readings {
+    /// Per signal (in [`Signal`] order) its derivatives by order, then its integral if read;
+    /// then the nonlinear integrals.
+    pub quantities: Vec<Quantity>,
+    /// Each raw signal the ARRs read, with the highest derivative read.
+    pub raw: Vec<(Signal, u32)>,
+    /// The signals whose integral is read, in order.
+    pub integrated: Vec<Signal>,
+    /// The arguments of `int(..)` that are not linear combinations of signals.
+    pub nonlinear: Vec<Expr>,
+}
+
+/// One term `± coefficient · signal` of a linear combination (no coefficient: 1).
+pub type LinearTerm = (bool, Option<Expr>, Signal);
+
+impl Compiled {
+    /// What the ARRs read from a bench.
+    pub fn readings(&self) -> Readings {
+        let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
+        for arr in &self.arrs {
+            for r in &arr.reads {
+                let entry = uses.entry(r.signal).or_default();
+                entry.0.extend(r.orders.iter().copied());
+                entry.1 |= r.integral;
+            }
+        }
+        let mut nonlinear: Vec<Expr> = Vec::new();
+        for arr in &self.arrs {
+            for &e in &arr.integrals {
+                if self.linear_terms(e).is_none() && !nonlinear.contains(&e) {
+                    nonlinear.push(e);
+                }
+            }
+        }
+        let mut quantities = Vec::new();
+        let mut raw = Vec::new();
+        let mut integrated = Vec::new();
+        for (&signal, (orders, integral)) in &uses {
+            raw.push((signal, orders.iter().copied().max().unwrap_or(0)));
+            quantities.extend(orders.iter().map(|&n| Quantity::Derivative(signal, n)));
+            if *integral {
+                quantities.push(Quantity::Integral(signal));
+                integrated.push(signal);
+            }
+        }
+        quantities.extend((0..nonlinear.len()).map(Quantity::Nonlinear));
+        Readings {
+            quantities,
+            raw,
+            integrated,
+            nonlinear,
+        }
+    }
+
+    /// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then
+    /// `int(e) = Σ ±cᵢ·int(signalᵢ)`.
+    pub fn linear_terms(&self, e: Expr) -> Option<Vec<LinearTerm>> {
+        let constant = |e: Expr| {
+            self.exprs
+                .leaves(e)
+                .iter()
+                .all(|l| matches!(l, Symbol::Parameter(_)))
+        };
+        let signal = |x: Expr| match self.exprs.node(x) {
+            Node::Leaf(Symbol::Input(u, 0)) => Some(Signal::Input(u)),
+            Node::Leaf(Symbol::Sensor(s, 0)) => Some(Signal::Sensor(s)),
+            _ => None,
+        };
+        let mut out = Vec::new();
+        let mut stack = vec![(true, e)];
+        while let Some((positive, e)) = stack.pop() {
+            match self.exprs.node(e) {
+                Node::Binary(BinOp::Add, a, b) => stack.extend([(positive, b), (positive, a)]),
+                Node::Binary(BinOp::Sub, a, b) => stack.extend([(!positive, b), (positive, a)]),
+                Node::Neg(a) => stack.push((!positive, a)),
+                Node::Binary(BinOp::Mul, a, b) => match (signal(a), signal(b)) {
+                    (_, Some(s)) if constant(a) => out.push((positive, Some(a), s)),
+                    (Some(s), _) if constant(b) => out.push((positive, Some(b), s)),
+                    _ => return None,
+                },
+                _ => out.push((positive, None, signal(e)?)),
+            }
+        }
+        Some(out)
+    }
+}
