@@ -139,6 +139,10 @@ enum Command {
     /// Simulate a model under a scenario (inputs, closed loops, faults, noise) and write the
     /// samples as CSV: time, inputs as commanded, states, measured signals as reported.
     Simulate(crate::simulate::SimulateArgs),
+    /// Evaluate the ARRs over recorded samples (CSV: `t` and one column per input and
+    /// measured signal) and write residuals, thresholds, alarms and candidate components as
+    /// CSV.
+    Residuals(crate::residuals::ResidualArgs),
     /// Print the causality of a model in both modes: storage causality, what sets each
     /// junction, conflicts and algebraic loops.
     Causality {
@@ -204,6 +208,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
             succeeded(&c)
         }
         (Some(Command::Simulate(simulate)), _) => crate::simulate::run(simulate),
+        (Some(Command::Residuals(residuals)), _) => crate::residuals::run(residuals),
         (Some(Command::Causality { model, output }), _) => {
             let c = compile(&model, Derive::Everything, None)?;
             write(output.as_deref(), &bondgraph_codegen::text::causality(&c))?;

@@ -5,6 +5,7 @@
 
 mod cli;
 mod report;
+mod residuals;
 mod simulate;
 mod summary;
 

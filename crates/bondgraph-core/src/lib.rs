@@ -29,7 +29,7 @@ pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 #[cfg(feature = "simulate")]
 pub use sim::{Simulation, SimulationError, Trajectory};
 pub use symbolic::rewrite::{Limits, Stop};
-pub use symbolic::{children, Evaluator, ExprId, LeafKind, Node, Pool, Printer};
+pub use symbolic::{children, Evaluator, ExprId, LeafKind, Node, Pool, Printer, Tape};
 pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};
 
 use diagnostic::Diagnostics;

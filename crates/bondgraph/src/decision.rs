@@ -31,27 +31,37 @@ impl Fsm {
     /// alarm. No alarm, no candidate.
     #[must_use]
     pub fn candidates(&self, alarms: &[bool]) -> Vec<&'static str> {
-        if !alarms.iter().any(|&a| a) {
-            return Vec::new();
-        }
-        let exact: Vec<&'static str> = self
-            .components
-            .iter()
-            .filter(|c| c.signature == alarms)
-            .map(|c| c.name)
-            .collect();
-        if !exact.is_empty() {
-            return exact;
-        }
-        self.components
-            .iter()
-            .filter(|c| {
-                c.signature.len() == alarms.len()
-                    && alarms.iter().zip(c.signature).all(|(&a, &s)| !a || s)
-            })
-            .map(|c| c.name)
-            .collect()
+        candidates(
+            self.components.iter().map(|c| (c.name, c.signature)),
+            alarms,
+        )
     }
+}
+
+/// [`Fsm::candidates`] over any rows `(name, signature)`: the names whose signature equals
+/// `alarms`, or else those whose signature holds every alarm; none without an alarm.
+pub fn candidates<'a, I>(rows: I, alarms: &[bool]) -> Vec<&'a str>
+where
+    I: IntoIterator<Item = (&'a str, &'a [bool])>,
+    I::IntoIter: Clone,
+{
+    if !alarms.iter().any(|&a| a) {
+        return Vec::new();
+    }
+    let rows = rows.into_iter();
+    let exact: Vec<&'a str> = rows
+        .clone()
+        .filter(|(_, signature)| *signature == alarms)
+        .map(|(name, _)| name)
+        .collect();
+    if !exact.is_empty() {
+        return exact;
+    }
+    rows.filter(|(_, signature)| {
+        signature.len() == alarms.len() && alarms.iter().zip(*signature).all(|(&a, &s)| !a || s)
+    })
+    .map(|(name, _)| name)
+    .collect()
 }
 
 #[cfg(test)]

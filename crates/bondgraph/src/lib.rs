@@ -14,7 +14,7 @@ mod differentiate;
 mod integrate;
 mod threshold;
 
-pub use decision::{Component, Fsm};
+pub use decision::{candidates, Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
 pub use integrate::{EstimatedIntegral, Trapezoid};
 pub use threshold::Threshold;

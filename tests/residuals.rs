@@ -1,0 +1,143 @@
+//! `bgc simulate` then `bgc residuals`, end to end, against the residual code the
+//! `bond_graph!` macro generates for the same model: the same numbers.
+
+mod common;
+
+use common::{bgc, code, root, stderr, stdout};
+
+bondgraph::bond_graph!("../../models/backlash_bench.bg");
+
+/// A CSV's columns by name.
+fn table(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut lines = csv.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or("")
+        .split(',')
+        .map(str::to_string)
+        .collect();
+    let mut columns = vec![Vec::new(); header.len()];
+    for line in lines {
+        for (column, cell) in columns.iter_mut().zip(line.split(',')) {
+            column.push(cell.parse().unwrap_or(f64::NAN));
+        }
+    }
+    (header, columns)
+}
+
+fn column<'a>(t: &'a (Vec<String>, Vec<Vec<f64>>), name: &str) -> &'a [f64] {
+    let k = t.0.iter().position(|h| h == name).expect("column");
+    &t.1[k]
+}
+
+/// The bench simulated with noise by `bgc simulate`, its residuals by `bgc residuals`, and
+/// the same CSV through the generated `ResidualGenerator`: equal to 1e-9.
+#[test]
+fn bgc_residuals_computes_what_the_generated_code_computes() {
+    let dir = std::env::temp_dir().join(format!("bgc-residuals-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let data = dir.join("bench.csv");
+    let data_arg = data.display().to_string();
+    let sim = bgc(&[
+        "simulate",
+        "models/backlash_bench.bg",
+        "-e",
+        "duration 5",
+        "-e",
+        "input U0 = 6 + 12*sin(0.5*t)",
+        "-e",
+        "noise y1 1e-4",
+        "-e",
+        "fault j0 = 3*j0 at 3",
+        "-o",
+        &data_arg,
+    ]);
+    assert_eq!(code(&sim), 0, "{}", stderr(&sim));
+    let out = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &data_arg,
+        "--window",
+        "21",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let cli = table(&stdout(&out));
+    let samples = table(&std::fs::read_to_string(&data).expect("data"));
+    let h = 1e-3;
+    let mut generator = backlash_bench::ResidualGenerator::savitzky_golay(
+        backlash_bench::Params::default(),
+        h,
+        21,
+        3,
+    )
+    .expect("estimator");
+    let raw: Vec<&[f64]> = backlash_bench::RAW_SIGNALS
+        .iter()
+        .map(|name| column(&samples, name))
+        .collect();
+    let mut compared = 0;
+    let mut row = 0;
+    for (k, &t) in column(&samples, "t").iter().enumerate() {
+        let Some(r) = generator.push(t, std::array::from_fn(|i| raw[i][k])) else {
+            continue;
+        };
+        assert!((column(&cli, "t")[row] - (t - generator.delay())).abs() < 1e-12);
+        for (j, name) in backlash_bench::RESIDUALS.iter().enumerate() {
+            let theirs = column(&cli, name)[row];
+            assert!(
+                (r[j] - theirs).abs() <= 1e-9 * r[j].abs().max(1.0),
+                "{name} at t = {t}: generated {} vs bgc residuals {theirs}",
+                r[j]
+            );
+        }
+        compared += 1;
+        row += 1;
+    }
+    assert_eq!(compared, column(&cli, "t").len());
+    assert_eq!(compared, 5001 - 20);
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = root();
+}
+
+/// Recorded data with a missing column, a NaN, time going back or an irregular step is
+/// refused with the line.
+#[test]
+fn bad_records_are_refused_with_the_line() {
+    let dir = std::env::temp_dir().join(format!("bgc-bad-records-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let cases = [
+        ("t,U0,y1\n0,1,2\n", "no column `y2`"),
+        (
+            "t,U0,y1,y2\n0,1,2,3\n0.1,1,NaN,3\n",
+            "line 3, column `y1`: `NaN` is not a finite number",
+        ),
+        (
+            "t,U0,y1,y2\n0,1,2,3\n0.1,1,2,3\n0.05,1,2,3\n",
+            "line 4: time goes from 0.1 to 0.05",
+        ),
+        (
+            "t,U0,y1,y2\n0,1,2,3\n0.1,1,2,3\n0.3,1,2,3\n",
+            "line 4: a step of",
+        ),
+        (
+            "t,U0,y1,y2\n0,1,2,3\n0.1,1,2,3\n",
+            "2 rows: the estimator's window of 11",
+        ),
+    ];
+    for (k, (text, expected)) in cases.iter().enumerate() {
+        let path = dir.join(format!("bad{k}.csv"));
+        std::fs::write(&path, text).expect("write");
+        let out = bgc(&[
+            "residuals",
+            "models/backlash_bench.bg",
+            &path.display().to_string(),
+        ]);
+        assert_eq!(code(&out), 1, "{}", stderr(&out));
+        assert!(
+            stderr(&out).contains(expected),
+            "{expected}: {}",
+            stderr(&out)
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
