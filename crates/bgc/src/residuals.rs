@@ -12,7 +12,7 @@ use std::path::PathBuf;
 
 use bondgraph::{EstimatedIntegral, SavitzkyGolay, Threshold, Trapezoid};
 use bondgraph_core::{
-    Compiled, Derive, Expr, Handle, Node, Quantity, Readings, Signal, Symbol, Tape,
+    Compiled, Derive, Expr, ExprId, Handle, Node, Pool, Quantity, Readings, Signal, Symbol, Tape,
 };
 
 use crate::cli::{self, Failure};
@@ -189,7 +189,7 @@ impl Data {
     /// Reads CSV `bytes`, keeping `names` (and `t`); needs at least `window` rows.
     pub fn read(bytes: &[u8], names: &[String], window: usize) -> Result<Data, String> {
         let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::All)
+            .trim(csv::Trim::Headers)
             .from_reader(bytes);
         let header = reader
             .headers()
@@ -197,7 +197,7 @@ impl Data {
             .clone();
         let find = |name: &str| header.iter().position(|h| h == name);
         let t = find("t").ok_or("no time column: the header needs a column named `t`")?;
-        let mut at = Vec::with_capacity(names.len());
+        let mut at = vec![t];
         for name in names {
             at.push(find(name).ok_or_else(|| {
                 format!(
@@ -207,26 +207,37 @@ impl Data {
                 )
             })?);
         }
-        let mut time = Vec::new();
-        let mut columns = vec![Vec::new(); names.len()];
-        for (k, record) in reader.records().enumerate() {
-            // Line numbers as an editor shows them: the header is line 1.
-            let line = k + 2;
-            let record = record.map_err(|e| format!("line {line}: {e}"))?;
-            let value = |i: usize, name: &str| -> Result<f64, String> {
-                let text = record.get(i).unwrap_or("");
-                text.parse::<f64>()
+        let column_names: Vec<&str> = std::iter::once("t")
+            .chain(names.iter().map(String::as_str))
+            .collect();
+        let mut columns = vec![Vec::new(); at.len()];
+        // One record reused for every row: no allocation per row.
+        let mut record = csv::ByteRecord::new();
+        let mut line = 1;
+        loop {
+            line += 1;
+            match reader.read_byte_record(&mut record) {
+                Ok(true) => {}
+                Ok(false) => break,
+                Err(e) => return Err(format!("line {line}: {e}")),
+            }
+            for ((column, &i), name) in columns.iter_mut().zip(&at).zip(&column_names) {
+                let cell = record.get(i).unwrap_or(b"");
+                let text = std::str::from_utf8(cell).unwrap_or("").trim();
+                let value = text
+                    .parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
                     .ok_or_else(|| {
-                        format!("line {line}, column `{name}`: `{text}` is not a finite number")
-                    })
-            };
-            time.push(value(t, "t")?);
-            for ((column, &i), name) in columns.iter_mut().zip(&at).zip(names) {
-                column.push(value(i, name)?);
+                        format!(
+                            "line {line}, column `{name}`: `{}` is not a finite number",
+                            String::from_utf8_lossy(cell).trim()
+                        )
+                    })?;
+                column.push(value);
             }
         }
+        let time = columns.remove(0);
         let step = check_time(&time)?;
         if time.len() < window {
             return Err(format!(
@@ -266,33 +277,44 @@ fn check_time(time: &[f64]) -> Result<f64, String> {
     Ok(step)
 }
 
-/// The residual generator of a compiled model, read at run time: the same estimators, in the
-/// same order, as the generated `ResidualGenerator`.
-pub struct Generator {
-    raw: Vec<(Signal, u32)>,
-    estimators: Vec<SavitzkyGolay>,
-    integrals: Vec<(usize, EstimatedIntegral<SavitzkyGolay>)>,
-    nonlinear: Vec<Trapezoid>,
-    /// Where each quantity's value sits in `values`.
-    slot: HashMap<Quantity, usize>,
-    /// The nonlinear integrands, then each auxiliary derivative, then the ARRs.
-    integrands: Tape<Symbol>,
-    auxiliaries: Vec<(AuxKey, Tape<Symbol>)>,
-    arrs: Tape<Symbol>,
-    /// Each `int(..)` node of the ARRs: a combination of signal integrals, or a nonlinear one.
-    int_nodes: HashMap<Expr, IntValue>,
-    params: Vec<f64>,
-    delay: f64,
-    values: Vec<f64>,
-    scratch: Vec<f64>,
-}
-
 /// An auxiliary signal's derivative: which, and its order.
 type AuxKey = (Handle<bondgraph_core::Auxiliary>, u32);
 
-enum IntValue {
-    Linear(Vec<(f64, Signal)>),
-    Nonlinear(usize),
+/// A leaf of the generator's expressions: a slot of the estimated quantities, an auxiliary
+/// signal's derivative by position, or time. Parameters are folded in as numbers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum Leaf {
+    Slot(u32),
+    Auxiliary(u32),
+    Time,
+    /// What a generator cannot read (a state): never in an ARR.
+    Missing,
+}
+
+type Id = ExprId<Leaf>;
+
+/// The residual generator of a compiled model, read at run time: the same estimators, in the
+/// same order, as the generated `ResidualGenerator`.
+pub struct Generator {
+    estimators: Vec<SavitzkyGolay>,
+    /// For each raw signal, the slots of the derivatives read, by order.
+    scatter: Vec<Vec<(usize, usize)>>,
+    /// Each integrated signal's raw index, slot and integral.
+    integrals: Vec<(usize, usize, EstimatedIntegral<SavitzkyGolay>)>,
+    /// Each nonlinear integral's slot and rule.
+    nonlinear: Vec<(usize, Trapezoid)>,
+    integrands: Tape<Leaf>,
+    /// Each auxiliary derivative, in definition order.
+    auxiliaries: Vec<Tape<Leaf>>,
+    arrs: Tape<Leaf>,
+    /// Each `int(..)` node: a combination of integral slots with coefficients.
+    int_nodes: Vec<(Id, Vec<(f64, usize)>)>,
+    delay: f64,
+    values: Vec<f64>,
+    auxiliary: Vec<f64>,
+    int_values: Vec<(Id, f64)>,
+    fresh: Vec<Option<f64>>,
+    scratch: Vec<f64>,
 }
 
 impl Generator {
@@ -311,80 +333,150 @@ impl Generator {
             .iter()
             .map(|&(_, n)| fit(n))
             .collect::<Result<Vec<_>, _>>()?;
+        let slot: HashMap<Quantity, usize> = readings
+            .quantities
+            .iter()
+            .enumerate()
+            .map(|(i, &q)| (q, i))
+            .collect();
+        let scatter = readings
+            .raw
+            .iter()
+            .map(|&(signal, top)| {
+                (0..=top)
+                    .filter_map(|n| {
+                        slot.get(&Quantity::Derivative(signal, n))
+                            .map(|&i| (n as usize, i))
+                    })
+                    .collect()
+            })
+            .collect();
         let integrals = readings
             .integrated
             .iter()
             .map(|s| {
                 let k = readings.raw.iter().position(|(r, _)| r == s).unwrap_or(0);
-                Ok((k, EstimatedIntegral::new(fit(0)?)))
+                let i = slot.get(&Quantity::Integral(*s)).copied().unwrap_or(0);
+                Ok((k, i, EstimatedIntegral::new(fit(0)?)))
             })
             .collect::<Result<Vec<_>, bondgraph::EstimatorError>>()?;
         let delay = estimators
             .iter()
             .map(bondgraph::Differentiator::delay)
             .fold(0.0, f64::max);
-        let constant = |e: Expr| {
-            bondgraph_core::Evaluator::new(&c.exprs, |s| match s {
-                Symbol::Parameter(p) => params[p.index()],
-                _ => f64::NAN,
+        let aux_index: HashMap<AuxKey, u32> = c
+            .auxiliaries
+            .iter()
+            .flat_map(|(a, aux)| (0u32..).zip(&aux.derivatives).map(move |(n, _)| (a, n)))
+            .zip(0u32..)
+            .collect();
+        // Every expression in one pool over the generator's leaves, parameters folded.
+        let mut pool: Pool<Leaf> = Pool::default();
+        let import = |pool: &mut Pool<Leaf>, e: Expr| {
+            pool.import_from(&c.exprs, e, |p: &mut Pool<Leaf>, s| match s {
+                Symbol::Parameter(k) => p.num(params.get(k.index()).copied().unwrap_or(f64::NAN)),
+                Symbol::Input(u, n) => {
+                    slot_leaf(p, &slot, Quantity::Derivative(Signal::Input(u), n))
+                }
+                Symbol::Sensor(h, n) => {
+                    slot_leaf(p, &slot, Quantity::Derivative(Signal::Sensor(h), n))
+                }
+                Symbol::Auxiliary(a, n) => p.leaf(
+                    aux_index
+                        .get(&(a, n))
+                        .map_or(Leaf::Missing, |&j| Leaf::Auxiliary(j)),
+                ),
+                Symbol::Time => p.leaf(Leaf::Time),
+                Symbol::State(_) => p.leaf(Leaf::Missing),
             })
-            .value(e)
         };
-        let mut int_nodes = HashMap::new();
-        let roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
-        let mut all_roots = roots.clone();
-        all_roots.extend(
+        let integrands: Vec<Id> = readings
+            .nonlinear
+            .iter()
+            .map(|&e| import(&mut pool, e))
+            .collect();
+        let auxiliaries: Vec<Id> = c
+            .auxiliaries
+            .iter()
+            .flat_map(|(_, a)| a.derivatives.iter().copied())
+            .map(|e| import(&mut pool, e))
+            .collect();
+        let arrs: Vec<Id> = c.arrs.iter().map(|a| import(&mut pool, a.expr)).collect();
+        // Each `int(..)` of the product, found where the import put it.
+        let mut original = Vec::new();
+        let mut roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+        roots.extend(
             c.auxiliaries
                 .iter()
                 .flat_map(|(_, a)| a.derivatives.iter().copied()),
         );
-        all_roots.extend(readings.nonlinear.iter().copied());
-        c.exprs.visit_reachable(&all_roots, |id, node| {
+        roots.extend(readings.nonlinear.iter().copied());
+        c.exprs.visit_reachable(&roots, |_, node| {
             if let Node::Int(arg) = node {
-                let value = match readings.nonlinear.iter().position(|&e| e == arg) {
-                    Some(k) => IntValue::Nonlinear(k),
-                    None => IntValue::Linear(
-                        c.linear_terms(arg)
-                            .unwrap_or_default()
-                            .into_iter()
-                            .map(|(plus, coefficient, s)| {
-                                let v = coefficient.map_or(1.0, constant);
-                                (if plus { v } else { -v }, s)
-                            })
-                            .collect(),
-                    ),
-                };
-                int_nodes.insert(id, value);
+                original.push(arg);
             }
         });
-        let auxiliaries = c
-            .auxiliaries
-            .iter()
-            .flat_map(|(a, aux)| {
-                (0u32..)
-                    .zip(&aux.derivatives)
-                    .map(move |(n, &e)| ((a, n), e))
+        let coefficient = |e: Option<Expr>| {
+            e.map_or(1.0, |e| {
+                bondgraph_core::Evaluator::new(&c.exprs, |s| match s {
+                    Symbol::Parameter(p) => params.get(p.index()).copied().unwrap_or(f64::NAN),
+                    _ => f64::NAN,
+                })
+                .value(e)
             })
-            .map(|(key, e)| (key, Tape::new(&c.exprs, &[e])))
+        };
+        let mut int_nodes = Vec::new();
+        for arg in original {
+            let imported = import(&mut pool, arg);
+            let id = pool.int(imported);
+            let terms = match readings.nonlinear.iter().position(|&e| e == arg) {
+                Some(k) => vec![(1.0, slot.get(&Quantity::Nonlinear(k)).copied())],
+                None => c
+                    .linear_terms(arg)
+                    .unwrap_or_default()
+                    .into_iter()
+                    .map(|(plus, k, signal)| {
+                        let v = coefficient(k);
+                        (
+                            if plus { v } else { -v },
+                            slot.get(&Quantity::Integral(signal)).copied(),
+                        )
+                    })
+                    .collect(),
+            };
+            // A term without a slot cannot happen (the readings list every integral read);
+            // if it did, NaN makes the residual refuse to pass for healthy.
+            let terms = terms
+                .into_iter()
+                .map(|(c, i)| i.map_or((f64::NAN, 0), |i| (c, i)))
+                .collect();
+            int_nodes.push((id, terms));
+        }
+        let nonlinear = (0..readings.nonlinear.len())
+            .map(|k| {
+                (
+                    slot.get(&Quantity::Nonlinear(k)).copied().unwrap_or(0),
+                    Trapezoid::new(),
+                )
+            })
             .collect();
         Ok(Generator {
-            raw: readings.raw.clone(),
             estimators,
+            scatter,
             integrals,
-            nonlinear: vec![Trapezoid::new(); readings.nonlinear.len()],
-            slot: readings
-                .quantities
+            nonlinear,
+            integrands: Tape::new(&pool, &integrands),
+            auxiliaries: auxiliaries
                 .iter()
-                .enumerate()
-                .map(|(i, &q)| (q, i))
+                .map(|&e| Tape::new(&pool, &[e]))
                 .collect(),
-            integrands: Tape::new(&c.exprs, &readings.nonlinear),
-            auxiliaries,
-            arrs: Tape::new(&c.exprs, &roots),
+            arrs: Tape::new(&pool, &arrs),
+            int_values: int_nodes.iter().map(|&(id, _)| (id, 0.0)).collect(),
             int_nodes,
-            params: params.to_vec(),
             delay,
             values: vec![0.0; readings.quantities.len()],
+            auxiliary: vec![0.0; aux_index.len()],
+            fresh: vec![None; readings.raw.len()],
             scratch: Vec::new(),
         })
     }
@@ -393,29 +485,23 @@ impl Generator {
     /// are full, the residuals at `t` minus the estimators' delay, with that instant.
     pub fn push(&mut self, t: f64, raw: &[f64]) -> Option<(f64, Vec<f64>)> {
         let mut ready = true;
-        let mut fresh: Vec<Option<f64>> = vec![None; self.raw.len()];
         for (k, (e, &x)) in self.estimators.iter_mut().zip(raw).enumerate() {
             match bondgraph::Differentiator::push(e, x) {
                 Some(d) => {
-                    let signal = self.raw[k].0;
-                    for (n, &v) in (0u32..).zip(d) {
-                        if let Some(&i) = self.slot.get(&Quantity::Derivative(signal, n)) {
-                            self.values[i] = v;
-                        }
+                    for &(n, i) in &self.scatter[k] {
+                        self.values[i] = d.get(n).copied().unwrap_or(f64::NAN);
                     }
-                    fresh[k] = d.first().copied();
+                    self.fresh[k] = d.first().copied();
                 }
-                None => ready = false,
+                None => {
+                    self.fresh[k] = None;
+                    ready = false;
+                }
             }
         }
-        for (k, integral) in &mut self.integrals {
-            match integral.push(t, raw[*k], fresh[*k]) {
-                Some(v) => {
-                    let signal = self.raw[*k].0;
-                    if let Some(&i) = self.slot.get(&Quantity::Integral(signal)) {
-                        self.values[i] = v;
-                    }
-                }
+        for (k, i, integral) in &mut self.integrals {
+            match integral.push(t, raw[*k], self.fresh[*k]) {
+                Some(v) => self.values[*i] = v,
                 None => ready = false,
             }
         }
@@ -423,68 +509,58 @@ impl Generator {
             return None;
         }
         let at = t - self.delay;
-        let integrands = self.evaluate_integrands(at);
-        for (k, (trapezoid, v)) in self.nonlinear.iter_mut().zip(integrands).enumerate() {
-            let value = trapezoid.push(at, v);
-            if let Some(&i) = self.slot.get(&Quantity::Nonlinear(k)) {
-                self.values[i] = value;
+        let mut scratch = std::mem::take(&mut self.scratch);
+        if !self.nonlinear.is_empty() {
+            self.update_integrals();
+            let v =
+                self.integrands
+                    .values(|l| self.leaf(l, at), |id| self.integral(id), &mut scratch);
+            for ((i, trapezoid), v) in self.nonlinear.iter_mut().zip(v) {
+                self.values[*i] = trapezoid.push(at, v);
             }
         }
-        let mut auxiliary: HashMap<AuxKey, f64> = HashMap::new();
-        let mut scratch = std::mem::take(&mut self.scratch);
-        for (key, tape) in &self.auxiliaries {
-            let v = tape.values(
-                |s| self.leaf(s, at, &auxiliary),
+        self.update_integrals();
+        for j in 0..self.auxiliaries.len() {
+            let v = self.auxiliaries[j].values(
+                |l| self.leaf(l, at),
                 |id| self.integral(id),
                 &mut scratch,
             );
-            auxiliary.insert(*key, v.first().copied().unwrap_or(f64::NAN));
+            self.auxiliary[j] = v.first().copied().unwrap_or(f64::NAN);
         }
-        let residuals = self.arrs.values(
-            |s| self.leaf(s, at, &auxiliary),
-            |id| self.integral(id),
-            &mut scratch,
-        );
+        let residuals =
+            self.arrs
+                .values(|l| self.leaf(l, at), |id| self.integral(id), &mut scratch);
         self.scratch = scratch;
         Some((at, residuals))
     }
 
-    fn evaluate_integrands(&mut self, at: f64) -> Vec<f64> {
-        if self.nonlinear.is_empty() {
-            return Vec::new();
-        }
-        let none = HashMap::new();
-        let mut scratch = std::mem::take(&mut self.scratch);
-        let v = self.integrands.values(
-            |s| self.leaf(s, at, &none),
-            |id| self.integral(id),
-            &mut scratch,
-        );
-        self.scratch = scratch;
-        v
-    }
-
-    fn leaf(&self, s: Symbol, t: f64, auxiliary: &HashMap<AuxKey, f64>) -> f64 {
-        let quantity = |q: Quantity| self.slot.get(&q).map_or(f64::NAN, |&i| self.values[i]);
-        match s {
-            Symbol::Parameter(p) => self.params.get(p.index()).copied().unwrap_or(f64::NAN),
-            Symbol::Input(u, n) => quantity(Quantity::Derivative(Signal::Input(u), n)),
-            Symbol::Sensor(h, n) => quantity(Quantity::Derivative(Signal::Sensor(h), n)),
-            Symbol::Auxiliary(a, n) => auxiliary.get(&(a, n)).copied().unwrap_or(f64::NAN),
-            Symbol::Time => t,
-            Symbol::State(_) => f64::NAN,
+    fn update_integrals(&mut self) {
+        for ((_, value), (_, terms)) in self.int_values.iter_mut().zip(&self.int_nodes) {
+            *value = terms.iter().map(|&(c, i)| c * self.values[i]).sum();
         }
     }
 
-    fn integral(&self, id: Expr) -> f64 {
-        let quantity = |q: Quantity| self.slot.get(&q).map_or(f64::NAN, |&i| self.values[i]);
-        match self.int_nodes.get(&id) {
-            Some(IntValue::Nonlinear(k)) => quantity(Quantity::Nonlinear(*k)),
-            Some(IntValue::Linear(terms)) => terms
-                .iter()
-                .map(|&(c, s)| c * quantity(Quantity::Integral(s)))
-                .sum(),
-            None => f64::NAN,
+    fn leaf(&self, l: Leaf, t: f64) -> f64 {
+        match l {
+            Leaf::Slot(i) => self.values[i as usize],
+            Leaf::Auxiliary(j) => self.auxiliary[j as usize],
+            Leaf::Time => t,
+            Leaf::Missing => f64::NAN,
         }
     }
+
+    fn integral(&self, id: Id) -> f64 {
+        self.int_values
+            .iter()
+            .find(|(x, _)| *x == id)
+            .map_or(f64::NAN, |&(_, v)| v)
+    }
+}
+
+fn slot_leaf(p: &mut Pool<Leaf>, slot: &HashMap<Quantity, usize>, q: Quantity) -> Id {
+    p.leaf(
+        slot.get(&q)
+            .map_or(Leaf::Missing, |&i| Leaf::Slot(i as u32)),
+    )
 }
