@@ -141,3 +141,61 @@ fn bad_records_are_refused_with_the_line() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Thresholds calibrated on a healthy record (another noise seed) raise no alarm on the
+/// healthy part of a faulty one, and the dead-zone fault raises ARR2's, naming the dead zone.
+#[test]
+fn calibrated_thresholds_separate_healthy_from_faulty() {
+    let dir = std::env::temp_dir().join(format!("bgc-calibrate-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let run = |name: &str, extra: &[&str]| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec![
+            "simulate",
+            "models/backlash_bench.bg",
+            "scenarios/bench_dead_zone.scn",
+            "-e",
+            "duration 14",
+            "-o",
+            &path,
+        ];
+        args.extend(extra);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    // The same scenario stopped before its fault, with other noise.
+    let healthy = run("healthy.csv", &["--seed", "7", "--duration", "9.5"]);
+    let faulty = run("faulty.csv", &[]);
+    let out = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &faulty,
+        "--window",
+        "201",
+        "--calibrate",
+        &healthy,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    let mut alarms_before = 0;
+    let mut named = 0;
+    for line in text.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let t: f64 = cells[0].parse().expect("time");
+        let alarm = cells[5] == "1" || cells[6] == "1";
+        if t < 9.8 && alarm {
+            alarms_before += 1;
+        }
+        if t > 10.2 && cells[6] == "1" && cells[7].split(' ').any(|c| c == "w") {
+            named += 1;
+        }
+    }
+    assert_eq!(alarms_before, 0, "false alarms before the fault");
+    // The wider dead zone shows only while the twist sweeps through it (12.6-13.8 s here).
+    assert!(
+        named > 800,
+        "ARR2 in alarm after the fault, naming w: {named}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -37,6 +37,17 @@ pub struct ResidualArgs {
     /// Residuals without one raise no alarm.
     #[arg(long = "threshold", value_name = "ARR=LEVEL")]
     thresholds: Vec<String>,
+    /// A healthy record (same columns and step) to calibrate a threshold for every residual
+    /// without `--threshold`: the (1 − P) quantile of |residual| on it (`--false-alarm-rate P`),
+    /// times 1 + `--margin`.
+    #[arg(long, value_name = "HEALTHY")]
+    calibrate: Option<PathBuf>,
+    /// The share of healthy samples allowed above a calibrated threshold.
+    #[arg(long, value_name = "P", default_value_t = 0.0)]
+    false_alarm_rate: f64,
+    /// Headroom over the calibrated quantile, as a fraction of it.
+    #[arg(long, value_name = "M", default_value_t = 0.2)]
+    margin: f64,
     /// Consecutive samples above (below) a threshold that raise (clear) its alarm.
     #[arg(long, value_name = "N", default_value_t = 1)]
     debounce: u32,
@@ -64,13 +75,39 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         eprintln!("error: {data_name}: {e}");
         Failure::Invalid
     })?;
-    let levels = thresholds(&c, &args.thresholds)?;
+    let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
-    let mut generator = Generator::new(&c, &readings, &params, data.step, args.window, args.degree)
-        .map_err(|e| {
+    let build = || {
+        Generator::new(&c, &readings, &params, data.step, args.window, args.degree).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
+        })
+    };
+    if let Some(path) = &args.calibrate {
+        let name = path.display().to_string();
+        let (_, bytes) = cli::read(path)?;
+        let healthy = Data::read(&bytes, &names, args.window).map_err(|e| {
+            eprintln!("error: {name}: {e}");
+            Failure::Invalid
         })?;
+        if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
+            eprintln!(
+                "error: {name}: its step ({} s) is not the record's ({} s)",
+                healthy.step, data.step
+            );
+            return Err(Failure::Invalid);
+        }
+        if !(0.0..1.0).contains(&args.false_alarm_rate) || !(0.0..=f64::MAX).contains(&args.margin)
+        {
+            eprintln!("error: --false-alarm-rate must be in [0, 1) and --margin non-negative");
+            return Err(Failure::Usage);
+        }
+        let calibrated = calibrate(build()?, &healthy, args.false_alarm_rate, args.margin);
+        for (level, calibrated) in levels.iter_mut().zip(calibrated) {
+            level.get_or_insert(calibrated);
+        }
+    }
+    let mut generator = build()?;
     let mut alarms: Vec<Option<Threshold>> = levels
         .iter()
         .map(|l| l.map(|l| Threshold::new(l, args.debounce)))
@@ -98,6 +135,32 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         row(&mut out, at, &residuals, &levels, &on, &candidates);
     }
     cli::write(args.output.as_deref(), &out)
+}
+
+/// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin.
+fn calibrate(mut generator: Generator, healthy: &Data, rate: f64, margin: f64) -> Vec<f64> {
+    let mut seen: Vec<Vec<f64>> = Vec::new();
+    let mut raw = vec![0.0; healthy.columns.len()];
+    for (k, &t) in healthy.time.iter().enumerate() {
+        for (v, column) in raw.iter_mut().zip(&healthy.columns) {
+            *v = column[k];
+        }
+        if let Some((_, r)) = generator.push(t, &raw) {
+            seen.resize(r.len(), Vec::new());
+            for (s, r) in seen.iter_mut().zip(r) {
+                s.push(r.abs());
+            }
+        }
+    }
+    seen.into_iter()
+        .map(|mut s| {
+            s.sort_by(f64::total_cmp);
+            // The sample with a share `rate` of the others above it.
+            let above = (rate * s.len() as f64).floor() as usize;
+            let at = s.len().saturating_sub(above + 1);
+            s.get(at).copied().unwrap_or(0.0) * (1.0 + margin)
+        })
+        .collect()
 }
 
 fn signal_name(c: &Compiled, s: Signal) -> String {
