@@ -65,6 +65,12 @@ pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
         .map(|p| format!("{}: {}", string(&p.name), number(p.value)))
         .collect();
     let _ = writeln!(out, "  \"parameters\": {{{}}},", params.join(", "));
+    let uncertain: Vec<String> = c
+        .parameters
+        .values()
+        .filter_map(|p| Some(format!("{}: {}", string(&p.name), number(p.uncertainty?))))
+        .collect();
+    let _ = writeln!(out, "  \"uncertainties\": {{{}}},", uncertain.join(", "));
     let _ = writeln!(
         out,
         "  \"inputs\": {},",
@@ -146,14 +152,21 @@ fn arrs(out: &mut String, c: &Compiled) {
                 )
             });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"reads\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"reads\": {}, \"sensitivities\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
                 string(&printer.text(arr.expr)),
                 list(auxiliaries),
                 list(components),
-                list(reads)
+                list(reads),
+                arr.sensitivities.as_ref().map_or("null".to_string(), |s| {
+                    let entries: Vec<String> = s
+                        .iter()
+                        .map(|&(p, e)| format!("{}: {}", string(&c.parameters[p].name), string(&printer.text(e))))
+                        .collect();
+                    format!("{{{}}}", entries.join(", "))
+                })
             )
         })
         .collect();

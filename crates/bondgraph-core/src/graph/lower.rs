@@ -159,14 +159,40 @@ impl<'a> Lowerer<'a, '_> {
                 None
             }
         };
+        let uncertainty = decl
+            .uncertainty
+            .and_then(|(u, span)| self.uncertainty(u, span, value));
         if self.declare_signal(&decl.name, SignalSlot::Param(id), "parameter") {
             self.params.push(Param {
                 name: decl.name.name.clone(),
                 value: value.unwrap_or(f64::NAN),
                 unit: decl.unit.clone(),
+                uncertainty,
                 description: decl.description.clone(),
                 span: decl.name.span,
             });
+        }
+    }
+
+    /// A parameter's uncertainty as a half-width in its unit, or `None` after reporting why
+    /// it makes no sense.
+    fn uncertainty(&mut self, u: ast::Uncertainty, span: Span, value: Option<f64>) -> Option<f64> {
+        let half_width = match u {
+            ast::Uncertainty::Percent(p) => value.map(|v| v.abs() * p / 100.0),
+            ast::Uncertainty::Absolute(a) => Some(a),
+        }?;
+        if half_width.is_finite() && half_width >= 0.0 {
+            Some(half_width)
+        } else {
+            self.diagnostics.push(
+                Diagnostic::error(
+                    Code::BadValue,
+                    span,
+                    "an uncertainty must be a non-negative number",
+                )
+                .with_label("expected e.g. `+- 5%` or `+- 0.01`"),
+            );
+            None
         }
     }
 

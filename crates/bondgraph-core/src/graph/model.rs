@@ -96,6 +96,8 @@ pub struct Param {
     pub value: f64,
     /// Its unit, as written.
     pub unit: Option<String>,
+    /// How far the true value may be from the nominal one (a half-width, in its unit).
+    pub uncertainty: Option<f64>,
     /// What it is.
     pub description: Option<String>,
     /// Where it is declared.

@@ -78,6 +78,7 @@ pub(crate) fn build(
             c.causality
                 .push(report(model, &d.causal, Mode::Diagnosis, &d.problems));
             b.arrs(&mut c, d, fsm, &mut stage);
+            super::uncertainty::sensitivities(&mut c);
             c.diagnosed = true;
         }
         for d in dedup(stage) {
@@ -128,6 +129,7 @@ impl<'m> Builder<'m> {
                 name: p.name.clone(),
                 value: p.value,
                 unit: p.unit.clone(),
+                uncertainty: p.uncertainty,
                 description: p.description.clone(),
                 span: p.span,
             });
@@ -323,6 +325,7 @@ impl<'m> Builder<'m> {
                         reads,
                         integrals,
                         auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
+                        sensitivities: None,
                     });
                 }
                 Err(why) => {

@@ -9,6 +9,7 @@
 mod arena;
 mod build;
 mod readings;
+mod uncertainty;
 
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
@@ -49,6 +50,9 @@ pub struct Parameter {
     pub value: f64,
     /// Its unit as written, e.g. `Ohm`.
     pub unit: Option<String>,
+    /// How far the true value may be from the nominal one (`+- 5%` in the model), as a
+    /// half-width in its unit: what adaptive thresholds allow for.
+    pub uncertainty: Option<f64>,
     /// What it is, as the user described it.
     pub description: Option<String>,
     /// Where it is declared.
@@ -193,6 +197,10 @@ pub struct Arr {
     /// The auxiliary signals it reads, directly or through others, in definition order:
     /// part of the relation, to be written with it.
     pub auxiliaries: Vec<Handle<Auxiliary>>,
+    /// `∂r/∂θ` for each uncertain parameter θ it depends on, over the same signals: the
+    /// adaptive threshold is `Σ |∂r/∂θ| Δθ`. `None` when they could not be derived (an ARR
+    /// that reads auxiliary signals): such an ARR has no adaptive threshold.
+    pub sensitivities: Option<Vec<(Handle<Parameter>, Expr)>>,
 }
 
 /// What kind of component an FSM row is.

@@ -13,6 +13,9 @@ use crate::expr::{BinOp, Func};
 pub struct Derivatives<L: LeafKind, F> {
     memo: FastMap<ExprId<L>, ExprId<L>>,
     leaf: F,
+    /// With respect to time, `d/dt int(a) = a`; for a partial derivative with respect to a
+    /// leaf, `∂ int(a) = int(∂a)`.
+    partial: bool,
 }
 
 impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L, F> {
@@ -21,6 +24,17 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
         Derivatives {
             memo: FastMap::default(),
             leaf,
+            partial: false,
+        }
+    }
+
+    /// Partial derivatives: `leaf` gives each leaf's (1 for the variable, 0 for the others),
+    /// and an integral's is the integral of its argument's.
+    pub fn partial(leaf: F) -> Self {
+        Derivatives {
+            memo: FastMap::default(),
+            leaf,
+            partial: true,
         }
     }
 
@@ -73,6 +87,10 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
                 } else {
                     p.sub(mean, hs)
                 }
+            }
+            Node::Int(a) if self.partial => {
+                let da = d(self, a)?;
+                p.int(da)
             }
             Node::Int(a) => a,
         })

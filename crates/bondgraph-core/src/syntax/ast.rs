@@ -73,8 +73,19 @@ pub struct ParamDecl {
     pub value: Option<(f64, Span)>,
     /// Its unit, as free text.
     pub unit: Option<String>,
+    /// How far the true value may be from the nominal one, and where that was written.
+    pub uncertainty: Option<(Uncertainty, Span)>,
     /// What it is.
     pub description: Option<String>,
+}
+
+/// A parameter's uncertainty as written.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Uncertainty {
+    /// `+- 5%`: a percentage of the nominal value.
+    Percent(f64),
+    /// `+- 0.015`: in the parameter's unit.
+    Absolute(f64),
 }
 
 /// A known input signal.

@@ -207,12 +207,14 @@ impl Builder {
         let mut name = None;
         let mut value = None;
         let mut unit = None;
+        let mut uncertainty = None;
         let mut description = None;
         for p in inner {
             match p.as_rule() {
                 Rule::ident => name = Some(self.ident(p)),
                 Rule::param_value => value = self.param_value(p),
                 Rule::unit => unit = Some(inner_text(p)),
+                Rule::uncertainty => uncertainty = self.uncertainty(p),
                 Rule::description => description = Some(inner_text(p)),
                 _ => {}
             }
@@ -224,8 +226,25 @@ impl Builder {
             }),
             value,
             unit,
+            uncertainty,
             description,
         }
+    }
+
+    fn uncertainty(&mut self, pair: Pair<'_, Rule>) -> Option<(ast::Uncertainty, Span)> {
+        let span = self.span(&pair);
+        let mut inner = pair.into_inner();
+        let number = inner.find(|p| p.as_rule() == Rule::number)?;
+        let value = self.number(&number)?;
+        let percent = inner.any(|p| p.as_rule() == Rule::percent);
+        Some((
+            if percent {
+                ast::Uncertainty::Percent(value)
+            } else {
+                ast::Uncertainty::Absolute(value)
+            },
+            span,
+        ))
     }
 
     fn param_value(&mut self, pair: Pair<'_, Rule>) -> Option<(f64, Span)> {
@@ -602,6 +621,7 @@ fn rule_name(rule: Rule) -> Option<&'static str> {
         Rule::param_value | Rule::number | Rule::sign => "a number",
         Rule::unit => "a unit in brackets like `[Ohm]`",
         Rule::description => "a description in double quotes",
+        Rule::uncertainty | Rule::percent => "an uncertainty like `+- 5%` or `+- 0.01`",
         Rule::value_body | Rule::law_body | Rule::stiffness_body | Rule::ratio_body => {
             "`= value`, `: law`, `stiffness`, `ratio`"
         }
