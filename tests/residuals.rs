@@ -199,3 +199,66 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Adaptive thresholds: the bench's plant with every uncertain parameter moved by its stated
+/// 5 % raises alarms against fixed thresholds, none against adaptive ones, and the dead-zone
+/// fault still raises ARR2's.
+#[test]
+fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault() {
+    let dir = std::env::temp_dir().join(format!("bgc-adaptive-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let healthy = dir.join("healthy.csv").display().to_string();
+    let moved = dir.join("moved.csv").display().to_string();
+    let scenario = ["simulate", "models/backlash_bench.bg", "scenarios/bench_dead_zone.scn"];
+    let mut args = scenario.to_vec();
+    args.extend(["--seed", "7", "--duration", "9.5", "-o", &healthy]);
+    assert_eq!(code(&bgc(&args)), 0);
+    let mut args = scenario.to_vec();
+    args.extend(["--duration", "14", "-o", &moved]);
+    for fault in [
+        "fault Re = 1.05*Re at 0",
+        "fault L = 0.95*L at 0",
+        "fault Je = 1.05*Je at 0",
+        "fault fe = 0.95*fe at 0",
+        "fault Js = 1.05*Js at 0",
+        "fault fs = 0.95*fs at 0",
+    ] {
+        args.extend(["-e", fault]);
+    }
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let alarms = |adaptive: bool| {
+        let mut args = vec![
+            "residuals",
+            "models/backlash_bench.bg",
+            &moved,
+            "--window",
+            "201",
+            "--calibrate",
+            &healthy,
+        ];
+        if adaptive {
+            args.push("--adaptive");
+        }
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let (mut before, mut after) = (0, 0);
+        for line in stdout(&out).lines().skip(1) {
+            let cells: Vec<&str> = line.split(',').collect();
+            let t: f64 = cells[0].parse().expect("time");
+            if t < 9.8 && (cells[5] == "1" || cells[6] == "1") {
+                before += 1;
+            }
+            if t > 10.2 && cells[6] == "1" {
+                after += 1;
+            }
+        }
+        (before, after)
+    };
+    let (fixed_before, _) = alarms(false);
+    assert!(fixed_before > 1000, "fixed thresholds see the moved parameters: {fixed_before}");
+    let (before, after) = alarms(true);
+    assert_eq!(before, 0, "adaptive thresholds allow for them");
+    assert!(after > 500, "and still see the dead zone: {after}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

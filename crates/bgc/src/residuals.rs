@@ -48,6 +48,11 @@ pub struct ResidualArgs {
     /// Headroom over the calibrated quantile, as a fraction of it.
     #[arg(long, value_name = "M", default_value_t = 0.2)]
     margin: f64,
+    /// Adaptive thresholds: add to each residual's threshold the bound the model's parameter
+    /// uncertainties (`+- 5%`) put on it at each sample, `Σ |∂r/∂θ| Δθ`. The fixed or
+    /// calibrated level is then the margin for noise on top of it (0 if neither is given).
+    #[arg(long)]
+    adaptive: bool,
     /// Consecutive samples above (below) a threshold that raise (clear) its alarm.
     #[arg(long, value_name = "N", default_value_t = 1)]
     debounce: u32,
@@ -108,6 +113,14 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         }
     }
     let mut generator = build()?;
+    if args.adaptive {
+        // Every residual with a bound gets a threshold: its margin defaults to 0.
+        for (level, arr) in levels.iter_mut().zip(&c.arrs) {
+            if arr.sensitivities.as_ref().is_some_and(|s| !s.is_empty()) {
+                level.get_or_insert(0.0);
+            }
+        }
+    }
     let mut alarms: Vec<Option<Threshold>> = levels
         .iter()
         .map(|l| l.map(|l| Threshold::new(l, args.debounce)))
@@ -123,21 +136,33 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         for (v, column) in raw.iter_mut().zip(&data.columns) {
             *v = column[k];
         }
-        let Some((at, residuals)) = generator.push(t, &raw) else {
+        let Some((at, residuals, bounds)) = generator.push(t, &raw, args.adaptive) else {
             continue;
         };
+        let now: Vec<Option<f64>> = levels
+            .iter()
+            .zip(&bounds)
+            .map(|(l, b)| l.map(|l| l + b))
+            .collect();
         let on: Vec<bool> = residuals
             .iter()
             .zip(&mut alarms)
-            .map(|(&r, a)| a.as_mut().is_some_and(|a| a.update(r)))
+            .zip(&now)
+            .map(|((&r, a), l)| match (a.as_mut(), l) {
+                (Some(a), Some(l)) => a.update_with_level(r, *l),
+                _ => false,
+            })
             .collect();
         let candidates = bondgraph::candidates(rows.iter().map(|(n, s)| (*n, s.as_slice())), &on);
-        row(&mut out, at, &residuals, &levels, &on, &candidates);
+        row(&mut out, at, &residuals, &now, &on, &candidates);
     }
     cli::write(args.output.as_deref(), &out)
 }
 
-/// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin.
+/// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin. With
+/// adaptive thresholds this is the margin for noise and estimation error, added to the bound
+/// from parameter uncertainty: a healthy record taken at the nominal parameters shows what
+/// the noise does, and nothing of what the uncertainty may do.
 fn calibrate(mut generator: Generator, healthy: &Data, rate: f64, margin: f64) -> Vec<f64> {
     let mut seen: Vec<Vec<f64>> = Vec::new();
     let mut raw = vec![0.0; healthy.columns.len()];
@@ -145,7 +170,7 @@ fn calibrate(mut generator: Generator, healthy: &Data, rate: f64, margin: f64) -
         for (v, column) in raw.iter_mut().zip(&healthy.columns) {
             *v = column[k];
         }
-        if let Some((_, r)) = generator.push(t, &raw) {
+        if let Some((_, r, _)) = generator.push(t, &raw, false) {
             seen.resize(r.len(), Vec::new());
             for (s, r) in seen.iter_mut().zip(r) {
                 s.push(r.abs());
@@ -370,6 +395,10 @@ pub struct Generator {
     /// Each auxiliary derivative, in definition order.
     auxiliaries: Vec<Tape<Leaf>>,
     arrs: Tape<Leaf>,
+    /// Every sensitivity `∂r/∂θ` of every ARR, in order.
+    sensitivities: Tape<Leaf>,
+    /// For each of them, its ARR and `Δθ`.
+    weights: Vec<(usize, f64)>,
     /// Each `int(..)` node: a combination of integral slots with coefficients.
     int_nodes: Vec<(Id, Vec<(f64, usize)>)>,
     delay: f64,
@@ -465,9 +494,22 @@ impl Generator {
             .map(|e| import(&mut pool, e))
             .collect();
         let arrs: Vec<Id> = c.arrs.iter().map(|a| import(&mut pool, a.expr)).collect();
+        let mut weights = Vec::new();
+        let mut sensitivities = Vec::new();
+        for (k, arr) in c.arrs.iter().enumerate() {
+            for &(p, e) in arr.sensitivities.iter().flatten() {
+                weights.push((k, c.parameters[p].uncertainty.unwrap_or(0.0)));
+                sensitivities.push(import(&mut pool, e));
+            }
+        }
         // Each `int(..)` of the product, found where the import put it.
         let mut original = Vec::new();
         let mut roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+        roots.extend(
+            c.arrs
+                .iter()
+                .flat_map(|a| a.sensitivities.iter().flatten().map(|&(_, e)| e)),
+        );
         roots.extend(
             c.auxiliaries
                 .iter()
@@ -534,6 +576,8 @@ impl Generator {
                 .map(|&e| Tape::new(&pool, &[e]))
                 .collect(),
             arrs: Tape::new(&pool, &arrs),
+            sensitivities: Tape::new(&pool, &sensitivities),
+            weights,
             int_values: int_nodes.iter().map(|&(id, _)| (id, 0.0)).collect(),
             int_nodes,
             delay,
@@ -545,8 +589,10 @@ impl Generator {
     }
 
     /// Takes the raw samples at `t` (in [`Readings::raw`] order) and returns, once the windows
-    /// are full, the residuals at `t` minus the estimators' delay, with that instant.
-    pub fn push(&mut self, t: f64, raw: &[f64]) -> Option<(f64, Vec<f64>)> {
+    /// are full, the instant of the estimates (`t` minus the estimators' delay), the residuals
+    /// there, and with `bounds` each residual's bound from parameter uncertainty,
+    /// `Σ |∂r/∂θ| Δθ` (else zeros).
+    pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<(f64, Vec<f64>, Vec<f64>)> {
         let mut ready = true;
         for (k, (e, &x)) in self.estimators.iter_mut().zip(raw).enumerate() {
             match bondgraph::Differentiator::push(e, x) {
@@ -594,8 +640,19 @@ impl Generator {
         let residuals =
             self.arrs
                 .values(|l| self.leaf(l, at), |id| self.integral(id), &mut scratch);
+        let mut bound = vec![0.0; residuals.len()];
+        if bounds && !self.weights.is_empty() {
+            let s = self.sensitivities.values(
+                |l| self.leaf(l, at),
+                |id| self.integral(id),
+                &mut scratch,
+            );
+            for (&(k, delta), s) in self.weights.iter().zip(s) {
+                bound[k] += s.abs() * delta;
+            }
+        }
         self.scratch = scratch;
-        Some((at, residuals))
+        Some((at, residuals, bound))
     }
 
     fn update_integrals(&mut self) {

@@ -40,6 +40,13 @@ impl Threshold {
         self.alarm
     }
 
+    /// [`Threshold::update`] against a level that moves with the operating point (an
+    /// adaptive threshold), which stays the level from then on.
+    pub fn update_with_level(&mut self, residual: f64, level: f64) -> bool {
+        self.level = level;
+        self.update(residual)
+    }
+
     /// Whether the alarm is on.
     #[must_use]
     pub fn alarm(&self) -> bool {
