@@ -59,6 +59,7 @@ fn bgc_residuals_computes_what_the_generated_code_computes() {
         &data_arg,
         "--window",
         "21",
+        "--adaptive",
     ]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let cli = table(&stdout(&out));
@@ -82,6 +83,7 @@ fn bgc_residuals_computes_what_the_generated_code_computes() {
             continue;
         };
         assert!((column(&cli, "t")[row] - (t - generator.delay())).abs() < 1e-12);
+        let bounds = generator.bounds();
         for (j, name) in backlash_bench::RESIDUALS.iter().enumerate() {
             let theirs = column(&cli, name)[row];
             assert!(
@@ -89,6 +91,14 @@ fn bgc_residuals_computes_what_the_generated_code_computes() {
                 "{name} at t = {t}: generated {} vs bgc residuals {theirs}",
                 r[j]
             );
+            // Without a margin, the adaptive threshold is the bound itself.
+            let threshold = column(&cli, &format!("threshold_{name}"))[row];
+            assert!(
+                (bounds[j] - threshold).abs() <= 1e-9 * bounds[j].abs().max(1.0),
+                "{name}'s bound at t = {t}: generated {} vs bgc residuals {threshold}",
+                bounds[j]
+            );
+            assert!(bounds[j] > 0.0);
         }
         compared += 1;
         row += 1;
@@ -209,7 +219,11 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
     std::fs::create_dir_all(&dir).expect("temp dir");
     let healthy = dir.join("healthy.csv").display().to_string();
     let moved = dir.join("moved.csv").display().to_string();
-    let scenario = ["simulate", "models/backlash_bench.bg", "scenarios/bench_dead_zone.scn"];
+    let scenario = [
+        "simulate",
+        "models/backlash_bench.bg",
+        "scenarios/bench_dead_zone.scn",
+    ];
     let mut args = scenario.to_vec();
     args.extend(["--seed", "7", "--duration", "9.5", "-o", &healthy]);
     assert_eq!(code(&bgc(&args)), 0);
@@ -256,7 +270,10 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
         (before, after)
     };
     let (fixed_before, _) = alarms(false);
-    assert!(fixed_before > 1000, "fixed thresholds see the moved parameters: {fixed_before}");
+    assert!(
+        fixed_before > 1000,
+        "fixed thresholds see the moved parameters: {fixed_before}"
+    );
     let (before, after) = alarms(true);
     assert_eq!(before, 0, "adaptive thresholds allow for them");
     assert!(after > 500, "and still see the dead zone: {after}");

@@ -371,6 +371,60 @@ fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
     }
 }
 
+/// Each ARR's bound from parameter uncertainty, `Σ |∂r/∂θ| u.θ`, with the nodes its
+/// sensitivities share computed once.
+fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
+    let mut lower = Lowering {
+        c,
+        field: template.field.clone(),
+        bound: HashMap::new(),
+        auxiliary: HashMap::new(),
+        others: template.others.clone(),
+    };
+    let roots: Vec<Expr> = c
+        .arrs
+        .iter()
+        .flat_map(|a| a.sensitivities.iter().flatten().map(|&(_, e)| e))
+        .collect();
+    let (order, count) = uses(c, &roots);
+    let mut lets = Vec::new();
+    for id in order {
+        let shared = count.get(&id).copied().unwrap_or(0) >= 2
+            && !matches!(c.exprs.node(id), Node::Num(_) | Node::Leaf(_));
+        if shared {
+            let (value, _) = lower.expr(id);
+            let name = format_ident!("b{}", lets.len() + 1);
+            lets.push(quote!(let #name = #value;));
+            lower.bound.insert(id, name);
+        }
+    }
+    let sums: Vec<TokenStream> = c
+        .arrs
+        .iter()
+        .map(|a| {
+            let terms: Vec<TokenStream> = a
+                .sensitivities
+                .iter()
+                .flatten()
+                .map(|&(p, e)| {
+                    let (value, _) = lower.expr(e);
+                    let name = ident(&c.parameters[p].name);
+                    quote!(f64::abs(#value) * u.#name)
+                })
+                .collect();
+            if terms.is_empty() {
+                quote!(0.0)
+            } else {
+                quote!(#(#terms)+*)
+            }
+        })
+        .collect();
+    quote! {
+        #(#lets)*
+        [#(#sums),*]
+    }
+}
+
 /// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
 /// streaming `ResidualGenerator`.
 pub fn tokens(c: &Compiled) -> TokenStream {
@@ -391,6 +445,7 @@ pub fn tokens(c: &Compiled) -> TokenStream {
     let signals = signals(&fields);
     let n = count(c.arrs.len());
     let body = residual_body(&mut lower, c);
+    let bounds = bounds_body(c, &lower);
     let printer = Printer::new(&c.exprs, |s| names::latex(c, s));
     let docs: Vec<String> = c
         .arrs
@@ -420,6 +475,17 @@ pub fn tokens(c: &Compiled) -> TokenStream {
             #body
         }
 
+        /// Each residual's bound from the uncertainty of the model's parameters at the signals
+        /// `s`: `Σ |∂r/∂θ| Δθ` over the uncertain parameters each ARR depends on, `Δθ` read
+        /// from `u` (usually [`Params::UNCERTAINTY`]). An adaptive threshold is this plus a
+        /// margin for noise; a healthy plant whose parameters are within `u` of `p` stays
+        /// under it to first order. An ARR that reads auxiliary signals has no bound (0).
+        #[allow(non_snake_case, unused_variables, clippy::all)]
+        #[must_use]
+        pub fn bounds(p: &Params, u: &Params, s: &Signals) -> [f64; #n] {
+            #bounds
+        }
+
         #fsm
         #generator
     }
@@ -442,6 +508,11 @@ fn params(c: &Compiled) -> TokenStream {
         })
         .collect();
     let values: Vec<TokenStream> = c.parameters.values().map(|p| number(p.value).0).collect();
+    let uncertainties: Vec<TokenStream> = c
+        .parameters
+        .values()
+        .map(|p| number(p.uncertainty.unwrap_or(0.0)).0)
+        .collect();
     quote! {
         /// The model's parameters; [`Default`] gives the values the model declares.
         #[allow(non_snake_case)]
@@ -454,6 +525,12 @@ fn params(c: &Compiled) -> TokenStream {
             fn default() -> Self {
                 Params { #(#names: #values,)* }
             }
+        }
+
+        impl Params {
+            /// How far each parameter's true value may be from the model's (`+- 5%` in the
+            /// model), as a half-width in its unit; 0 for those it states exactly.
+            pub const UNCERTAINTY: Params = Params { #(#names: #uncertainties,)* };
         }
     }
 }
@@ -624,6 +701,7 @@ fn generator(
             integrals: Vec<::bondgraph::EstimatedIntegral<D>>,
             others: [::bondgraph::Trapezoid; #o],
             delay: f64,
+            last: Signals,
         }
 
         impl<D: ::bondgraph::Differentiator> ResidualGenerator<D> {
@@ -658,6 +736,7 @@ fn generator(
                     integrals,
                     others: [::bondgraph::Trapezoid::new(); #o],
                     delay,
+                    last: Signals::default(),
                 })
             }
 
@@ -671,6 +750,20 @@ fn generator(
             #[must_use]
             pub fn delay(&self) -> f64 {
                 self.delay
+            }
+
+            /// The estimates the last residuals were computed from.
+            #[must_use]
+            pub fn signals(&self) -> &Signals {
+                &self.last
+            }
+
+            /// The last residuals' bounds from the parameters' stated uncertainty
+            /// ([`bounds`] with [`Params::UNCERTAINTY`]): add a margin for noise to get
+            /// adaptive thresholds.
+            #[must_use]
+            pub fn bounds(&self) -> [f64; RESIDUAL_COUNT] {
+                bounds(&self.params, &Params::UNCERTAINTY, &self.last)
             }
 
             /// Takes the samples of [`RAW_SIGNALS`] at time `t` (uniform steps) and returns
@@ -700,7 +793,9 @@ fn generator(
                 #(
                     s.#other_fields = self.others[#other_index].push(at, { #integrands });
                 )*
-                Some(residuals(p, &s))
+                let r = residuals(p, &s);
+                self.last = s;
+                Some(r)
             }
         }
 
