@@ -236,3 +236,43 @@ fn simulate_writes_the_same_csv_every_time() {
         stderr(&unknown)
     );
 }
+
+/// `--plot` draws an SVG with a panel per signal; another extension is refused.
+#[test]
+fn simulate_plots_svg_only() {
+    let dir = std::env::temp_dir().join(format!("bgc-plot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let svg = dir.join("run.svg").display().to_string();
+    let args = |plot: &str| {
+        bgc(&[
+            "simulate",
+            "models/dc_motor.bg",
+            "-e",
+            "duration 0.2",
+            "-e",
+            "input U0 = 12",
+            "--plot",
+            plot,
+        ])
+    };
+    let out = args(&svg);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let drawn = std::fs::read_to_string(&svg).expect("svg written");
+    assert!(
+        drawn.starts_with("<svg"),
+        "{}",
+        &drawn[..80.min(drawn.len())]
+    );
+    for title in ["U0", "i", "y1"] {
+        assert!(drawn.lines().any(|l| l.trim() == title), "panel {title}");
+    }
+    let png = dir.join("run.png").display().to_string();
+    let refused = args(&png);
+    assert_eq!(code(&refused), 2);
+    assert!(
+        stderr(&refused).contains("SVG only"),
+        "{}",
+        stderr(&refused)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

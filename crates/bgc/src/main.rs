@@ -4,6 +4,7 @@
 //! 2 for a usage error (bad arguments, a file that cannot be read or written).
 
 mod cli;
+mod plot;
 mod report;
 mod residuals;
 mod simulate;

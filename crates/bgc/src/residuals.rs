@@ -59,6 +59,10 @@ pub struct ResidualArgs {
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
+    /// Also draw each residual with its threshold and its alarms shaded, one panel each,
+    /// into FILE (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
 }
 
 /// Runs `bgc residuals`.
@@ -132,6 +136,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         .map(|(_, comp)| (comp.name.as_str(), comp.signature(c.arrs.len())))
         .collect();
     let mut raw = vec![0.0; names.len()];
+    let mut drawn = Drawn::new(c.arrs.len(), args.plot.is_some());
     for (k, &t) in data.time.iter().enumerate() {
         for (v, column) in raw.iter_mut().zip(&data.columns) {
             *v = column[k];
@@ -155,8 +160,67 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             .collect();
         let candidates = bondgraph::candidates(rows.iter().map(|(n, s)| (*n, s.as_slice())), &on);
         row(&mut out, at, &residuals, &now, &on, &candidates);
+        drawn.push(at, &residuals, &now, &on);
+    }
+    if let Some(path) = &args.plot {
+        drawn.draw(path, &c).map_err(|e| {
+            eprintln!("error: {e}");
+            Failure::Usage
+        })?;
     }
     cli::write(args.output.as_deref(), &out)
+}
+
+/// What `--plot` draws, kept as the rows are computed.
+struct Drawn {
+    keep: bool,
+    time: Vec<f64>,
+    residuals: Vec<Vec<f64>>,
+    thresholds: Vec<Vec<f64>>,
+    alarms: Vec<Vec<bool>>,
+    /// Whether each residual has a threshold at all.
+    has_threshold: Vec<bool>,
+}
+
+impl Drawn {
+    fn new(n: usize, keep: bool) -> Drawn {
+        Drawn {
+            keep,
+            time: Vec::new(),
+            residuals: vec![Vec::new(); n],
+            thresholds: vec![Vec::new(); n],
+            alarms: vec![Vec::new(); n],
+            has_threshold: vec![false; n],
+        }
+    }
+
+    fn push(&mut self, t: f64, residuals: &[f64], thresholds: &[Option<f64>], on: &[bool]) {
+        if !self.keep {
+            return;
+        }
+        self.time.push(t);
+        for k in 0..residuals.len() {
+            self.residuals[k].push(residuals[k]);
+            self.thresholds[k].push(thresholds[k].unwrap_or(0.0));
+            self.has_threshold[k] |= thresholds[k].is_some();
+            self.alarms[k].push(on[k]);
+        }
+    }
+
+    fn draw(&self, path: &std::path::Path, c: &Compiled) -> Result<(), String> {
+        let panels: Vec<crate::plot::Panel<'_>> = c
+            .arrs
+            .iter()
+            .enumerate()
+            .map(|(k, arr)| crate::plot::Panel {
+                name: &arr.name,
+                values: &self.residuals[k],
+                threshold: self.has_threshold[k].then_some(self.thresholds[k].as_slice()),
+                alarm: self.has_threshold[k].then_some(self.alarms[k].as_slice()),
+            })
+            .collect();
+        crate::plot::draw(path, &self.time, &panels)
+    }
 }
 
 /// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin. With

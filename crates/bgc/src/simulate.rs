@@ -37,6 +37,9 @@ pub struct SimulateArgs {
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
+    /// Also draw the inputs and measured signals, one panel each, into FILE (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
 }
 
 /// The integration methods.
@@ -76,7 +79,35 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
+    if let Some(path) = &args.plot {
+        plot(path, &trajectory, c.inputs.len(), c.states.len())?;
+    }
     cli::write(args.output.as_deref(), &csv(&trajectory))
+}
+
+/// The recorded signals (not the states), one panel each.
+fn plot(
+    path: &std::path::Path,
+    t: &Trajectory,
+    inputs: usize,
+    states: usize,
+) -> Result<(), Failure> {
+    let shown: Vec<usize> = (1..=inputs)
+        .chain(1 + inputs + states..t.columns.len())
+        .collect();
+    let panels: Vec<crate::plot::Panel<'_>> = shown
+        .iter()
+        .map(|&k| crate::plot::Panel {
+            name: &t.columns[k],
+            values: &t.values[k],
+            threshold: None,
+            alarm: None,
+        })
+        .collect();
+    crate::plot::draw(path, &t.values[0], &panels).map_err(|e| {
+        eprintln!("error: {e}");
+        Failure::Usage
+    })
 }
 
 /// The scenario file's text and the `-e` statements after it, under one name for reports.

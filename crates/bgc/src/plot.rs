@@ -1,0 +1,188 @@
+//! `--plot FILE.svg`: signals and residuals drawn with plotters, one panel per series.
+//!
+//! Long records are reduced to the smallest and largest value of each of at most
+//! [`MAX_POINTS`] buckets of time, so that a spike of one sample still shows and a file of
+//! 10^6 samples still opens. Only SVG is written: a PNG needs fonts rasterized, which would
+//! make the output depend on the fonts of the machine.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Most points drawn per series.
+const MAX_POINTS: usize = 4000;
+
+/// Height of one panel, in pixels.
+const PANEL: u32 = 220;
+
+/// One panel: a named series over time, with what else to draw on it.
+pub struct Panel<'a> {
+    /// Its title.
+    pub name: &'a str,
+    /// The values, one per time.
+    pub values: &'a [f64],
+    /// A threshold on |value| at each time (drawn as ±), if any.
+    pub threshold: Option<&'a [f64]>,
+    /// Whether the alarm is on at each time (shaded), if any.
+    pub alarm: Option<&'a [bool]>,
+}
+
+/// Draws `panels` over `time` into the SVG file `path`, one under the other.
+pub fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), String> {
+    if path.extension().and_then(|e| e.to_str()) != Some("svg") {
+        return Err(format!(
+            "`{}`: plots are written as SVG only; name the file `.svg`",
+            path.display()
+        ));
+    }
+    let height = PANEL * panels.len().max(1) as u32;
+    let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
+    let failed = |e: &dyn std::fmt::Display| format!("`{}`: {e}", path.display());
+    root.fill(&WHITE).map_err(|e| failed(&e))?;
+    let areas = root.split_evenly((panels.len().max(1), 1));
+    for (area, panel) in areas.iter().zip(panels) {
+        draw_panel(area, time, panel).map_err(|e| failed(&e))?;
+    }
+    root.present().map_err(|e| failed(&e))
+}
+
+type Result2 = Result<(), DrawingAreaErrorKind<std::io::Error>>;
+
+fn draw_panel(
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    time: &[f64],
+    panel: &Panel<'_>,
+) -> Result2 {
+    let (t0, t1) = (
+        time.first().copied().unwrap_or(0.0),
+        time.last().copied().unwrap_or(1.0),
+    );
+    let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
+    let mut low = panel.values.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut high = panel
+        .values
+        .iter()
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    if let Some(th) = panel.threshold {
+        let top = th.iter().copied().fold(0.0, f64::max);
+        low = low.min(-top);
+        high = high.max(top);
+    }
+    if !(low.is_finite() && high.is_finite()) {
+        (low, high) = (-1.0, 1.0);
+    }
+    let pad = ((high - low) * 0.05).max(1e-12 * high.abs().max(1.0));
+    let (low, high) = (low - pad, high + pad);
+    let mut chart = ChartBuilder::on(area)
+        .caption(panel.name, ("sans-serif", 16))
+        .margin(8)
+        .x_label_area_size(28)
+        .y_label_area_size(70)
+        .build_cartesian_2d(t0..t1, low..high)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .light_line_style(WHITE)
+        .draw()?;
+    if let Some(alarm) = panel.alarm {
+        let shade = RED.mix(0.15).filled();
+        chart.draw_series(
+            intervals(time, alarm)
+                .into_iter()
+                .map(|(a, b)| Rectangle::new([(a, low), (b, high)], shade)),
+        )?;
+    }
+    if let Some(th) = panel.threshold {
+        let style = RED.stroke_width(1);
+        chart.draw_series(LineSeries::new(reduce(time, th), style))?;
+        let negative: Vec<f64> = th.iter().map(|v| -v).collect();
+        chart.draw_series(LineSeries::new(reduce(time, &negative), style))?;
+    }
+    chart.draw_series(LineSeries::new(
+        reduce(time, panel.values),
+        BLUE.stroke_width(1),
+    ))?;
+    Ok(())
+}
+
+/// The time intervals where `on` holds.
+fn intervals(time: &[f64], on: &[bool]) -> Vec<(f64, f64)> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for (&t, &a) in time.iter().zip(on) {
+        match (start, a) {
+            (None, true) => start = Some(t),
+            (Some(s), false) => {
+                out.push((s, t));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let (Some(s), Some(&end)) = (start, time.last()) {
+        out.push((s, end));
+    }
+    out
+}
+
+/// At most [`MAX_POINTS`] points: in each bucket of time, its smallest and largest values in
+/// the order they come.
+fn reduce(time: &[f64], values: &[f64]) -> Vec<(f64, f64)> {
+    let n = time.len().min(values.len());
+    if n <= MAX_POINTS {
+        return time
+            .iter()
+            .copied()
+            .zip(values.iter().copied())
+            .take(n)
+            .collect();
+    }
+    let buckets = MAX_POINTS / 2;
+    let mut out = Vec::with_capacity(MAX_POINTS);
+    for b in 0..buckets {
+        let (from, to) = (
+            b * n / buckets,
+            ((b + 1) * n / buckets).max(b * n / buckets + 1),
+        );
+        let slice = &values[from..to.min(n)];
+        let (mut lo, mut hi) = (0, 0);
+        for (i, v) in slice.iter().enumerate() {
+            if *v < slice[lo] {
+                lo = i;
+            }
+            if *v > slice[hi] {
+                hi = i;
+            }
+        }
+        let (first, second) = if lo <= hi { (lo, hi) } else { (hi, lo) };
+        out.push((time[from + first], values[from + first]));
+        if second != first {
+            out.push((time[from + second], values[from + second]));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_series_keeps_its_spikes() {
+        let time: Vec<f64> = (0..1_000_000).map(|k| k as f64 * 1e-3).collect();
+        let mut values = vec![0.0; time.len()];
+        values[123_457] = 5.0;
+        let reduced = reduce(&time, &values);
+        assert!(reduced.len() <= MAX_POINTS);
+        assert!(reduced.contains(&(time[123_457], 5.0)));
+    }
+
+    #[test]
+    fn alarm_intervals_run_from_first_to_last_sample_on() {
+        let time = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let on = [false, true, true, false, true];
+        assert_eq!(intervals(&time, &on), vec![(1.0, 3.0), (4.0, 4.0)]);
+    }
+}
