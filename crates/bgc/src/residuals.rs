@@ -30,9 +30,10 @@ pub struct ResidualArgs {
     /// Samples in the Savitzky–Golay window (odd).
     #[arg(long, value_name = "N", default_value_t = 11)]
     window: usize,
-    /// Degree of the Savitzky–Golay polynomial.
-    #[arg(long, value_name = "D", default_value_t = 3)]
-    degree: u32,
+    /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
+    /// ARRs read if higher].
+    #[arg(long, value_name = "D")]
+    degree: Option<u32>,
     /// A fixed threshold on |residual|, as `ARR=LEVEL` (e.g. `ARR1=0.05`); repeat for more.
     /// Residuals without one raise no alarm.
     #[arg(long = "threshold", value_name = "ARR=LEVEL")]
@@ -84,10 +85,12 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         eprintln!("error: {data_name}: {e}");
         Failure::Invalid
     })?;
+    let top = readings.raw.iter().map(|&(_, n)| n).max().unwrap_or(0);
+    let degree = args.degree.unwrap_or(top.max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
     let build = || {
-        Generator::new(&c, &readings, &params, data.step, args.window, args.degree).map_err(|e| {
+        Generator::new(&c, &readings, &params, data.step, args.window, degree).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
         })

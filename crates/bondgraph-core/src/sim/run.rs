@@ -109,6 +109,10 @@ impl ODE<f64, Vec<f64>> for Rhs<'_> {
     }
 }
 
+/// Most solver steps in one piece of the run (a hundredth of it): far more than a smooth
+/// model needs, few enough to stop a chattering one in seconds.
+const MAX_STEPS: usize = 1_000_000;
+
 /// Runs the plant over the scenario; `progress` hears the fraction done after each piece.
 pub(crate) fn run(
     plant: &Plant,
@@ -267,7 +271,7 @@ fn solve(
                     .rtol(rtol)
                     .atol(atol)
                     .h_max(h_max)
-                    .max_steps(10_000_000),
+                    .max_steps(MAX_STEPS),
             )
             .solve()
     };
@@ -278,7 +282,8 @@ fn solve(
                 DiagonallyImplicitRungeKutta::kvaerno745()
                     .rtol(rtol)
                     .atol(atol)
-                    .h_max(h_max),
+                    .h_max(h_max)
+                    .max_steps(MAX_STEPS),
             )
             .solve()
     };
@@ -310,7 +315,11 @@ fn solve(
 
 fn reason(e: &SolverError<f64, Vec<f64>>) -> String {
     match e {
-        SolverError::MaxSteps { .. } => "too many steps".to_string(),
+        SolverError::MaxSteps { .. } => format!(
+            "more than {MAX_STEPS} steps in a hundredth of the run: the state chatters, as a law \
+             with sign() or abs() does where its argument stays at zero (a Coulomb friction that \
+             sticks); smooth the law (e.g. tanh(v/eps) for sign(v)) or drive the model past it"
+        ),
         SolverError::StepSize { .. } => {
             "the step became too small (a discontinuity the solver cannot pass, or a state that diverges)".to_string()
         }
