@@ -13,6 +13,7 @@ use super::scenario::{FaultMode, FaultTarget, Onset, Scenario};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::expr::Expr;
 use crate::product::{Compiled, Symbol};
+use crate::symbolic::hash::FastMap;
 use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
 use crate::syntax::ast::{AstExpr, Ident};
 
@@ -83,7 +84,7 @@ pub(crate) struct Plant {
     /// How many of the recorded signals are inputs (they come first).
     pub inputs: usize,
     /// Where each `int(..)` node's value sits in the state vector.
-    pub integrals: HashMap<Id, usize>,
+    pub integrals: FastMap<Id, usize>,
     pub params: Vec<Course>,
     pub faults: Vec<SignalFault>,
     pub initial: Vec<f64>,
@@ -387,7 +388,7 @@ impl Builder<'_> {
         }
         let mut state_names: Vec<String> = c.states.iter().map(|(_, s)| s.name.clone()).collect();
         let model_states = state_names.len();
-        let integrals: HashMap<Id, usize> = ints
+        let integrals: FastMap<Id, usize> = ints
             .iter()
             .enumerate()
             .map(|(i, &(id, _))| (id, model_states + i))

@@ -70,7 +70,8 @@ impl std::error::Error for SimulationError {}
 /// The right-hand side as the solver calls it.
 struct Rhs<'p> {
     plant: &'p Plant,
-    scratch: RefCell<Vec<f64>>,
+    /// The tape's workspace and its roots' values, reused at every call.
+    scratch: RefCell<(Vec<f64>, Vec<f64>)>,
 }
 
 impl Plant {
@@ -100,11 +101,11 @@ impl ODE<f64, Vec<f64>> for Rhs<'_> {
     fn diff(&self, t: f64, y: &Vec<f64>, dydt: &mut Vec<f64>) {
         let p = self.plant;
         let mut scratch = self.scratch.borrow_mut();
-        let values = p
-            .derivative
-            .values(p.leaves(t, y), p.integral(y), &mut scratch);
-        for (d, v) in dydt.iter_mut().zip(values) {
-            *d = v;
+        let (work, values) = &mut *scratch;
+        p.derivative
+            .values_into(p.leaves(t, y), p.integral(y), work, values);
+        for (d, v) in dydt.iter_mut().zip(values.iter()) {
+            *d = *v;
         }
     }
 }
@@ -145,7 +146,7 @@ pub(crate) fn run(
     };
     let rhs = Rhs {
         plant,
-        scratch: RefCell::new(Vec::new()),
+        scratch: RefCell::new((Vec::new(), Vec::new())),
     };
     let mut y = plant.initial.clone();
     let mut start = 0.0;

@@ -111,21 +111,37 @@ impl<L: LeafKind> Tape<L> {
         integral: impl Fn(ExprId<L>) -> f64,
         scratch: &mut Vec<f64>,
     ) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.roots.len());
+        self.values_into(leaf, integral, scratch, &mut out);
+        out
+    }
+
+    /// [`Tape::values`] into `out` (cleared first), with no allocation once `scratch` and
+    /// `out` have grown to size.
+    pub fn values_into(
+        &self,
+        leaf: impl Fn(L) -> f64,
+        integral: impl Fn(ExprId<L>) -> f64,
+        scratch: &mut Vec<f64>,
+        out: &mut Vec<f64>,
+    ) {
+        // Written by position rather than pushed: a push reloads the length every time.
         scratch.clear();
-        scratch.reserve(self.ops.len());
-        for op in &self.ops {
-            let v = |x: u32| scratch[x as usize];
+        scratch.resize(self.ops.len(), 0.0);
+        let s = scratch.as_mut_slice();
+        for (i, op) in self.ops.iter().enumerate() {
             let value = match *op {
                 Op::Num(x) => x,
                 Op::Leaf(l) => leaf(l),
-                Op::Neg(a) => -v(a),
-                Op::Binary(op, a, b) => op.apply(v(a), v(b)),
-                Op::Call1(f, a) => f.apply(&[v(a)]),
-                Op::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
+                Op::Neg(a) => -s[a as usize],
+                Op::Binary(op, a, b) => op.apply(s[a as usize], s[b as usize]),
+                Op::Call1(f, a) => f.apply(&[s[a as usize]]),
+                Op::Call2(f, a, b) => f.apply(&[s[a as usize], s[b as usize]]),
                 Op::Int(id) => integral(ExprId::from_index(id)),
             };
-            scratch.push(value);
+            s[i] = value;
         }
-        self.roots.iter().map(|&r| scratch[r as usize]).collect()
+        out.clear();
+        out.extend(self.roots.iter().map(|&r| s[r as usize]));
     }
 }
