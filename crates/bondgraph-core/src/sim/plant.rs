@@ -110,8 +110,6 @@ enum Name {
 
 impl Names<'_> {
     fn find(&self, name: &str) -> Option<Name> {
-        let position =
-            |mut names: Box<dyn Iterator<Item = &str> + '_>| names.position(|n| n == name);
         if name == "t" {
             return Some(Name::Time);
         }
@@ -119,13 +117,13 @@ impl Names<'_> {
             return Some(Name::Let(id));
         }
         let c = self.c;
-        position(Box::new(c.parameters.iter().map(|(_, p)| p.name.as_str())))
+        position(c.parameters.iter().map(|(_, p)| p.name.as_str()), name)
             .map(Name::Parameter)
             .or_else(|| {
-                position(Box::new(c.inputs.iter().map(|(_, u)| u.name.as_str()))).map(Name::Input)
+                position(c.inputs.iter().map(|(_, u)| u.name.as_str()), name).map(Name::Input)
             })
             .or_else(|| {
-                position(Box::new(c.sensors.iter().map(|(_, s)| s.name.as_str()))).map(Name::Sensor)
+                position(c.sensors.iter().map(|(_, s)| s.name.as_str()), name).map(Name::Sensor)
             })
     }
 }
