@@ -3,14 +3,15 @@
 //!
 //! The residuals are computed as the generated `ResidualGenerator` computes them, with the
 //! same runtime estimators in the same order (the product's [`Readings`]): a Savitzky–Golay
-//! fit per raw signal, each signal's integral through [`EstimatedIntegral`], each nonlinear
-//! integral by the trapezoidal rule at the estimates' instant. The two agree to rounding.
+//! fit per raw signal, each signal's trapezoidal integral through a fit of its own, each
+//! nonlinear integral by the trapezoidal rule at the estimates' instant. The two agree to
+//! rounding.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph::{EstimatedIntegral, SavitzkyGolay, Threshold, Trapezoid};
+use bondgraph::{Differentiator, SavitzkyGolay, Threshold, Trapezoid};
 use bondgraph_core::{
     Compiled, Derive, Expr, ExprId, Handle, Node, Pool, Quantity, Readings, Signal, Symbol, Tape,
 };
@@ -454,8 +455,8 @@ pub struct Generator {
     estimators: Vec<SavitzkyGolay>,
     /// For each raw signal, the slots of the derivatives read, by order.
     scatter: Vec<Vec<(usize, usize)>>,
-    /// Each integrated signal's raw index, slot and integral.
-    integrals: Vec<(usize, usize, EstimatedIntegral<SavitzkyGolay>)>,
+    /// Each integrated signal's raw index, slot, trapezoidal integral and its fit.
+    integrals: Vec<(usize, usize, Trapezoid, SavitzkyGolay)>,
     /// Each nonlinear integral's slot and rule.
     nonlinear: Vec<(usize, Trapezoid)>,
     integrands: Tape<Leaf>,
@@ -472,7 +473,6 @@ pub struct Generator {
     values: Vec<f64>,
     auxiliary: Vec<f64>,
     int_values: Vec<(Id, f64)>,
-    fresh: Vec<Option<f64>>,
     scratch: Vec<f64>,
 }
 
@@ -516,12 +516,12 @@ impl Generator {
             .map(|s| {
                 let k = readings.raw.iter().position(|(r, _)| r == s).unwrap_or(0);
                 let i = slot.get(&Quantity::Integral(*s)).copied().unwrap_or(0);
-                Ok((k, i, EstimatedIntegral::new(fit(0)?)))
+                Ok((k, i, Trapezoid::new(), fit(0)?))
             })
             .collect::<Result<Vec<_>, bondgraph::EstimatorError>>()?;
         let delay = estimators
             .iter()
-            .map(bondgraph::Differentiator::delay)
+            .map(Differentiator::delay)
             .fold(0.0, f64::max);
         let aux_index: HashMap<AuxKey, u32> = c
             .auxiliaries
@@ -650,7 +650,6 @@ impl Generator {
             delay,
             values: vec![0.0; readings.quantities.len()],
             auxiliary: vec![0.0; aux_index.len()],
-            fresh: vec![None; readings.raw.len()],
             scratch: Vec::new(),
         })
     }
@@ -662,22 +661,18 @@ impl Generator {
     pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<(f64, Vec<f64>, Vec<f64>)> {
         let mut ready = true;
         for (k, (e, &x)) in self.estimators.iter_mut().zip(raw).enumerate() {
-            match bondgraph::Differentiator::push(e, x) {
+            match e.push(x) {
                 Some(d) => {
                     for &(n, i) in &self.scatter[k] {
                         self.values[i] = d.get(n).copied().unwrap_or(f64::NAN);
                     }
-                    self.fresh[k] = d.first().copied();
                 }
-                None => {
-                    self.fresh[k] = None;
-                    ready = false;
-                }
+                None => ready = false,
             }
         }
-        for (k, i, integral) in &mut self.integrals {
-            match integral.push(t, raw[*k], self.fresh[*k]) {
-                Some(v) => self.values[*i] = v,
+        for (k, i, integral, fit) in &mut self.integrals {
+            match fit.push(integral.push(t, raw[*k])) {
+                Some(d) => self.values[*i] = d.first().copied().unwrap_or(f64::NAN),
                 None => ready = false,
             }
         }

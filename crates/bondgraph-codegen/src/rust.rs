@@ -626,47 +626,50 @@ fn generator(
     let order_literals: Vec<Literal> = orders.iter().map(|&n| Literal::u32_unsuffixed(n)).collect();
     let r = count(raw.len());
     let top = orders.iter().copied().max().unwrap_or(0);
-    let width = count(top as usize + 1);
+    let top_literal = Literal::u32_unsuffixed(top);
     let i = count(integrated.len());
-    // Each raw signal's estimates, copied by fixed positions: a slice pattern that cannot
-    // panic, where a loop over the estimator's slice would be a call to `memcpy`.
-    let take: Vec<TokenStream> = orders
-        .iter()
+    let channels = count(raw.len() + integrated.len());
+    // Channels: the raw signals whose derivatives are read, then the other raw signals, then
+    // the integrals; the bank differentiates the first ones only.
+    let differentiated = orders.iter().filter(|&&n| n > 0).count();
+    let mut channel_of_raw = vec![0; orders.len()];
+    let ranked = (0..orders.len()).filter(|&k| orders[k] > 0);
+    for (channel, k) in ranked
+        .chain((0..orders.len()).filter(|&k| orders[k] == 0))
         .enumerate()
-        .map(|(k, &n)| {
-            let k = count(k);
-            let names: Vec<Ident> = (0..=n).map(|j| format_ident!("d{}", j)).collect();
-            let slots: Vec<Literal> = (0..=n as usize).map(count).collect();
-            quote! {
-                match self.estimators[#k].push(raw[#k]) {
-                    Some(&[#(#names,)* ..]) => {
-                        #(estimates[#k][#slots] = #names;)*
-                        fresh[#k] = true;
-                    }
-                    _ => ready = false,
-                }
-            }
-        })
+    {
+        channel_of_raw[k] = channel;
+    }
+    let differentiated_literal = count(differentiated);
+    // The bank's estimates by order, bound by a slice pattern that cannot panic.
+    let by_order: Vec<Ident> = (0..=top).map(|k| format_ident!("e{}", k)).collect();
+    let raw_slots: Vec<Literal> = (0..raw.len()).map(count).collect();
+    let raw_channels: Vec<Literal> = channel_of_raw.iter().map(|&c| count(c)).collect();
+    let integral_slots: Vec<Literal> = (0..integrated.len())
+        .map(|k| count(raw.len() + k))
         .collect();
-    // How each field is filled from the estimates.
+    let integral_index: Vec<Literal> = (0..integrated.len()).map(count).collect();
+    let integrated_raw: Vec<Literal> = integrated.iter().map(|s| count(raw_index[s])).collect();
+    // How each field is filled from the estimates: `e{order}[channel]`.
     let fill: Vec<TokenStream> = fields
         .iter()
         .map(|f| {
             let name = ident(&f.name);
             match f.quantity {
                 Quantity::Derivative(s, n) => {
-                    let (k, n) = (count(raw_index[&s]), count(n as usize));
-                    quote!(s.#name = estimates[#k][#n];)
+                    let channel = count(channel_of_raw[raw_index[&s]]);
+                    let order = format_ident!("e{}", n);
+                    quote!(s.#name = #order[#channel];)
                 }
                 Quantity::Integral(s) => {
-                    let k = count(integrated.iter().position(|&x| x == s).unwrap_or(0));
-                    quote!(s.#name = integrals[#k];)
+                    let k = integrated.iter().position(|&x| x == s).unwrap_or(0);
+                    let channel = count(raw.len() + k);
+                    quote!(s.#name = e0[#channel];)
                 }
                 Quantity::Nonlinear(_) => quote!(),
             }
         })
         .collect();
-    let integrated_raw: Vec<Literal> = integrated.iter().map(|s| count(raw_index[s])).collect();
     let o = count(others.len());
     // Inside `push`, none of `residuals`' `let`s exist: a lowering of its own.
     let fresh = Lowering {
@@ -681,6 +684,14 @@ fn generator(
         .map(|k| format_ident!("int{}", k + 1))
         .collect();
     let other_index: Vec<Literal> = (0..others.len()).map(count).collect();
+    let mut channel_orders = vec![0; raw.len() + integrated.len()];
+    for (k, &n) in orders.iter().enumerate() {
+        channel_orders[channel_of_raw[k]] = n;
+    }
+    let channel_orders: Vec<Literal> = channel_orders
+        .into_iter()
+        .map(Literal::u32_unsuffixed)
+        .collect();
     quote! {
         /// The raw signals [`ResidualGenerator::push`] takes, in order: the inputs and
         /// measured signals the ARRs read.
@@ -689,53 +700,45 @@ fn generator(
         /// The highest derivative of each raw signal the ARRs read.
         pub const RAW_ORDERS: [u32; #r] = [#(#order_literals),*];
 
-        /// Residuals from raw samples: each raw signal's derivatives come from an estimator
-        /// (`D`), and each integral is the trapezoidal integral of the raw signal passed
-        /// through the same estimator, so that every term of an ARR is filtered alike and
-        /// refers to the same instant, [`ResidualGenerator::delay`] seconds before the
-        /// newest sample.
+        /// How many signals the generator's estimator bank takes: the raw signals whose
+        /// derivatives the ARRs read, the other raw signals, then the trapezoidal integrals of
+        /// those whose integral the ARRs read.
+        pub const CHANNELS: usize = #channels;
+
+        /// How many of the bank's first [`CHANNELS`] need derivatives.
+        pub const DIFFERENTIATED: usize = #differentiated_literal;
+
+        /// The highest derivative the ARRs read of each of the bank's [`CHANNELS`] signals.
+        pub const CHANNEL_ORDERS: [u32; CHANNELS] = [#(#channel_orders),*];
+
+        /// Residuals from raw samples. The raw signals and the trapezoidal integrals the ARRs
+        /// read go through one estimator bank (`B`), so that every term of an ARR is
+        /// filtered alike and refers to the same instant, [`ResidualGenerator::delay`]
+        /// seconds before the newest sample.
         #[derive(Clone, Debug)]
-        pub struct ResidualGenerator<D = ::bondgraph::SavitzkyGolay> {
+        pub struct ResidualGenerator<B = ::bondgraph::SavitzkyGolayBank<CHANNELS, DIFFERENTIATED>> {
             params: Params,
-            estimators: Vec<D>,
-            integrals: Vec<::bondgraph::EstimatedIntegral<D>>,
+            bank: B,
+            integrals: [::bondgraph::Trapezoid; #i],
             others: [::bondgraph::Trapezoid; #o],
-            delay: f64,
             last: Signals,
         }
 
-        impl<D: ::bondgraph::Differentiator> ResidualGenerator<D> {
-            /// A generator with the estimator `estimator(order)` for each raw signal (`order`
-            /// the highest derivative it must give, see [`RAW_ORDERS`]) and each integral
-            /// (order 0). Every estimator should have the same delay.
-            pub fn new(params: Params, mut estimator: impl FnMut(u32) -> D) -> Self {
-                let built: Result<Self, ::core::convert::Infallible> =
-                    Self::try_new(params, |order| Ok(estimator(order)));
-                match built {
-                    Ok(g) => g,
-                    Err(never) => match never {},
+        impl<B: ::bondgraph::Bank<CHANNELS>> ResidualGenerator<B> {
+            /// A generator over `bank`, which must estimate derivatives up to the highest
+            /// order of [`CHANNEL_ORDERS`].
+            pub fn with_bank(params: Params, bank: B) -> Result<Self, ::bondgraph::EstimatorError> {
+                if bank.order() < #top_literal {
+                    return Err(::bondgraph::EstimatorError::Order {
+                        order: bank.order(),
+                        needed: #top_literal,
+                    });
                 }
-            }
-
-            /// [`ResidualGenerator::new`] with estimators that may be refused.
-            pub fn try_new<E>(
-                params: Params,
-                mut estimator: impl FnMut(u32) -> Result<D, E>,
-            ) -> Result<Self, E> {
-                let estimators = RAW_ORDERS
-                    .iter()
-                    .map(|&n| estimator(n))
-                    .collect::<Result<Vec<D>, E>>()?;
-                let integrals = (0..#i)
-                    .map(|_| Ok(::bondgraph::EstimatedIntegral::new(estimator(0)?)))
-                    .collect::<Result<Vec<_>, E>>()?;
-                let delay = estimators.iter().map(|e| e.delay()).fold(0.0, f64::max);
                 Ok(ResidualGenerator {
                     params,
-                    estimators,
-                    integrals,
+                    bank,
+                    integrals: [::bondgraph::Trapezoid::new(); #i],
                     others: [::bondgraph::Trapezoid::new(); #o],
-                    delay,
                     last: Signals::default(),
                 })
             }
@@ -749,7 +752,7 @@ fn generator(
             /// How far the residuals lag the newest sample, in seconds.
             #[must_use]
             pub fn delay(&self) -> f64 {
-                self.delay
+                self.bank.delay()
             }
 
             /// The estimates the last residuals were computed from.
@@ -767,29 +770,22 @@ fn generator(
             }
 
             /// Takes the samples of [`RAW_SIGNALS`] at time `t` (uniform steps) and returns
-            /// the residuals at `t - self.delay()`, once the estimators' windows are full.
+            /// the residuals at `t - self.delay()`, once the bank's windows are full.
             #[allow(unused_mut, unused_variables, clippy::all)]
             pub fn push(&mut self, t: f64, raw: [f64; #r]) -> Option<[f64; RESIDUAL_COUNT]> {
-                let mut estimates: [[f64; #width]; #r] = [[0.0; #width]; #r];
-                let mut fresh = [false; #r];
-                let mut ready = true;
-                #(#take)*
-                let raw_of: [usize; #i] = [#(#integrated_raw),*];
-                let mut integrals = [0.0; #i];
-                for ((integral, &k), out) in self.integrals.iter_mut().zip(&raw_of).zip(&mut integrals) {
-                    let estimate = if fresh[k] { Some(estimates[k][0]) } else { None };
-                    match integral.push(t, raw[k], estimate) {
-                        Some(v) => *out = v,
-                        None => ready = false,
-                    }
-                }
-                if !ready {
+                let mut x = [0.0; CHANNELS];
+                #(x[#raw_channels] = raw[#raw_slots];)*
+                #(
+                    x[#integral_slots] =
+                        self.integrals[#integral_index].push(t, raw[#integrated_raw]);
+                )*
+                let at = t - self.bank.delay();
+                let [#(#by_order,)* ..] = self.bank.push(x)? else {
                     return None;
-                }
+                };
                 let mut s = Signals::default();
                 #(#fill)*
                 let p = &self.params;
-                let at = t - self.delay;
                 #(
                     s.#other_fields = self.others[#other_index].push(at, { #integrands });
                 )*
@@ -799,7 +795,7 @@ fn generator(
             }
         }
 
-        impl ResidualGenerator<::bondgraph::SavitzkyGolay> {
+        impl ResidualGenerator<::bondgraph::SavitzkyGolayBank<CHANNELS, DIFFERENTIATED>> {
             /// A generator with centred Savitzky–Golay fits of `degree` over `window` samples
             /// (odd) taken every `step` seconds: delay `(window − 1)/2` samples.
             pub fn savitzky_golay(
@@ -808,9 +804,22 @@ fn generator(
                 window: usize,
                 degree: u32,
             ) -> Result<Self, ::bondgraph::EstimatorError> {
-                Self::try_new(params, |order| {
-                    ::bondgraph::SavitzkyGolay::new(order, degree, window, step, true)
-                })
+                let bank = ::bondgraph::SavitzkyGolayBank::new(#top_literal, degree, window, step, true)?;
+                Self::with_bank(params, bank)
+            }
+        }
+
+        impl<D: ::bondgraph::Differentiator> ResidualGenerator<::bondgraph::Each<D, CHANNELS>> {
+            /// A generator with the estimator `estimator(order)` for each of the bank's
+            /// signals (`order` from [`CHANNEL_ORDERS`]): a
+            /// [`StateVariableFilter`](::bondgraph::StateVariableFilter) per signal, say.
+            /// Every estimator should have the same delay.
+            pub fn with_estimators(
+                params: Params,
+                estimator: impl FnMut(u32) -> Result<D, ::bondgraph::EstimatorError>,
+            ) -> Result<Self, ::bondgraph::EstimatorError> {
+                let bank = ::bondgraph::Each::new(CHANNEL_ORDERS, estimator)?;
+                Self::with_bank(params, bank)
             }
         }
     }

@@ -35,6 +35,13 @@ pub enum EstimatorError {
     FilterOrder(u32),
     /// The filter's cutoff or damping is not a positive number.
     Filter,
+    /// The estimator gives derivatives up to `order`; what it feeds reads up to `needed`.
+    Order {
+        /// The highest derivative the estimator gives.
+        order: u32,
+        /// The highest derivative read.
+        needed: u32,
+    },
 }
 
 impl fmt::Display for EstimatorError {
@@ -54,6 +61,10 @@ impl fmt::Display for EstimatorError {
                 "the second-order state-variable filter gives derivatives up to order 2, not {n}: use a Savitzky-Golay fit"
             ),
             EstimatorError::Filter => write!(f, "the filter's cutoff and damping must be positive"),
+            EstimatorError::Order { order, needed } => write!(
+                f,
+                "the estimator gives derivatives up to order {order}, but order {needed} is read"
+            ),
         }
     }
 }
@@ -95,20 +106,7 @@ impl SavitzkyGolay {
         step: f64,
         centred: bool,
     ) -> Result<SavitzkyGolay, EstimatorError> {
-        if !(step.is_finite() && step > 0.0) {
-            return Err(EstimatorError::Step(step));
-        }
-        if degree < order {
-            return Err(EstimatorError::Degree { degree, order });
-        }
-        if window <= degree as usize || (centred && window % 2 == 0) {
-            return Err(EstimatorError::Window(window));
-        }
-        let at = if centred {
-            (window - 1) / 2
-        } else {
-            window - 1
-        };
+        let at = check_fit(order, degree, window, step, centred)?;
         let weights =
             fit_weights(order, degree, window, at, step).ok_or(EstimatorError::Window(window))?;
         let reach = (0..window)
@@ -148,10 +146,34 @@ impl SavitzkyGolay {
     }
 }
 
+/// Checks that a fit can be built and returns the sample it is evaluated at.
+pub(crate) fn check_fit(
+    order: u32,
+    degree: u32,
+    window: usize,
+    step: f64,
+    centred: bool,
+) -> Result<usize, EstimatorError> {
+    if !(step.is_finite() && step > 0.0) {
+        return Err(EstimatorError::Step(step));
+    }
+    if degree < order {
+        return Err(EstimatorError::Degree { degree, order });
+    }
+    if window <= degree as usize || (centred && window % 2 == 0) {
+        return Err(EstimatorError::Window(window));
+    }
+    Ok(if centred {
+        (window - 1) / 2
+    } else {
+        window - 1
+    })
+}
+
 /// The weights that give derivatives `0..=order` at sample `at` of a degree-`degree` least
 /// squares fit over `window` samples: rows of `(VᵀV)⁻¹Vᵀ`, scaled to seconds. Positions are
 /// scaled to about ±1 so that the normal equations stay well conditioned.
-fn fit_weights(
+pub(crate) fn fit_weights(
     order: u32,
     degree: u32,
     window: usize,

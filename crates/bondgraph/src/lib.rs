@@ -9,11 +9,13 @@
 //! signal of an ARR (and every integral) through the same estimator keeps the terms aligned in
 //! time, so a healthy residual stays near zero.
 
+mod bank;
 mod decision;
 mod differentiate;
 mod integrate;
 mod threshold;
 
+pub use bank::{Bank, Each, SavitzkyGolayBank};
 pub use decision::{candidates, Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
 pub use integrate::{EstimatedIntegral, Trapezoid};

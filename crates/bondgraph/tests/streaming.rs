@@ -232,3 +232,46 @@ fn streaming_residuals_stay_below_their_bound_and_faults_rise_ten_times_above_it
     // The bound is not vacuous: it is small against the residuals' own terms.
     assert!(bound[0] < 1e-3 && bound[1] < 1e-3, "{bound:?}");
 }
+
+/// A bank of separate estimators, one per signal, computes what the shared fit computes,
+/// and a bank that cannot give the second derivatives the ARRs read is refused.
+#[test]
+fn any_estimator_bank_gives_the_same_residuals() {
+    let c = product();
+    let samples = simulate(&c, &HashMap::new());
+    let p = bench::Params::default();
+    let mut shared =
+        bench::ResidualGenerator::savitzky_golay(p, STEP, WINDOW, DEGREE).expect("valid");
+    let mut each = bench::ResidualGenerator::with_estimators(p, |order| {
+        SavitzkyGolay::new(order, DEGREE, WINDOW, STEP, true)
+    })
+    .expect("valid");
+    assert_eq!(shared.delay(), each.delay());
+    let mut compared = 0;
+    for &(t, s) in &samples {
+        let (a, b) = (shared.push(t, s), each.push(t, s));
+        assert_eq!(a.is_some(), b.is_some(), "at {t}");
+        if let (Some(a), Some(b)) = (a, b) {
+            for k in 0..2 {
+                assert!(
+                    (a[k] - b[k]).abs() <= 1e-9 * a[k].abs().max(1.0),
+                    "{t}: {a:?} {b:?}"
+                );
+            }
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, samples.len() - (WINDOW - 1));
+    let first_order =
+        bondgraph::SavitzkyGolayBank::<{ bench::CHANNELS }, { bench::DIFFERENTIATED }>::new(
+            1, DEGREE, WINDOW, STEP, true,
+        )
+        .expect("valid");
+    assert_eq!(
+        bench::ResidualGenerator::with_bank(p, first_order).err(),
+        Some(bondgraph::EstimatorError::Order {
+            order: 1,
+            needed: 2
+        })
+    );
+}
