@@ -45,6 +45,10 @@ fn name(c: &Compiled, s: Symbol) -> String {
         Symbol::State(k) => c.states[k].name.clone(),
         Symbol::Auxiliary(a, k) => der(&c.auxiliaries[a].name, k),
         Symbol::Time => "t".to_string(),
+        Symbol::Loop(k) => c
+            .state_space
+            .as_ref()
+            .map_or_else(String::new, |s| s.loops[k.index()].name.clone()),
     }
 }
 
@@ -186,25 +190,36 @@ fn a_linear_algebraic_loop_is_torn_and_solved() {
 }
 
 #[test]
-fn a_nonlinear_algebraic_loop_is_reported() {
+fn a_nonlinear_algebraic_loop_is_held_as_an_implicit_unknown() {
     let text = format!(
         "{HEAD}Se u = U\nR r1 : f = e^3\nR r2 = R1\nR r3 = C1\nC cap = C1\n\
          u -> 1:a -> r1\na -> 0:b -> r2\nb -> 1:c -> r3, cap\n"
     );
     let out = compile(&text, "loop.bg", &canonical()).expect("valid");
     let c = out.compiled;
-    assert!(c.state_space.is_none(), "no state equations are printed");
-    let loops: Vec<_> = c
-        .diagnostics
+    assert!(
+        !c.diagnostics.iter().any(|d| d.code == Code::AlgebraicLoop),
+        "{:?}",
+        c.diagnostics
+    );
+    let space = c.state_space.as_ref().expect("state equations, implicit");
+    assert_eq!(space.loops.len(), 1);
+    let l = &space.loops[0];
+    assert_eq!(l.name, "e_a_r1");
+    assert_eq!(l.element, "r3");
+    assert!(l.description.contains("`a -> r1`"), "{}", l.description);
+    // The loop's unknown u − e_b, and the closing equation, cubic in it.
+    let rhs = space.equations[0].1;
+    assert!(c
+        .exprs
+        .leaves(rhs)
         .iter()
-        .filter(|d| d.code == Code::AlgebraicLoop)
-        .collect();
-    assert_eq!(loops.len(), 1, "{:?}", c.diagnostics);
-    assert!(loops[0].is_error());
-    assert!(loops[0].message.contains("`r1`"), "{}", loops[0].message);
-    for word in ["unknown", "e2", "f3"] {
-        assert!(!loops[0].message.contains(word), "{}", loops[0].message);
-    }
+        .any(|s| matches!(s, Symbol::Loop(_))));
+    assert!(c
+        .exprs
+        .leaves(l.residual)
+        .iter()
+        .any(|s| matches!(s, Symbol::Loop(_))));
 }
 
 #[test]
@@ -322,7 +337,7 @@ fn at_frequency(
         Symbol::Parameter(p) => c.parameters[p].value,
         Symbol::Input(u, k) => s.powi(k as i32) * amplitude(&c.inputs[u].name),
         Symbol::Sensor(h, k) => s.powi(k as i32) * amplitude(&c.sensors[h].name),
-        Symbol::State(_) | Symbol::Auxiliary(..) | Symbol::Time => f64::NAN,
+        Symbol::State(_) | Symbol::Auxiliary(..) | Symbol::Time | Symbol::Loop(_) => f64::NAN,
     });
     eval.value(expr)
 }

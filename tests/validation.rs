@@ -120,6 +120,8 @@ fn arr_texts(c: &Compiled) -> Vec<String> {
         Symbol::Auxiliary(a, k) => der(&c.auxiliaries[a].name, k),
         Symbol::State(k) => c.states[k].name.clone(),
         Symbol::Time => "t".to_string(),
+        // Only state equations hold the loops' unknowns.
+        Symbol::Loop(_) => "loop".to_string(),
     });
     c.arrs
         .iter()

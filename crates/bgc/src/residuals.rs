@@ -546,7 +546,7 @@ impl Generator {
                         .map_or(Leaf::Missing, |&j| Leaf::Auxiliary(j)),
                 ),
                 Symbol::Time => p.leaf(Leaf::Time),
-                Symbol::State(_) => p.leaf(Leaf::Missing),
+                Symbol::State(_) | Symbol::Loop(_) => p.leaf(Leaf::Missing),
             })
         };
         let integrands: Vec<Id> = readings

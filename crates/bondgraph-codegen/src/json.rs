@@ -95,7 +95,9 @@ pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
 fn state_space(out: &mut String, c: &Compiled) {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let Some(space) = &c.state_space else {
-        out.push_str("  \"state_equations\": null,\n  \"outputs\": null,\n");
+        out.push_str(
+            "  \"state_equations\": null,\n  \"outputs\": null,\n  \"algebraic_loops\": null,\n",
+        );
         return;
     };
     let eqs: Vec<String> = space
@@ -122,6 +124,20 @@ fn state_space(out: &mut String, c: &Compiled) {
         })
         .collect();
     let _ = writeln!(out, "  \"outputs\": [{}\n  ],", outputs.join(","));
+    let loops: Vec<String> = space
+        .loops
+        .iter()
+        .map(|l| {
+            format!(
+                "\n    {{\"unknown\": {}, \"description\": {}, \"element\": {}, \"residual\": {}}}",
+                string(&l.name),
+                string(&l.description),
+                string(&l.element),
+                string(&printer.text(l.residual))
+            )
+        })
+        .collect();
+    let _ = writeln!(out, "  \"algebraic_loops\": [{}\n  ],", loops.join(","));
 }
 
 fn arrs(out: &mut String, c: &Compiled) {

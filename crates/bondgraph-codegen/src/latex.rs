@@ -23,7 +23,7 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
     let mut writer = Writer::new(c);
     if let Some(space) = c.state_space.as_ref().filter(|s| !s.equations.is_empty()) {
         out.push_str("% State equations\n\\begin{align}\n");
-        let lines: Vec<String> = space
+        let mut lines: Vec<String> = space
             .equations
             .iter()
             .map(|(k, rhs)| {
@@ -31,6 +31,12 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
                 writer.equation(&format!("  {lhs} &= "), *rhs, "")
             })
             .collect();
+        // The loops' unknowns, each set implicitly by its equation.
+        for l in &space.loops {
+            let head = "  \\text{where}\\quad 0 &= ";
+            let tail = format!("\\quad\\text{{sets }} {}", names::latex_name(&l.name));
+            lines.push(writer.equation(head, l.residual, &tail));
+        }
         out.push_str(&lines.join(" \\\\\n"));
         out.push_str("\n\\end{align}\n");
     }

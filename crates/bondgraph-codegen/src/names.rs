@@ -1,6 +1,6 @@
 //! How leaves of expressions are named in each output.
 
-use bondgraph_core::{Compiled, Symbol};
+use bondgraph_core::{Compiled, Handle, LoopUnknown, Symbol};
 
 /// `name`, `der(name)` or `der(name, n)`.
 fn derivative(name: &str, n: u32) -> String {
@@ -9,6 +9,15 @@ fn derivative(name: &str, n: u32) -> String {
         1 => format!("der({name})"),
         n => format!("der({name}, {n})"),
     }
+}
+
+/// The name of an algebraic loop's unknown (only state equations, which hold the loops,
+/// read one).
+fn loop_name(c: &Compiled, k: Handle<LoopUnknown>) -> String {
+    c.state_space
+        .as_ref()
+        .and_then(|s| s.loops.get(k.index()))
+        .map_or_else(String::new, |l| l.name.clone())
 }
 
 /// The plain-text name of a leaf: `Re`, `U0`, `der(y1)`, `der(y1, 2)`, `t`, `p_Lm`.
@@ -20,6 +29,7 @@ pub fn text(c: &Compiled, symbol: Symbol) -> String {
         Symbol::Auxiliary(a, n) => derivative(&c.auxiliaries[a].name, n),
         Symbol::State(k) => c.states[k].name.clone(),
         Symbol::Time => "t".to_string(),
+        Symbol::Loop(k) => loop_name(c, k),
     }
 }
 
@@ -85,6 +95,7 @@ pub fn latex(c: &Compiled, symbol: Symbol) -> String {
         Symbol::Auxiliary(a, n) => latex_derivative(&c.auxiliaries[a].name, n),
         Symbol::State(k) => latex_name(&c.states[k].name),
         Symbol::Time => "t".to_string(),
+        Symbol::Loop(k) => latex_name(&loop_name(c, k)),
     }
 }
 

@@ -255,8 +255,8 @@ impl Lowering<'_> {
                 Some(name) => quote!(#name),
                 None => quote!(f64::NAN),
             },
-            // ARRs read neither states nor time.
-            Symbol::State(_) | Symbol::Time => quote!(f64::NAN),
+            // ARRs read neither states, time nor the loops of the state equations.
+            Symbol::State(_) | Symbol::Time | Symbol::Loop(_) => quote!(f64::NAN),
         }
     }
 

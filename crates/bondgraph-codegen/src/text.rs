@@ -70,6 +70,22 @@ pub fn state(c: &Compiled) -> String {
             for (s, e) in &space.outputs {
                 let _ = writeln!(out, "  {} = {}", c.sensors[*s].name, printer.text(*e));
             }
+            if !space.loops.is_empty() {
+                let _ = writeln!(
+                    out,
+                    "  where, solved numerically (nonlinear algebraic loops):"
+                );
+            }
+            for l in &space.loops {
+                let _ = writeln!(
+                    out,
+                    "    0 = {}   ({} is {}, closed at `{}`)",
+                    printer.text(l.residual),
+                    l.name,
+                    l.description,
+                    l.element
+                );
+            }
         }
         None => {
             let _ = writeln!(

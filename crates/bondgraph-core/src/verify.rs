@@ -63,6 +63,10 @@ pub enum VerifyError {
     NoStateEquations,
     /// There is nothing to check.
     NoArrs,
+    /// The state equations hold nonlinear algebraic loops (the unknowns named): verification
+    /// differentiates the outputs symbolically along the state equations, which an implicit
+    /// unknown does not allow.
+    ImplicitLoops(Vec<String>),
     /// The simulation left the finite numbers (at this time, in seconds).
     Diverged(String),
 }
@@ -74,6 +78,13 @@ impl std::fmt::Display for VerifyError {
                 "the state equations could not be derived, so the model cannot be simulated",
             ),
             VerifyError::NoArrs => f.write_str("the model has no ARRs to verify"),
+            VerifyError::ImplicitLoops(names) => write!(
+                f,
+                "the state equations hold the nonlinear algebraic loop unknown(s) {}, solved numerically: \
+                 verify differentiates the outputs symbolically and cannot go through them; \
+                 check the ARRs on simulated data with `bgc simulate` and `bgc residuals` instead",
+                names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            ),
             VerifyError::Diverged(t) => write!(
                 f,
                 "the simulation left the finite numbers at t = {t} s; try smaller --input-scale or --state-scale"
@@ -175,6 +186,10 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         .ok_or(VerifyError::NoStateEquations)?;
     if c.arrs.is_empty() {
         return Err(VerifyError::NoArrs);
+    }
+    if !space.loops.is_empty() {
+        let names = space.loops.iter().map(|l| l.name.clone()).collect();
+        return Err(VerifyError::ImplicitLoops(names));
     }
     let plant = plant(c, space);
     let mut options = *options;
@@ -357,6 +372,8 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         Symbol::State(k) => p.leaf(V::State(k)),
         // State equations and outputs read no measured signal.
         Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
+        // Refused above.
+        Symbol::Loop(_) => p.num(f64::NAN),
     };
     let mut rhs = vec![pool.num(0.0); c.states.len()];
     for (k, e) in &space.equations {
@@ -394,6 +411,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
                 .unwrap_or_else(|| p.num(f64::NAN)),
             Symbol::State(k) => p.leaf(V::State(k)),
             Symbol::Time => p.leaf(V::Time),
+            Symbol::Loop(_) => p.num(f64::NAN),
         };
         let e = pool.import_from(&c.exprs, root, &mut signal);
         match name {

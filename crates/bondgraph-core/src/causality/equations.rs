@@ -54,6 +54,26 @@ impl Var {
         }
     }
 
+    /// A short name from the model's names: `e_J` or `f_J` for a junction's common
+    /// variable, `e_TAIL_HEAD` or `f_TAIL_HEAD` for a bond's.
+    pub fn short_name(self, model: &BondGraph) -> String {
+        let ends = |b: BondId| {
+            let (tail, head) = model.ends(b);
+            format!("{}_{}", model.node(tail).name, model.node(head).name)
+        };
+        match self {
+            Var::Effort(b) => format!("e_{}", ends(b)),
+            Var::Flow(b) => format!("f_{}", ends(b)),
+            Var::Common(j) => {
+                let node = model.node(j);
+                match node.junction_kind() {
+                    Some(JunctionKind::Zero) => format!("e_{}", node.name),
+                    _ => format!("f_{}", node.name),
+                }
+            }
+        }
+    }
+
     /// The nodes this unknown belongs to, for pointing at the model's text.
     pub fn nodes(self, model: &BondGraph) -> Vec<NodeId> {
         match self {

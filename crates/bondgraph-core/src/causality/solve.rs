@@ -66,6 +66,19 @@ pub struct Torn {
     pub definition: Option<(usize, ExprId)>,
 }
 
+/// An unknown of a nonlinear algebraic loop (integral causality only): held as the symbol
+/// [`Leaf::Var`] wherever it is read, and set by `residual = 0`, which has no closed-form
+/// root; a simulation finds it numerically.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Implicit {
+    /// The unknown.
+    pub var: VarId,
+    /// The equation that closes its loop.
+    pub equation: usize,
+    /// That equation's residual, over known signals and the loops' unknowns.
+    pub residual: ExprId,
+}
+
 /// The oriented system.
 pub struct Solved {
     /// Each unknown's expression over known signals, when it could be computed.
@@ -76,6 +89,8 @@ pub struct Solved {
     pub solved_by: Vec<Option<usize>>,
     /// The unknowns held as symbols, in the order they were computed.
     pub torn: Vec<Torn>,
+    /// The unknowns of nonlinear algebraic loops, in the order they were torn.
+    pub implicit: Vec<Implicit>,
 }
 
 fn class_of(
@@ -138,18 +153,31 @@ pub fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
     // Each tear either solves a loop or is undone; a loop it cannot solve stays reported.
     // Undoing costs a pass over the equations, so attempts are capped.
     let mut tried = std::collections::BTreeSet::new();
-    while let Some(v) = solver
-        .tear_candidate(&tried)
-        .filter(|_| tried.len() < MAX_TEARS)
-    {
-        tried.insert(v);
-        solver.tear(v);
+    let mut tried_implicit = std::collections::BTreeSet::new();
+    loop {
+        while let Some(v) = solver
+            .tear_candidate(&tried)
+            .filter(|_| tried.len() < MAX_TEARS)
+        {
+            tried.insert(v);
+            solver.tear(v, false);
+        }
+        // What linear tears leave of a loop in integral causality is held implicitly, one
+        // unknown per loop; then the rest may have become linear.
+        let next = (mode == Mode::Integral)
+            .then(|| solver.tear_candidate(&tried_implicit))
+            .flatten()
+            .filter(|_| tried_implicit.len() < MAX_TEARS);
+        let Some(v) = next else { break };
+        tried_implicit.insert(v);
+        solver.tear(v, true);
     }
     Solved {
         values: solver.values,
         uses: solver.uses,
         solved_by: solver.solved_by,
         torn: solver.torn,
+        implicit: solver.implicit,
     }
 }
 
@@ -168,6 +196,7 @@ struct Solver<'a> {
     uses: Vec<Use>,
     solved_by: Vec<Option<usize>>,
     torn: Vec<Torn>,
+    implicit: Vec<Implicit>,
     queues: [VecDeque<usize>; 5],
     derivatives: Derivatives<Leaf, Rule>,
     /// While a tear is tried: the unknowns and equations it touched, to undo it.
@@ -196,6 +225,7 @@ impl<'a> Solver<'a> {
             values: vec![None; n_vars],
             solved_by: vec![None; n_vars],
             torn: Vec::new(),
+            implicit: Vec::new(),
             sys,
             mode,
             sensed,
@@ -356,8 +386,9 @@ impl<'a> Solver<'a> {
     }
 
     /// Assumes `v` known as a symbol, propagates, and solves for it from the first equation
-    /// that closes the loop, if that equation is linear in `v`; otherwise undoes everything.
-    fn tear(&mut self, v: VarId) {
+    /// that closes the loop, if that equation is linear in `v`; otherwise, when `implicit`,
+    /// keeps `v` as the loop's implicit unknown, and else undoes everything.
+    fn tear(&mut self, v: VarId, implicit: bool) {
         self.journal = Some((Vec::new(), Vec::new()));
         let symbol = self.sys.pool.leaf(Leaf::Var(v.0));
         self.know(v, symbol, None);
@@ -403,6 +434,20 @@ impl<'a> Solver<'a> {
                     class: Class::Structural,
                 };
                 self.propagate();
+            }
+            (Some(i), None) if implicit => {
+                if let Use::Redundant { residual } = self.uses[i] {
+                    self.implicit.push(Implicit {
+                        var: v,
+                        equation: i,
+                        residual,
+                    });
+                }
+                self.solved_by[v.0 as usize] = Some(i);
+                self.uses[i] = Use::Solves {
+                    var: v,
+                    class: Class::Structural,
+                };
             }
             _ => self.undo(&vars, &eqs),
         }

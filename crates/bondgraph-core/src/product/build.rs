@@ -111,6 +111,8 @@ struct Builder<'m> {
     /// The auxiliary signals copied so far, by their index in the diagnosis, or why one
     /// could not be.
     auxiliary_of: HashMap<u32, Result<Handle<Auxiliary>, Refusal>>,
+    /// The unknowns of nonlinear algebraic loops, by their symbol in the state equations.
+    loop_of: HashMap<u32, Handle<LoopUnknown>>,
 }
 
 impl<'m> Builder<'m> {
@@ -119,7 +121,25 @@ impl<'m> Builder<'m> {
             model,
             sensor_of: HashMap::new(),
             auxiliary_of: HashMap::new(),
+            loop_of: HashMap::new(),
         }
+    }
+
+    /// Names for the loops' unknowns, apart from the model's names and from each other.
+    fn loop_names(&self, c: &Compiled, loops: &[crate::sim::LoopUnknown]) -> Vec<String> {
+        let mut taken = model_names(self.model);
+        taken.extend(c.states.iter().map(|(_, s)| s.name.clone()));
+        loops
+            .iter()
+            .map(|l| {
+                let mut name = l.name.clone();
+                while taken.contains(&name) {
+                    name.push('_');
+                }
+                taken.insert(name.clone());
+                name
+            })
+            .collect()
     }
 
     fn parameters(&self) -> Arena<Parameter> {
@@ -195,6 +215,9 @@ impl<'m> Builder<'m> {
                     None => return Err(Refusal::Unknown),
                 },
                 Leaf::Time => Symbol::Time,
+                Leaf::Var(v) if states => {
+                    Symbol::Loop(*self.loop_of.get(&v).ok_or(Refusal::Unknown)?)
+                }
                 Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) => {
                     return Err(Refusal::Unknown)
                 }
@@ -223,8 +246,11 @@ impl<'m> Builder<'m> {
 
     /// The state equations, all or none: a model whose state equations are incomplete gets
     /// none, with the reasons in the diagnostics.
-    fn state_space(&self, c: &mut Compiled, a: &Analysis<'_>, stage: &mut Diagnostics) {
+    fn state_space(&mut self, c: &mut Compiled, a: &Analysis<'_>, stage: &mut Diagnostics) {
         let m = self.model;
+        self.loop_of = (a.state.implicit.iter().enumerate())
+            .map(|(k, l)| (l.var, Handle::new(k)))
+            .collect();
         for s in &a.state.states {
             let kind = match m.node(s.element).kind {
                 NodeKind::Element(ElementKind::C, _) => StateKind::Displacement,
@@ -240,8 +266,21 @@ impl<'m> Builder<'m> {
         let mut space = StateSpace {
             equations: Vec::new(),
             outputs: Vec::new(),
+            loops: Vec::new(),
         };
         let mut refused: Vec<(String, NodeId, Refusal)> = Vec::new();
+        let names = self.loop_names(c, &a.state.implicit);
+        for (l, name) in a.state.implicit.iter().zip(names) {
+            match self.import(&mut c.exprs, &a.state.pool, l.residual, true) {
+                Ok(residual) => space.loops.push(LoopUnknown {
+                    name,
+                    description: l.description.clone(),
+                    element: m.node(l.element).name.clone(),
+                    residual,
+                }),
+                Err(r) => refused.push((format!("the loop equation of {name}"), l.element, r)),
+            }
+        }
         for (k, s) in a.state.states.iter().enumerate() {
             match self.import(&mut c.exprs, &a.state.pool, s.rhs, true) {
                 Ok(e) => space.equations.push((Handle::new(k), e)),

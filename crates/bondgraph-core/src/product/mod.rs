@@ -33,6 +33,9 @@ pub enum Symbol {
     Auxiliary(Handle<Auxiliary>, u32),
     /// Time.
     Time,
+    /// An unknown of a nonlinear algebraic loop (in state equations and outputs only): set
+    /// by its [`LoopUnknown::residual`]` = 0`, solved numerically when simulating.
+    Loop(Handle<LoopUnknown>),
 }
 
 /// An expression of the product, a handle into [`Compiled::exprs`].
@@ -126,13 +129,33 @@ pub struct State {
     pub kind: StateKind,
 }
 
-/// The model in state-space form: `d(state)/dt = rhs` and each detector's output.
+/// The model in state-space form: `d(state)/dt = rhs` and each detector's output, with
+/// the unknowns of nonlinear algebraic loops, if any, held implicitly.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StateSpace {
     /// One right-hand side per state, in [`Compiled::states`] order.
     pub equations: Vec<(Handle<State>, Expr)>,
     /// Each detector's output over states and inputs.
     pub outputs: Vec<(Handle<Sensor>, Expr)>,
+    /// The unknowns of nonlinear algebraic loops the right-hand sides and outputs read
+    /// ([`Symbol::Loop`]); empty when the state equations are explicit.
+    pub loops: Vec<LoopUnknown>,
+}
+
+/// An unknown of a nonlinear algebraic loop: the laws of the loop set each other, and the
+/// equation that closes it has no closed-form root, so the state equations hold it as a
+/// symbol with the equation `residual = 0` that sets it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoopUnknown {
+    /// A name from the model's names: `e_b` for the effort of the 0-junction `b`.
+    pub name: String,
+    /// What it is, in words.
+    pub description: String,
+    /// The element whose equation closes the loop.
+    pub element: String,
+    /// Zero when the unknown has its value; over states, inputs, parameters and the loops'
+    /// unknowns.
+    pub residual: Expr,
 }
 
 /// A named combination of known signals that ARRs read with its derivatives: applying an

@@ -2,6 +2,8 @@
 //! under a scenario (inputs, closed loops, faults, noise) into sampled signals.
 
 #[cfg(feature = "simulate")]
+mod newton;
+#[cfg(feature = "simulate")]
 mod noise;
 #[cfg(feature = "simulate")]
 mod plant;
@@ -13,7 +15,7 @@ mod state_space;
 #[cfg(feature = "simulate")]
 pub use run::{SimulationError, Trajectory};
 pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
-pub(crate) use state_space::{state_space_of, StateSpace};
+pub(crate) use state_space::{state_space_of, LoopUnknown, StateSpace};
 
 #[cfg(feature = "simulate")]
 use crate::diagnostic::Diagnostics;
@@ -167,6 +169,101 @@ mod tests {
             "duration 1\nstep 0.5\ninput I = 0\ninitial q_cap = 1\nfault C1 = 2*C1 from 0 to 1\n",
         );
         assert!(drift.is_ok());
+    }
+
+    /// A modulated source reading `int(..)` of a measured signal (as the bench's twist does)
+    /// makes the integral a state: `m v' = U − K ∫v` from rest is the oscillator
+    /// `v = U / √(K m) · sin(√(K/m) t)`.
+    #[test]
+    fn an_integral_in_a_law_is_an_augmented_state() {
+        let model = "model osc\nparam m = 2\nparam K = 8\ninput U\nSe u = U\nI mass = m\n\
+                     MSe spring = -K*int(v)\nDf v on a\nu -> 1:a -> mass\nspring -> a\n";
+        let t = simulate(model, "duration 3\nstep 0.01\ninput U = 1\n").expect("runs");
+        let (w, amplitude) = ((8.0f64 / 2.0).sqrt(), 1.0 / (16.0f64).sqrt());
+        let err = worst(&t, "v", |t| amplitude * (w * t).sin());
+        assert!(err < 1e-7, "{err}");
+        let err = worst(&t, "p_mass", |t| 2.0 * amplitude * (w * t).sin());
+        assert!(err < 2e-7, "{err}");
+    }
+
+    /// The loop of `NL`: `r1`'s cubic law, `r2` and the branch through `r3` and `cap` set each
+    /// other. With e the effort across `r1`, the junction `b` at U − e, and the branch flow
+    /// f = e³ − (U − e)/R1: `q' = f`, and e solves (U − e) − R3 f − q/C = 0.
+    const NL: &str = "model nl\nparam R1 = 2\nparam R3 = 3\nparam C1 = 0.5\ninput U\nSe u = U\n\
+                      R r1 : f = e^3\nR r2 = R1\nR r3 = R3\nC cap = C1\nDf y on c\n\
+                      u -> 1:a -> r1\na -> 0:b -> r2\nb -> 1:c -> r3, cap\n";
+
+    /// The same plant integrated independently: the loop by bisection, the state by RK4.
+    fn nl_reference(duration: f64, u: impl Fn(f64) -> f64) -> Vec<(f64, f64, f64)> {
+        let (r1, r3, c) = (2.0, 3.0, 0.5);
+        let flow = |e: f64, u: f64| e.powi(3) - (u - e) / r1;
+        // The residual falls as e rises: one root, bracketed.
+        let effort = |q: f64, u: f64| {
+            let g = |e: f64| (u - e) - r3 * flow(e, u) - q / c;
+            let (mut lo, mut hi) = (-100.0, 100.0);
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if g(mid) > 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        let rate = |t: f64, q: f64| flow(effort(q, u(t)), u(t));
+        let h = 1e-4;
+        let mut out = Vec::new();
+        let mut q = 0.0;
+        for k in 0..=(duration / h).round() as usize {
+            let t = k as f64 * h;
+            if k % 100 == 0 {
+                out.push((t, q, rate(t, q)));
+            }
+            let k1 = rate(t, q);
+            let k2 = rate(t + h / 2.0, q + h / 2.0 * k1);
+            let k3 = rate(t + h / 2.0, q + h / 2.0 * k2);
+            let k4 = rate(t + h, q + h * k3);
+            q += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        }
+        out
+    }
+
+    /// A nonlinear algebraic loop simulates, its unknown found by Newton's method at every
+    /// evaluation, and agrees with the independent integration.
+    #[test]
+    fn a_nonlinear_algebraic_loop_is_solved_by_newton() {
+        let t = simulate(
+            NL,
+            "duration 4\nstep 0.01\ntolerance 1e-10\ninput U = 1 + 0.5*sin(3*t)\n",
+        )
+        .expect("runs");
+        let reference = nl_reference(4.0, |t| 1.0 + 0.5 * (3.0 * t).sin());
+        let (q, y) = (column(&t, "q_cap"), column(&t, "y"));
+        assert_eq!(q.len(), reference.len());
+        for (k, &(at, q_ref, y_ref)) in reference.iter().enumerate() {
+            assert!(
+                (q[k] - q_ref).abs() < 1e-8,
+                "q at {at}: {} vs {q_ref}",
+                q[k]
+            );
+            assert!(
+                (y[k] - y_ref).abs() < 1e-7,
+                "y at {at}: {} vs {y_ref}",
+                y[k]
+            );
+        }
+        assert!(q[q.len() - 1] > 0.1, "the capacitor charges");
+    }
+
+    /// A loop whose laws have no common solution stops the run with the loop's unknown and
+    /// the time, not with a number that is not one.
+    #[test]
+    fn a_loop_without_solution_is_reported() {
+        let model = NL.replace("f = e^3", "f = e^2 + 1");
+        let err = simulate(&model, "duration 1\nstep 0.1\ninput U = -10\n").expect_err("no root");
+        assert!(err.contains("Newton") && err.contains("`e_a_r1`"), "{err}");
+        assert!(err.contains("t = 0 s"), "{err}");
     }
 
     /// Names the model does not have are reported at the name, with what was expected.

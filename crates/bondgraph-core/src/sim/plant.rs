@@ -31,6 +31,8 @@ pub(crate) enum P {
     /// The course of the scenario's k-th signal fault at the time: a gain or an offset.
     Fault(u32),
     Time,
+    /// The k-th unknown of the model's nonlinear algebraic loops, found numerically.
+    Loop(u32),
 }
 
 type Id = ExprId<P>;
@@ -83,6 +85,10 @@ pub(crate) struct Plant {
     pub recorded_names: Vec<String>,
     /// How many of the recorded signals are inputs (they come first).
     pub inputs: usize,
+    /// The unknowns of nonlinear algebraic loops, by name.
+    pub loop_names: Vec<String>,
+    /// Their residuals: zero at the unknowns' values.
+    pub loops: Tape<P>,
     /// Where each `int(..)` node's value sits in the state vector.
     pub integrals: FastMap<Id, usize>,
     pub params: Vec<Course>,
@@ -148,6 +154,7 @@ pub(crate) fn build(c: &Compiled, scenario: &Scenario) -> Result<Plant, Diagnost
         rhs: Vec::new(),
         measured: Vec::new(),
         faults: Vec::new(),
+        loops: Vec::new(),
         errors: Diagnostics::default(),
     };
     b.import(space, scenario);
@@ -169,6 +176,8 @@ struct Builder<'c> {
     /// The measured signals as reported (faults applied), over the same.
     measured: Vec<Id>,
     faults: Vec<SignalFault>,
+    /// Each loop unknown's name and residual, over the same.
+    loops: Vec<(String, Id)>,
     errors: Diagnostics,
 }
 
@@ -222,8 +231,14 @@ impl Builder<'_> {
                 // State equations and outputs read neither measured nor auxiliary signals.
                 Symbol::Sensor(..) | Symbol::Auxiliary(..) => p.num(f64::NAN),
                 Symbol::Time => p.leaf(P::Time),
+                Symbol::Loop(k) => p.leaf(P::Loop(k.index() as u32)),
             })
         };
+        self.loops = space
+            .loops
+            .iter()
+            .map(|l| (l.name.clone(), import(&mut self.pool, l.residual)))
+            .collect();
         let mut rhs = vec![self.pool.num(0.0); c.states.len()];
         for (k, e) in &space.equations {
             rhs[k.index()] = import(&mut self.pool, *e);
@@ -362,11 +377,19 @@ impl Builder<'_> {
             .into_iter()
             .map(|e| self.substitute_inputs(e, commands))
             .collect();
+        let loop_residuals: Vec<Id> = self
+            .loops
+            .clone()
+            .into_iter()
+            .map(|(_, e)| self.substitute_inputs(e, commands))
+            .collect();
         let mut recorded: Vec<Id> = commands.to_vec();
         recorded.extend(&measured);
+        self.undifferentiable(&rhs, &recorded, &loop_residuals);
         // Each `int(..)` is a state of its own, after the model's.
         let mut roots = rhs.clone();
         roots.extend(&recorded);
+        roots.extend(&loop_residuals);
         let mut ints: Vec<(Id, Id)> = Vec::new();
         let mut seen = 0;
         loop {
@@ -420,6 +443,8 @@ impl Builder<'_> {
             derivative: Tape::new(&self.pool, &derivative_roots),
             recorded: Tape::new(&self.pool, &recorded),
             recorded_names,
+            loop_names: self.loops.iter().map(|(name, _)| name.clone()).collect(),
+            loops: Tape::new(&self.pool, &loop_residuals),
             inputs: c.inputs.len(),
             integrals,
             params,
@@ -468,6 +493,33 @@ impl Builder<'_> {
             }
         }
         x
+    }
+
+    /// Reports a derivative of an input that could not be taken: the input reads a measured
+    /// signal that goes through a nonlinear algebraic loop, whose unknown has no expression
+    /// to differentiate.
+    fn undifferentiable(&mut self, rhs: &[Id], recorded: &[Id], loops: &[Id]) {
+        let mut roots = rhs.to_vec();
+        roots.extend(recorded);
+        roots.extend(loops);
+        let mut left = false;
+        self.pool.visit_reachable(&roots, |_, node| {
+            left |= matches!(node, Node::Leaf(P::InputDer(..)));
+        });
+        if left {
+            let names: Vec<String> = self.loops.iter().map(|(n, _)| format!("`{n}`")).collect();
+            self.errors.push(
+                Diagnostic::error(
+                    Code::Refused,
+                    Span::new(0, 0),
+                    format!(
+                        "the model needs the derivative of an input that reads a measured signal through the nonlinear algebraic loop unknown(s) {}, which bgc solves numerically and cannot differentiate",
+                        names.join(", ")
+                    ),
+                )
+                .with_help("drive that input from signals outside the loop, or filter the signal it reads"),
+            );
+        }
     }
 
     /// `e` with input placeholders replaced by `commands` (derivatives differentiated).
@@ -614,6 +666,8 @@ fn nth_derivative(pool: &mut Pool<P>, rhs: &[Id], e: Id, n: u32) -> Option<Id> {
         // Faults and parameters are piecewise constant or slow: their course is not differentiated.
         P::Param(_) | P::Fault(_) => Some(p.num(0.0)),
         P::Time => Some(p.num(1.0)),
+        // An implicit unknown has no expression to differentiate.
+        P::Loop(_) => None,
     });
     let mut e = e;
     for _ in 0..n {

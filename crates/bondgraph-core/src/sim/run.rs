@@ -6,7 +6,7 @@
 //! time, as a model's is, in version 0.7.) The run is cut at every kink of a fault's course and in pieces of at most a
 //! hundredth of the duration (for progress), and restarted at each cut from the state there.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::fmt;
 
 use differential_equations::prelude::Error as SolverError;
@@ -15,6 +15,7 @@ use differential_equations::prelude::{
     IVP, ODE,
 };
 
+use super::newton;
 use super::noise::gaussian;
 use super::plant::{Plant, P};
 use super::scenario::{Scenario, Solver};
@@ -49,6 +50,15 @@ pub enum SimulationError {
         /// Which signal.
         signal: String,
     },
+    /// Newton's method found no value of the nonlinear algebraic loops' unknowns.
+    NoLoopSolution {
+        /// Where.
+        at: f64,
+        /// The loops' unknowns.
+        unknowns: Vec<String>,
+        /// The largest |residual| where Newton's method stopped.
+        residual: f64,
+    },
 }
 
 impl fmt::Display for SimulationError {
@@ -61,6 +71,21 @@ impl fmt::Display for SimulationError {
                 f,
                 "`{signal}` is not a finite number at t = {at} s: the model diverges, or divides by zero"
             ),
+            SimulationError::NoLoopSolution {
+                at,
+                unknowns,
+                residual,
+            } => write!(
+                f,
+                "Newton's method found no value of the algebraic loop unknown(s) {} at t = {at} s \
+                 (it stopped with a residual of {residual:e}): the loop's laws have no common solution \
+                 there, or it is far from the last one; check the laws' signs, or shorten `step`",
+                unknowns
+                    .iter()
+                    .map(|n| format!("`{n}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
         }
     }
 }
@@ -70,15 +95,19 @@ impl std::error::Error for SimulationError {}
 /// The right-hand side as the solver calls it.
 struct Rhs<'p> {
     plant: &'p Plant,
-    /// The tape's workspace and its roots' values, reused at every call.
-    scratch: RefCell<(Vec<f64>, Vec<f64>)>,
+    /// The tape's workspace, its roots' values, and the loops' unknowns at the last call
+    /// (the next call's first guess), reused at every call.
+    scratch: RefCell<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+    /// Where, and with what residual, Newton's method last failed on the loops.
+    failed: Cell<Option<(f64, f64)>>,
 }
 
 impl Plant {
-    /// The value of each leaf at `t` in state `y`.
-    fn leaves<'a>(&'a self, t: f64, y: &'a [f64]) -> impl Fn(P) -> f64 + 'a {
+    /// The value of each leaf at `t` in state `y`, with the loops' unknowns `z`.
+    fn leaves<'a>(&'a self, t: f64, y: &'a [f64], z: &'a [f64]) -> impl Fn(P) -> f64 + 'a {
         move |leaf| match leaf {
             P::State(k) => y.get(k as usize).copied().unwrap_or(f64::NAN),
+            P::Loop(k) => z.get(k as usize).copied().unwrap_or(f64::NAN),
             P::Param(k) => self.params.get(k as usize).map_or(f64::NAN, |c| c.at(t)),
             P::Fault(k) => self.faults.get(k as usize).map_or(f64::NAN, |f| f.at(t)),
             P::Time => t,
@@ -97,13 +126,39 @@ impl Plant {
     }
 }
 
+impl Plant {
+    /// Solves the loops' unknowns at `t` in state `y`, from the guess in `z`.
+    fn solve_loops(
+        &self,
+        t: f64,
+        y: &[f64],
+        z: &mut Vec<f64>,
+        work: &mut Vec<f64>,
+    ) -> Result<(), newton::NoRoot> {
+        if self.loop_names.is_empty() {
+            return Ok(());
+        }
+        z.resize(self.loop_names.len(), 0.0);
+        newton::solve(z, |z, r| {
+            self.loops
+                .values_into(self.leaves(t, y, z), self.integral(y), work, r);
+        })
+    }
+}
+
 impl ODE<f64, Vec<f64>> for Rhs<'_> {
     fn diff(&self, t: f64, y: &Vec<f64>, dydt: &mut Vec<f64>) {
         let p = self.plant;
         let mut scratch = self.scratch.borrow_mut();
-        let (work, values) = &mut *scratch;
+        let (work, values, z) = &mut *scratch;
+        if let Err(e) = p.solve_loops(t, y, z, work) {
+            // The solver sees a step it cannot take; the run reports why.
+            self.failed.set(Some((t, e.residual)));
+            dydt.fill(f64::NAN);
+            return;
+        }
         p.derivative
-            .values_into(p.leaves(t, y), p.integral(y), work, values);
+            .values_into(p.leaves(t, y, z), p.integral(y), work, values);
         for (d, v) in dydt.iter_mut().zip(values.iter()) {
             *d = *v;
         }
@@ -146,12 +201,26 @@ pub(crate) fn run(
     };
     let rhs = Rhs {
         plant,
-        scratch: RefCell::new((Vec::new(), Vec::new())),
+        scratch: RefCell::new((Vec::new(), Vec::new(), Vec::new())),
+        failed: Cell::new(None),
     };
     let mut y = plant.initial.clone();
     let mut start = 0.0;
     let mut next = 0usize;
-    record(plant, scenario, &mut out, 0, 0.0, &y)?;
+    // The loops' unknowns at the last sample: the next sample's first guess.
+    let mut z = Vec::new();
+    let no_root = |at: f64, e: newton::NoRoot| SimulationError::NoLoopSolution {
+        at,
+        unknowns: plant.loop_names.clone(),
+        residual: e.residual,
+    };
+    let sample = |out: &mut Trajectory, z: &mut Vec<f64>, k: usize, t: f64, y: &[f64]| {
+        plant
+            .solve_loops(t, y, z, &mut Vec::new())
+            .map_err(|e| no_root(t, e))?;
+        record(plant, scenario, out, k, t, y, z)
+    };
+    sample(&mut out, &mut z, 0, 0.0, &y)?;
     next += 1;
     for &cut in &cuts {
         // Output times inside (start, cut], and the cut itself to restart from.
@@ -168,14 +237,19 @@ pub(crate) fn run(
             next += 1;
         }
         points.push(cut);
-        let solution = solve(&rhs, scenario, start, cut, y.clone(), &points)?;
+        let solution = solve(&rhs, scenario, start, cut, y.clone(), &points);
+        // A failed trial step the solver recovered from by a shorter one is no failure.
+        if let (Err(_), Some((at, residual))) = (&solution, rhs.failed.take()) {
+            return Err(no_root(at, newton::NoRoot { residual }));
+        }
+        let solution = solution?;
         out.steps.0 += solution.steps.0;
         out.steps.1 += solution.steps.1;
         out.evaluations += solution.evaluations;
         for (&t, state) in solution.t.iter().zip(&solution.y) {
             let k = (t / h).round() as usize;
             if k >= first && k < next && (t - k as f64 * h).abs() <= 1e-9 * h {
-                record(plant, scenario, &mut out, k, t, state)?;
+                sample(&mut out, &mut z, k, t, state)?;
             }
         }
         if let Some(last) = solution.y.last() {
@@ -341,11 +415,12 @@ fn record(
     k: usize,
     t: f64,
     y: &[f64],
+    z: &[f64],
 ) -> Result<(), SimulationError> {
     let mut scratch = Vec::new();
     let recorded = plant
         .recorded
-        .values(plant.leaves(t, y), plant.integral(y), &mut scratch);
+        .values(plant.leaves(t, y, z), plant.integral(y), &mut scratch);
     let inputs = plant.inputs;
     let mut row = Vec::with_capacity(out.values.len());
     row.push(t);

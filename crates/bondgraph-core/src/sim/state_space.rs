@@ -20,6 +20,22 @@ pub struct StateEquation {
     pub rhs: ExprId,
 }
 
+/// An unknown of a nonlinear algebraic loop that the state equations hold implicitly.
+#[derive(Clone, Debug)]
+pub struct LoopUnknown {
+    /// Its symbol, `Leaf::Var(var)`, in the state equations and outputs.
+    pub var: u32,
+    /// A name for it from the model's names: `e_b` for a 0-junction's effort, `f_a_r1` for
+    /// a bond's flow.
+    pub name: String,
+    /// What it is, in words.
+    pub description: String,
+    /// The element whose law closes the loop.
+    pub element: NodeId,
+    /// `residual = 0` sets it, over states, inputs and the loops' unknowns.
+    pub residual: ExprId,
+}
+
 /// The state-space form of a model.
 pub struct StateSpace {
     /// The expressions.
@@ -28,6 +44,8 @@ pub struct StateSpace {
     pub states: Vec<StateEquation>,
     /// Each detector's output, over states and inputs.
     pub outputs: Vec<(NodeId, ExprId)>,
+    /// The unknowns of nonlinear algebraic loops, each set by an equation of its own.
+    pub implicit: Vec<LoopUnknown>,
     /// Why the state equations are incomplete, if they are.
     pub problems: Vec<Diagnostic>,
 }
@@ -83,7 +101,36 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             rhs: measured(pool, rhs, &map),
         });
     }
+    let mut implicit: Vec<LoopUnknown> = causal
+        .solved
+        .implicit
+        .iter()
+        .map(|i| {
+            let var = causal.system.vars[i.var.0 as usize];
+            LoopUnknown {
+                var: i.var.0,
+                name: var.short_name(model),
+                description: var.describe(model),
+                element: causal.system.equations[i.equation].owner,
+                residual: measured(pool, i.residual, &map),
+            }
+        })
+        .collect();
     let mut simplifier = Simplifier::default();
+    let holds_rates =
+        |pool: &Pool, e: ExprId| pool.leaves(e).iter().any(|l| matches!(l, Leaf::Tear(..)));
+    if let Some(l) = implicit.iter().find(|l| holds_rates(pool, l.residual)) {
+        problems.push(report::at_nodes(
+            model,
+            Severity::Error,
+            Code::AlgebraicLoop,
+            &[l.element],
+            format!(
+                "the nonlinear algebraic loop closed by `{}` involves storage elements in derivative causality: not a state-space model bgc can simulate",
+                model.node(l.element).name
+            ),
+        ));
+    }
     if let Err(element) = solve_rates(pool, &mut states, &mut outputs, &rates) {
         problems.push(report::at_nodes(
             model,
@@ -96,9 +143,12 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             ),
         ));
     }
-    renumber(pool, &mut states, &mut outputs, &kept);
+    renumber(pool, &mut states, &mut outputs, &mut implicit, &kept);
     for s in &mut states {
         s.rhs = simplifier.simplify(pool, s.rhs);
+    }
+    for l in &mut implicit {
+        l.residual = simplifier.simplify(pool, l.residual);
     }
     for (_, e) in &mut outputs {
         *e = simplifier.simplify(pool, *e);
@@ -107,6 +157,7 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         .iter()
         .map(|s| s.rhs)
         .chain(outputs.iter().map(|o| o.1))
+        .chain(implicit.iter().map(|l| l.residual))
         .collect();
     let mut readers: Vec<NodeId> = Vec::new();
     for e in all {
@@ -137,6 +188,7 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         pool: std::mem::take(pool),
         states,
         outputs,
+        implicit,
         problems,
     }
 }
@@ -218,6 +270,7 @@ fn renumber(
     pool: &mut Pool,
     states: &mut [StateEquation],
     outputs: &mut [(NodeId, ExprId)],
+    implicit: &mut [LoopUnknown],
     kept: &[bool],
 ) {
     if kept.iter().all(|k| *k) {
@@ -240,6 +293,9 @@ fn renumber(
     }
     for (_, e) in outputs.iter_mut() {
         *e = map(pool, *e);
+    }
+    for l in implicit.iter_mut() {
+        l.residual = map(pool, l.residual);
     }
 }
 
