@@ -310,16 +310,15 @@ fn row(
     on: &[bool],
     candidates: &[&str],
 ) {
-    let _ = write!(out, "{t}");
-    for r in residuals {
-        let _ = write!(out, ",{r}");
+    cli::push_number(out, t);
+    for &r in residuals {
+        out.push(',');
+        cli::push_number(out, r);
     }
     for l in levels {
-        match l {
-            Some(l) => {
-                let _ = write!(out, ",{l}");
-            }
-            None => out.push(','),
+        out.push(',');
+        if let Some(l) = *l {
+            cli::push_number(out, l);
         }
     }
     for &a in on {

@@ -1,6 +1,5 @@
 //! `bgc simulate`: a model under a scenario, integrated and written as CSV.
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use bondgraph_core::{parse_scenario, Derive, Simulation, Solver, Trajectory};
@@ -171,7 +170,7 @@ fn progress(samples: f64) -> Option<ProgressBar> {
 }
 
 /// The samples as CSV: a header of column names, then one row per sample. Numbers are
-/// written in Rust's shortest form that reads back to the same `f64`.
+/// written in the shortest form that reads back to the same `f64`.
 pub fn csv(t: &Trajectory) -> String {
     let rows = t.values.first().map_or(0, Vec::len);
     let mut out = String::with_capacity(rows * t.columns.len() * 20);
@@ -182,7 +181,7 @@ pub fn csv(t: &Trajectory) -> String {
             if i > 0 {
                 out.push(',');
             }
-            let _ = write!(out, "{}", column[k]);
+            cli::push_number(&mut out, column[k]);
         }
         out.push('\n');
     }
