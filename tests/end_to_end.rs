@@ -187,6 +187,7 @@ fn each_detectable_fault_is_named() {
         "dc_motor.bg",
         "resistive_loop.bg",
         "rigid_gear_drive.bg",
+        "varistor_loop.bg",
     ] {
         let case = Case::new(file, "faults");
         let clean = case.simulate("clean.csv", &[]);

@@ -129,7 +129,7 @@ fn state_space(out: &mut String, c: &Compiled) {
         .iter()
         .map(|l| {
             format!(
-                "\n    {{\"unknown\": {}, \"description\": {}, \"element\": {}, \"residual\": {}}}",
+                "\n    {{\"name\": {}, \"description\": {}, \"element\": {}, \"residual\": {}}}",
                 string(&l.name),
                 string(&l.description),
                 string(&l.element),

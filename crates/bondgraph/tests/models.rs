@@ -22,6 +22,7 @@ bondgraph::bond_graph!("../../models/thermal_two_zone.bg");
 bondgraph::bond_graph!("../../models/three_tank.bg");
 bondgraph::bond_graph!("../../models/torque_sensor_drive.bg");
 bondgraph::bond_graph!("../../models/two_tank.bg");
+bondgraph::bond_graph!("../../models/varistor_loop.bg");
 bondgraph::bond_graph!("../../models/wheatstone_bridge.bg");
 
 /// A value in [-1.5, -0.5] ∪ [0.5, 1.5] from a hash of a name and a point: the same name has
@@ -138,5 +139,6 @@ fn generated_residuals_equal_the_products_arrs_for_every_model() {
     check!(three_tank);
     check!(torque_sensor_drive);
     check!(two_tank);
+    check!(varistor_loop);
     check!(wheatstone_bridge);
 }
