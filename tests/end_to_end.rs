@@ -178,8 +178,21 @@ fn no_model_alarms_when_healthy() {
 }
 
 /// In the models whose ARRs each see every fault of their signature at this excitation,
-/// every detectable fault (each parameter of a component doubled, a sensor offset by its
-/// peak) raises an alarm that names the component, and none before it comes.
+/// every detectable fault raises an alarm that names the component, and none before it
+/// comes. A component's fault doubles the parameters that are its own (one shared with
+/// another component, as the three tanks' section `A`, would be two faults at once: a
+/// component with none of its own is left out); a sensor's fault is a gain of 1.5, which
+/// every ARR reading the signal sees while it moves (an offset is invisible to an ARR that
+/// reads only the signal's derivatives).
+///
+/// Left out, with what this excitation (slow, smooth inputs) shows of them:
+/// `four_mass_chain`, `three_tank`, `two_tank`, `thermal_two_zone`, `wheatstone_bridge`,
+/// `parallel_rlc`, `loudspeaker`, `hydraulic_cylinder`, `torque_sensor_drive`. In each, at
+/// least one fault moves a residual of its signature by less than the calibrated threshold
+/// (a middle spring of the chain at low frequency, a pipe far from its operating point),
+/// so the alarms are only part of its signature and the exact-match decision names another
+/// component; or a changed trajectory moves the derivative estimates' error past a
+/// threshold the fault does not touch.
 #[test]
 fn each_detectable_fault_is_named() {
     for file in [
@@ -188,11 +201,13 @@ fn each_detectable_fault_is_named() {
         "resistive_loop.bg",
         "rigid_gear_drive.bg",
         "varistor_loop.bg",
+        "coulomb_friction.bg",
+        "quarter_car.bg",
+        "rlc_series.bg",
     ] {
         let case = Case::new(file, "faults");
         let clean = case.simulate("clean.csv", &[]);
-        let peaks = case.peaks(&clean);
-        let mut noise = case.noise(&peaks);
+        let mut noise = case.noise(&case.peaks(&clean));
         let calibration = {
             let mut extra = noise.clone();
             extra.push("seed 1".into());
@@ -212,16 +227,26 @@ fn each_detectable_fault_is_named() {
                 .iter()
                 .filter_map(Value::as_str)
                 .collect();
+            let shared: std::collections::BTreeSet<&str> = case.json["fsm"]["rows"]
+                .as_array()
+                .expect("rows")
+                .iter()
+                .filter(|other| other["component"] != row["component"])
+                .flat_map(|other| other["parameters"].as_array().expect("parameters"))
+                .filter_map(Value::as_str)
+                .collect();
+            let own: Vec<&&str> = parameters
+                .iter()
+                .filter(|p| !shared.contains(**p))
+                .collect();
             let fault: Vec<String> = match kind {
-                "De" | "Df" => vec![format!(
-                    "fault sensor {name} + {} at {FAULT_AT}",
-                    peaks[name]
-                )],
-                _ if !parameters.is_empty() => parameters
+                "De" | "Df" => vec![format!("fault sensor {name} * 1.5 at {FAULT_AT}")],
+                _ if !own.is_empty() => own
                     .iter()
                     .map(|p| format!("fault {p} = 2*{p} at {FAULT_AT}"))
                     .collect(),
-                // A source whose value is an input or a modulation: nothing of its own.
+                // A source whose value is an input or a modulation, or a component whose
+                // parameters others share: no single fault of its own to inject.
                 _ => continue,
             };
             let mut extra = noise.clone();
