@@ -134,6 +134,23 @@ fn bad_records_are_refused_with_the_line() {
             "2 rows: the estimator's window of 11",
         ),
     ];
+    // A record large enough to be parsed in two halves, with its mistake in the second:
+    // the line is still the file's.
+    let mut large = String::from("t,U0,y1,y2\n");
+    for k in 0..80_000 {
+        let cell = if k == 60_000 {
+            "x".to_string()
+        } else {
+            format!("{}", k % 7)
+        };
+        large.push_str(&format!("{},1.25,{cell},0.5\n", k as f64 * 1e-3));
+    }
+    let large_case = (large, "line 60002, column `y1`: `x` is not a finite number");
+    let cases: Vec<(&str, &str)> = cases
+        .iter()
+        .copied()
+        .chain(std::iter::once((large_case.0.as_str(), large_case.1)))
+        .collect();
     for (k, (text, expected)) in cases.iter().enumerate() {
         let path = dir.join(format!("bad{k}.csv"));
         std::fs::write(&path, text).expect("write");

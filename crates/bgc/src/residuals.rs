@@ -133,39 +133,60 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         .iter()
         .map(|l| l.map(|l| Threshold::new(l, args.debounce)))
         .collect();
-    let mut out = header(&c);
     let rows: Vec<(&str, Vec<bool>)> = c
         .components
         .iter()
         .map(|(_, comp)| (comp.name.as_str(), comp.signature(c.arrs.len())))
         .collect();
+    let n = c.arrs.len();
     let mut raw = vec![0.0; names.len()];
-    let mut drawn = Drawn::new(c.arrs.len(), args.plot.is_some());
-    for (k, &t) in data.time.iter().enumerate() {
-        for (v, column) in raw.iter_mut().zip(&data.columns) {
-            *v = column[k];
+    let mut drawn = Drawn::new(n, args.plot.is_some());
+    // The rows are computed here and written as text by a second thread, chunk by chunk:
+    // writing numbers costs about what computing them does.
+    let out = std::thread::scope(|scope| {
+        let (send, receive) = std::sync::mpsc::sync_channel::<Chunk>(4);
+        let rows = &rows;
+        let head = header(&c);
+        let writer = scope.spawn(move || {
+            let mut out = head;
+            for chunk in receive {
+                chunk.write(&mut out, rows);
+            }
+            out
+        });
+        let mut chunk = Chunk::default();
+        for (k, &t) in data.time.iter().enumerate() {
+            for (v, column) in raw.iter_mut().zip(&data.columns) {
+                *v = column[k];
+            }
+            let Some((at, residuals, bounds)) = generator.push(t, &raw, args.adaptive) else {
+                continue;
+            };
+            let now: Vec<Option<f64>> = levels
+                .iter()
+                .zip(&bounds)
+                .map(|(l, b)| l.map(|l| l + b))
+                .collect();
+            let on: Vec<bool> = residuals
+                .iter()
+                .zip(&mut alarms)
+                .zip(&now)
+                .map(|((&r, a), l)| match (a.as_mut(), l) {
+                    (Some(a), Some(l)) => a.update_with_level(r, *l),
+                    _ => false,
+                })
+                .collect();
+            chunk.push(at, &residuals, &now, &on);
+            drawn.push(at, &residuals, &now, &on);
+            if chunk.time.len() == CHUNK_ROWS {
+                // The writer stops only when this side has: it cannot have gone away.
+                let _ = send.send(std::mem::take(&mut chunk));
+            }
         }
-        let Some((at, residuals, bounds)) = generator.push(t, &raw, args.adaptive) else {
-            continue;
-        };
-        let now: Vec<Option<f64>> = levels
-            .iter()
-            .zip(&bounds)
-            .map(|(l, b)| l.map(|l| l + b))
-            .collect();
-        let on: Vec<bool> = residuals
-            .iter()
-            .zip(&mut alarms)
-            .zip(&now)
-            .map(|((&r, a), l)| match (a.as_mut(), l) {
-                (Some(a), Some(l)) => a.update_with_level(r, *l),
-                _ => false,
-            })
-            .collect();
-        let candidates = bondgraph::candidates(rows.iter().map(|(n, s)| (*n, s.as_slice())), &on);
-        row(&mut out, at, &residuals, &now, &on, &candidates);
-        drawn.push(at, &residuals, &now, &on);
-    }
+        let _ = send.send(chunk);
+        drop(send);
+        writer.join().unwrap_or_default()
+    });
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(|e| {
             eprintln!("error: {e}");
@@ -302,29 +323,54 @@ fn header(c: &Compiled) -> String {
     h
 }
 
-fn row(
-    out: &mut String,
-    t: f64,
-    residuals: &[f64],
-    levels: &[Option<f64>],
-    on: &[bool],
-    candidates: &[&str],
-) {
-    cli::push_number(out, t);
-    for &r in residuals {
-        out.push(',');
-        cli::push_number(out, r);
+/// Rows handed to the writer at once.
+const CHUNK_ROWS: usize = 4096;
+
+/// Computed rows on their way to the writer: per row, the time, then each residual, its
+/// threshold (if any) and its alarm.
+#[derive(Default)]
+struct Chunk {
+    time: Vec<f64>,
+    residuals: Vec<f64>,
+    levels: Vec<Option<f64>>,
+    on: Vec<bool>,
+}
+
+impl Chunk {
+    fn push(&mut self, t: f64, residuals: &[f64], levels: &[Option<f64>], on: &[bool]) {
+        self.time.push(t);
+        self.residuals.extend(residuals);
+        self.levels.extend(levels);
+        self.on.extend(on);
     }
-    for l in levels {
-        out.push(',');
-        if let Some(l) = *l {
-            cli::push_number(out, l);
+
+    /// Appends the rows as CSV, with the candidate components of each row's alarms.
+    fn write(&self, out: &mut String, rows: &[(&str, Vec<bool>)]) {
+        let n = self.residuals.len() / self.time.len().max(1);
+        for (k, &t) in self.time.iter().enumerate() {
+            let span = k * n..(k + 1) * n;
+            let on = &self.on[span.clone()];
+            cli::push_number(out, t);
+            for &r in &self.residuals[span.clone()] {
+                out.push(',');
+                cli::push_number(out, r);
+            }
+            for l in &self.levels[span] {
+                out.push(',');
+                if let Some(l) = *l {
+                    cli::push_number(out, l);
+                }
+            }
+            for &a in on {
+                out.push_str(if a { ",1" } else { ",0" });
+            }
+            let candidates =
+                bondgraph::candidates(rows.iter().map(|(n, s)| (*n, s.as_slice())), on);
+            out.push(',');
+            out.push_str(&candidates.join(" "));
+            out.push('\n');
         }
     }
-    for &a in on {
-        out.push_str(if a { ",1" } else { ",0" });
-    }
-    let _ = writeln!(out, ",{}", candidates.join(" "));
 }
 
 /// Recorded samples: the time and the columns asked for, checked.
@@ -365,33 +411,9 @@ impl Data {
         let column_names: Vec<&str> = std::iter::once("t")
             .chain(names.iter().map(String::as_str))
             .collect();
-        let mut columns = vec![Vec::new(); at.len()];
-        // One record reused for every row: no allocation per row.
-        let mut record = csv::ByteRecord::new();
-        let mut line = 1;
-        loop {
-            line += 1;
-            match reader.read_byte_record(&mut record) {
-                Ok(true) => {}
-                Ok(false) => break,
-                Err(e) => return Err(format!("line {line}: {e}")),
-            }
-            for ((column, &i), name) in columns.iter_mut().zip(&at).zip(&column_names) {
-                let cell = record.get(i).unwrap_or(b"");
-                let text = std::str::from_utf8(cell).unwrap_or("").trim();
-                let value = text
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite())
-                    .ok_or_else(|| {
-                        format!(
-                            "line {line}, column `{name}`: `{}` is not a finite number",
-                            String::from_utf8_lossy(cell).trim()
-                        )
-                    })?;
-                column.push(value);
-            }
-        }
+        let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
+        let body = bytes.get(start..).unwrap_or_default();
+        let mut columns = parse_rows(body, &at, &column_names)?;
         let time = columns.remove(0);
         let step = check_time(&time)?;
         if time.len() < window {
@@ -406,6 +428,79 @@ impl Data {
             columns,
         })
     }
+}
+
+/// The rows of `body` (the CSV after its header, which was line 1), the cells at `at` of each
+/// as numbers, by column. A large record is parsed in two halves at once, split at a line
+/// end: parsing is a good part of `bgc residuals`' time, and a machine has two cores at
+/// least. A record with quotes, where a line end may sit inside a cell, is parsed in one go.
+fn parse_rows(body: &[u8], at: &[usize], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+    let split = (body.len() > 1 << 20 && !body.contains(&b'"'))
+        .then(|| {
+            let middle = body.len() / 2;
+            body[middle..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map(|k| middle + k + 1)
+        })
+        .flatten();
+    let Some(split) = split else {
+        return parse_part(body, at, names, 2);
+    };
+    let (first, second) = body.split_at(split);
+    let second_line = 2 + first.iter().filter(|&&b| b == b'\n').count();
+    let (head, tail) = std::thread::scope(|scope| {
+        let tail = scope.spawn(|| parse_part(second, at, names, second_line));
+        let head = parse_part(first, at, names, 2);
+        (head, tail.join())
+    });
+    // The first half's mistake comes first: it is on an earlier line.
+    let mut columns = head?;
+    let tail = tail.map_err(|_| "the parser of the record's second half failed".to_string())??;
+    for (column, rest) in columns.iter_mut().zip(tail) {
+        column.extend(rest);
+    }
+    Ok(columns)
+}
+
+/// The rows of `part`, whose first line is `line` of the file.
+fn parse_part(
+    part: &[u8],
+    at: &[usize],
+    names: &[&str],
+    mut line: usize,
+) -> Result<Vec<Vec<f64>>, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .from_reader(part);
+    let rows = part.iter().filter(|&&b| b == b'\n').count() + 1;
+    let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); at.len()];
+    // One record reused for every row: no allocation per row.
+    let mut record = csv::ByteRecord::new();
+    loop {
+        match reader.read_byte_record(&mut record) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err(format!("line {line}: {e}")),
+        }
+        for ((column, &i), name) in columns.iter_mut().zip(at).zip(names) {
+            let cell = record.get(i).unwrap_or(b"");
+            let text = std::str::from_utf8(cell).unwrap_or("").trim();
+            let value = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "line {line}, column `{name}`: `{}` is not a finite number",
+                        String::from_utf8_lossy(cell).trim()
+                    )
+                })?;
+            column.push(value);
+        }
+        line += 1;
+    }
+    Ok(columns)
 }
 
 /// The uniform step of `time`, or the first line where it is not.
