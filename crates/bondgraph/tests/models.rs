@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use bondgraph_core::{compile, Compiled, Evaluator, Expr, Node, Options, Symbol};
 
 bondgraph::bond_graph!("../../models/backlash_bench.bg");
+bondgraph::bond_graph!("../../models/backlash_bench_table3.bg");
 bondgraph::bond_graph!("../../models/coulomb_friction.bg");
 bondgraph::bond_graph!("../../models/dc_motor.bg");
 bondgraph::bond_graph!("../../models/four_mass_chain.bg");
@@ -125,6 +126,7 @@ macro_rules! check {
 #[test]
 fn generated_residuals_equal_the_products_arrs_for_every_model() {
     check!(backlash_bench);
+    check!(backlash_bench_table3);
     check!(coulomb_friction);
     check!(dc_motor);
     check!(four_mass_chain);
