@@ -296,3 +296,58 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
     assert!(after > 500, "and still see the dead zone: {after}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The paper's section 6 as docs/paper_reproduction.md runs it: with the initial dead zone
+/// no residual alarms; with the important one ARR2 alarms almost throughout, naming the link
+/// and its dead zone, and ARR1 never does.
+#[test]
+fn the_papers_section_6_shows_what_the_reproduction_says() {
+    let dir = std::env::temp_dir().join(format!("bgc-section6-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let model = "models/backlash_bench_table3.bg";
+    let run = |scenario: &str, extra: &[&str], name: &str| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", model, scenario];
+        args.extend(extra);
+        args.extend(["-o", path.as_str()]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    let initial = run("scenarios/paper_section6.scn", &[], "s6.csv");
+    let important = run("scenarios/paper_section6_important.scn", &[], "s6i.csv");
+    let healthy = run("scenarios/paper_section6.scn", &["-e", "seed 8"], "s6h.csv");
+    let residuals = |record: &str| {
+        let args = [
+            "residuals",
+            model,
+            record,
+            "--window",
+            "51",
+            "--calibrate",
+            &healthy,
+            "--margin",
+            "0.5",
+        ];
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        stdout(&out)
+    };
+    let alarms = |text: &str| {
+        let t = table(text);
+        let count = |name: &str| column(&t, name).iter().filter(|&&a| a == 1.0).count();
+        (
+            count("alarm_ARR1"),
+            count("alarm_ARR2"),
+            column(&t, "t").len(),
+        )
+    };
+    assert_eq!(alarms(&residuals(&initial)), (0, 0, 19_951));
+    let text = residuals(&important);
+    let (arr1, arr2, rows) = alarms(&text);
+    assert_eq!(arr1, 0);
+    assert!(arr2 > rows * 9 / 10, "{arr2} of {rows}");
+    let named = text.lines().filter(|l| l.ends_with(",link w")).count();
+    assert_eq!(named, arr2);
+    let _ = std::fs::remove_dir_all(&dir);
+}
