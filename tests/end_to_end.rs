@@ -187,7 +187,8 @@ fn no_model_alarms_when_healthy() {
 ///
 /// Left out, with what this excitation (slow, smooth inputs) shows of them:
 /// `four_mass_chain`, `three_tank`, `two_tank`, `thermal_two_zone`, `wheatstone_bridge`,
-/// `parallel_rlc`, `loudspeaker`, `hydraulic_cylinder`, `torque_sensor_drive`. In each, at
+/// `parallel_rlc`, `loudspeaker`, `hydraulic_cylinder`, `torque_sensor_drive`,
+/// `backlash_bench_table3` (its motor inertia). In each, at
 /// least one fault moves a residual of its signature by less than the calibrated threshold
 /// (a middle spring of the chain at low frequency, a pipe far from its operating point),
 /// so the alarms are only part of its signature and the exact-match decision names another
