@@ -222,8 +222,21 @@ impl Builder<'_> {
                 self.undefined(name, what);
             }
         }
+        let faulted: Vec<&str> = scenario
+            .faults
+            .iter()
+            .filter_map(|f| match &f.target {
+                FaultTarget::Parameter(name) => Some(name.name.as_str()),
+                _ => None,
+            })
+            .collect();
         let import = |pool: &mut Pool<P>, e| {
             pool.import_from(&c.exprs, e, |p: &mut Pool<P>, s| match s {
+                // A parameter no fault changes is a number, so that what it takes part in
+                // is computed once, here, not at every step.
+                Symbol::Parameter(k) if !faulted.contains(&c.parameters[k].name.as_str()) => {
+                    p.num(c.parameters[k].value)
+                }
                 Symbol::Parameter(k) => p.leaf(P::Param(k.index() as u32)),
                 Symbol::Input(u, 0) => received[u.index()],
                 Symbol::Input(u, n) => p.leaf(P::InputDer(u.index() as u32, n)),
