@@ -263,7 +263,12 @@ fn simulate_plots_svg_only() {
         "{}",
         &drawn[..80.min(drawn.len())]
     );
-    for title in ["U0", "i", "y1"] {
+    // Each panel is titled with the signal's unit and description from the model.
+    for title in [
+        "U0 [V]: armature voltage",
+        "i: armature current",
+        "y1: motor speed",
+    ] {
         assert!(drawn.lines().any(|l| l.trim() == title), "panel {title}");
     }
     let png = dir.join("run.png").display().to_string();

@@ -349,5 +349,30 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     assert!(arr2 > rows * 9 / 10, "{arr2} of {rows}");
     let named = text.lines().filter(|l| l.ends_with(",link w")).count();
     assert_eq!(named, arr2);
+    // Its plot: a panel per residual, titled with where it comes from, with a legend.
+    let svg = dir.join("s6i.svg").display().to_string();
+    let args = [
+        "residuals",
+        model,
+        &important,
+        "--window",
+        "51",
+        "--calibrate",
+        &healthy,
+        "--plot",
+        &svg,
+    ];
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let drawn = std::fs::read_to_string(&svg).expect("svg written");
+    for text in [
+        "ARR1 (junction elec, sensor y1)",
+        "ARR2 (junction twist, sensor y2)",
+        "alarm",
+        "± threshold",
+        "residual",
+    ] {
+        assert!(drawn.lines().any(|l| l.trim() == text), "{text}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -88,22 +88,39 @@ fn draw_panel(
         .draw()?;
     if let Some(alarm) = panel.alarm {
         let shade = RED.mix(0.15).filled();
-        chart.draw_series(
-            intervals(time, alarm)
-                .into_iter()
-                .map(|(a, b)| Rectangle::new([(a, low), (b, high)], shade)),
-        )?;
+        chart
+            .draw_series(
+                intervals(time, alarm)
+                    .into_iter()
+                    .map(|(a, b)| Rectangle::new([(a, low), (b, high)], shade)),
+            )?
+            .label("alarm")
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], shade));
     }
     if let Some(th) = panel.threshold {
         let style = RED.stroke_width(1);
-        chart.draw_series(LineSeries::new(reduce(time, th), style))?;
+        chart
+            .draw_series(LineSeries::new(reduce(time, th), style))?
+            .label("± threshold")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], style));
         let negative: Vec<f64> = th.iter().map(|v| -v).collect();
         chart.draw_series(LineSeries::new(reduce(time, &negative), style))?;
     }
-    chart.draw_series(LineSeries::new(
-        reduce(time, panel.values),
-        BLUE.stroke_width(1),
-    ))?;
+    let line = BLUE.stroke_width(1);
+    let series = chart.draw_series(LineSeries::new(reduce(time, panel.values), line))?;
+    // A legend only where there is more than the series to tell apart.
+    if panel.threshold.is_some() || panel.alarm.is_some() {
+        series
+            .label("residual")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], line));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3))
+            .label_font(("sans-serif", 12))
+            .draw()?;
+    }
     Ok(())
 }
 

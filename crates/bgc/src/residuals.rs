@@ -233,12 +233,25 @@ impl Drawn {
     }
 
     fn draw(&self, path: &std::path::Path, c: &Compiled) -> Result<(), String> {
+        // `ARR1 (junction elec, sensor y1)`: where each residual comes from.
+        let titles: Vec<String> = c
+            .arrs
+            .iter()
+            .map(|arr| match arr.sensor {
+                Some(s) => format!(
+                    "{} (junction {}, sensor {})",
+                    arr.name, arr.junction, c.sensors[s].name
+                ),
+                None => format!("{} (junction {})", arr.name, arr.junction),
+            })
+            .collect();
         let panels: Vec<crate::plot::Panel<'_>> = c
             .arrs
             .iter()
+            .zip(&titles)
             .enumerate()
-            .map(|(k, arr)| crate::plot::Panel {
-                name: &arr.name,
+            .map(|(k, (_, title))| crate::plot::Panel {
+                name: title,
                 values: &self.residuals[k],
                 threshold: self.has_threshold[k].then_some(self.thresholds[k].as_slice()),
                 alarm: self.has_threshold[k].then_some(self.alarms[k].as_slice()),

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use bondgraph_core::{parse_scenario, Derive, Simulation, Solver, Trajectory};
+use bondgraph_core::{parse_scenario, Compiled, Derive, Simulation, Solver, Trajectory};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::{self, Failure};
@@ -79,25 +79,33 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
         bar.finish_and_clear();
     }
     if let Some(path) = &args.plot {
-        plot(path, &trajectory, c.inputs.len(), c.states.len())?;
+        plot(path, &trajectory, &c)?;
     }
     cli::write(args.output.as_deref(), &csv(&trajectory))
 }
 
-/// The recorded signals (not the states), one panel each.
-fn plot(
-    path: &std::path::Path,
-    t: &Trajectory,
-    inputs: usize,
-    states: usize,
-) -> Result<(), Failure> {
+/// The recorded signals (not the states), one panel each, titled with their unit and
+/// description from the model.
+fn plot(path: &std::path::Path, t: &Trajectory, c: &Compiled) -> Result<(), Failure> {
+    let (inputs, states) = (c.inputs.len(), c.states.len());
     let shown: Vec<usize> = (1..=inputs)
         .chain(1 + inputs + states..t.columns.len())
         .collect();
+    let titles: Vec<String> = c
+        .inputs
+        .iter()
+        .map(|(_, u)| title(&u.name, u.unit.as_deref(), u.description.as_deref()))
+        .chain(
+            c.sensors
+                .iter()
+                .map(|(_, s)| title(&s.name, None, s.description.as_deref())),
+        )
+        .collect();
     let panels: Vec<crate::plot::Panel<'_>> = shown
         .iter()
-        .map(|&k| crate::plot::Panel {
-            name: &t.columns[k],
+        .zip(&titles)
+        .map(|(&k, title)| crate::plot::Panel {
+            name: title,
             values: &t.values[k],
             threshold: None,
             alarm: None,
@@ -107,6 +115,18 @@ fn plot(
         eprintln!("error: {e}");
         Failure::Usage
     })
+}
+
+/// `U0 [V]: armature voltage`.
+fn title(name: &str, unit: Option<&str>, description: Option<&str>) -> String {
+    let mut out = name.to_string();
+    if let Some(unit) = unit {
+        out.push_str(&format!(" [{unit}]"));
+    }
+    if let Some(description) = description {
+        out.push_str(&format!(": {description}"));
+    }
+    out
 }
 
 /// The scenario file's text and the `-e` statements after it, under one name for reports.
