@@ -116,6 +116,34 @@ mod tests {
         assert!(err < 1e-10, "{err}");
     }
 
+    /// A damped mass–spring, released from a stretch: x = e^(-at)(x0 cos wt + a x0/w sin wt)
+    /// with a = b/2m and w = √(k/m − a²), to 1e-9 of x0 with both solvers.
+    #[test]
+    fn a_damped_mass_spring_follows_its_closed_form() {
+        let model = "model msd\nparam m = 2 [kg]\nparam b = 0.8 [N.s/m]\nparam c = 0.125 [m/N]\n\
+                     input F [N]\nSe f = F\nI mass = m\nR damp = b\nC spring = c\nDf v on j\n\
+                     f -> 1:j -> mass, damp, spring\n";
+        let (a, x0) = (0.2f64, 0.1f64);
+        let w = (8.0f64 / 2.0 - a * a).sqrt();
+        let x = |t: f64| (-a * t).exp() * x0 * ((w * t).cos() + a / w * (w * t).sin());
+        for solver in ["dopri5", "implicit"] {
+            let t = simulate(
+                model,
+                &format!(
+                    "duration 10\nstep 0.01\nsolver {solver}\ntolerance 1e-10\ninput F = 0\n\
+                     initial q_spring = {x0}\n"
+                ),
+            )
+            .expect("runs");
+            let err = worst(&t, "q_spring", x);
+            assert!(err < 1e-9 * x0, "{solver}: {err}");
+            // The speed is the stretch's rate: v = x'.
+            let v = |t: f64| -x0 * (-a * t).exp() * (a * a / w + w) * (w * t).sin();
+            let err = worst(&t, "v", v);
+            assert!(err < 1e-8 * x0, "{solver}: {err}");
+        }
+    }
+
     /// `int(..)` in an input is a state of its own: a current equal to t (the integral of 1)
     /// charges the RC as q = RC t - (RC)^2 (1 - exp(-t/RC)).
     #[test]
