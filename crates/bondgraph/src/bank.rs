@@ -1,6 +1,7 @@
 //! Several signals sampled together, estimated together.
 
 use crate::differentiate::{check_fit, fit_weights};
+use crate::window::Window;
 use crate::{Differentiator, EstimatorError};
 
 /// Estimates `C` signals sampled at the same instants: each sample is one value per signal,
@@ -32,12 +33,8 @@ pub struct SavitzkyGolayBank<const C: usize, const D: usize = C> {
     /// `weights[k·window + j]`: the k-th derivative's weight of the j-th oldest sample.
     weights: Vec<f64>,
     window: usize,
-    /// The last `window` samples, each twice, `window` apart, so that the window is always
-    /// one contiguous slice, oldest first.
-    buffer: Vec<[f64; C]>,
-    /// Where the next sample goes (the oldest one once the buffer is full).
-    next: usize,
-    seen: usize,
+    /// The last `window` samples of every signal.
+    samples: Window<[f64; C]>,
     out: Vec<[f64; C]>,
     delay: f64,
 }
@@ -60,9 +57,7 @@ impl<const C: usize, const D: usize> SavitzkyGolayBank<C, D> {
         Ok(SavitzkyGolayBank {
             weights: weights.concat(),
             window,
-            buffer: vec![[0.0; C]; 2 * window],
-            next: 0,
-            seen: 0,
+            samples: Window::new(window, [0.0; C]),
             out: vec![[0.0; C]; order as usize + 1],
             delay: (window - 1 - at) as f64 * step,
         })
@@ -72,19 +67,7 @@ impl<const C: usize, const D: usize> SavitzkyGolayBank<C, D> {
 impl<const C: usize, const D: usize> Bank<C> for SavitzkyGolayBank<C, D> {
     fn push(&mut self, x: [f64; C]) -> Option<&[[f64; C]]> {
         let window = self.window;
-        self.buffer[self.next] = x;
-        self.buffer[self.next + window] = x;
-        // A compare, not a division: this runs once per sample.
-        self.next = if self.next + 1 == window {
-            0
-        } else {
-            self.next + 1
-        };
-        self.seen = self.seen.saturating_add(1);
-        if self.seen < window {
-            return None;
-        }
-        let samples = &self.buffer[self.next..self.next + window];
+        let samples = self.samples.push(x)?;
         let (values, derivatives) = self.out.split_at_mut(1);
         values[0] = weighted_sum::<C, C>(samples, &self.weights[..window]);
         let mut row = window;

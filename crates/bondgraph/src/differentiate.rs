@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+use crate::window::Window;
+
 /// Estimates a signal's value and time derivatives from samples at a uniform step.
 pub trait Differentiator {
     /// Takes the next sample and returns the estimates of the signal and its derivatives,
@@ -83,11 +85,8 @@ pub struct SavitzkyGolay {
     /// flat array so that a sample's estimates read one block of memory.
     weights: Vec<f64>,
     window: usize,
-    /// The last `window` samples, each twice (see `push`).
-    buffer: Vec<f64>,
-    /// Where the next sample goes (the oldest one once the buffer is full).
-    next: usize,
-    seen: usize,
+    /// The last `window` samples.
+    samples: Window<f64>,
     out: Vec<f64>,
     delay: f64,
     degree: u32,
@@ -115,9 +114,7 @@ impl SavitzkyGolay {
         Ok(SavitzkyGolay {
             weights: weights.concat(),
             window,
-            buffer: vec![0.0; 2 * window],
-            next: 0,
-            seen: 0,
+            samples: Window::new(window, 0.0),
             out: vec![0.0; order as usize + 1],
             delay: (window - 1 - at) as f64 * step,
             degree,
@@ -251,22 +248,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 impl Differentiator for SavitzkyGolay {
     fn push(&mut self, x: f64) -> Option<&[f64]> {
-        // Each sample is stored twice, `window` apart, so that the last `window` samples
-        // are always one contiguous slice, oldest first.
         let window = self.window;
-        self.buffer[self.next] = x;
-        self.buffer[self.next + window] = x;
-        // A compare, not a division: this runs once per sample and signal.
-        self.next = if self.next + 1 == window {
-            0
-        } else {
-            self.next + 1
-        };
-        self.seen = self.seen.saturating_add(1);
-        if self.seen < window {
-            return None;
-        }
-        let samples = &self.buffer[self.next..self.next + window];
+        let samples = self.samples.push(x)?;
         // Rows by offset, not `chunks_exact`, whose count costs an integer division.
         let mut row = 0;
         for out in &mut self.out {

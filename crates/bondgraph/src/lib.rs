@@ -14,6 +14,7 @@ mod decision;
 mod differentiate;
 mod integrate;
 mod threshold;
+mod window;
 
 pub use bank::{Bank, Each, SavitzkyGolayBank};
 pub use decision::{candidates, Component, Fsm};
