@@ -332,7 +332,7 @@ fn header(c: &Compiled) -> String {
     for a in &c.arrs {
         let _ = write!(h, ",alarm_{}", a.name);
     }
-    h.push_str(",candidates\n");
+    h.push_str(",candidates,suspects\n");
     h
 }
 
@@ -357,7 +357,7 @@ impl Chunk {
         self.on.extend(on);
     }
 
-    /// Appends the rows as CSV, with the candidate components of each row's alarms.
+    /// Appends the rows as CSV, with the candidates and the suspects of each row's alarms.
     fn write(&self, out: &mut String, rows: &[(&str, Vec<bool>)]) {
         let n = self.residuals.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
@@ -377,10 +377,11 @@ impl Chunk {
             for &a in on {
                 out.push_str(if a { ",1" } else { ",0" });
             }
-            let candidates =
-                bondgraph::candidates(rows.iter().map(|(n, s)| (*n, s.as_slice())), on);
+            let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
             out.push(',');
-            out.push_str(&candidates.join(" "));
+            out.push_str(&bondgraph::candidates(fsm(), on).join(" "));
+            out.push(',');
+            out.push_str(&bondgraph::suspects(fsm(), on).join(" "));
             out.push('\n');
         }
     }

@@ -603,6 +603,13 @@ fn fsm(c: &Compiled) -> TokenStream {
         pub fn candidates(alarms: &[bool; #n]) -> Vec<&'static str> {
             FSM.candidates(alarms)
         }
+
+        /// The components whose fault is consistent with the residuals in alarm, with no
+        /// exoneration (see [`bondgraph::Fsm::suspects`]).
+        #[must_use]
+        pub fn suspects(alarms: &[bool; #n]) -> Vec<&'static str> {
+            FSM.suspects(alarms)
+        }
     }
 }
 

@@ -36,6 +36,18 @@ impl Fsm {
             alarms,
         )
     }
+
+    /// The components whose fault is consistent with `alarms` without assuming that a fault
+    /// fires every residual it is sensitive to (no exoneration): those whose signature holds
+    /// every alarm. Wider than [`Fsm::candidates`], and it always holds the faulty component
+    /// when a fault is still too small to reach some of its residuals. No alarm, no suspect.
+    #[must_use]
+    pub fn suspects(&self, alarms: &[bool]) -> Vec<&'static str> {
+        suspects(
+            self.components.iter().map(|c| (c.name, c.signature)),
+            alarms,
+        )
+    }
 }
 
 /// [`Fsm::candidates`] over any rows `(name, signature)`: the names whose signature equals
@@ -57,11 +69,27 @@ where
     if !exact.is_empty() {
         return exact;
     }
-    rows.filter(|(_, signature)| {
-        signature.len() == alarms.len() && alarms.iter().zip(*signature).all(|(&a, &s)| !a || s)
-    })
-    .map(|(name, _)| name)
-    .collect()
+    suspects(rows, alarms)
+}
+
+/// [`Fsm::suspects`] over any rows `(name, signature)`: the names whose signature holds every
+/// alarm; none without an alarm.
+pub fn suspects<'a, I>(rows: I, alarms: &[bool]) -> Vec<&'a str>
+where
+    I: IntoIterator<Item = (&'a str, &'a [bool])>,
+{
+    if !alarms.iter().any(|&a| a) {
+        return Vec::new();
+    }
+    rows.into_iter()
+        .filter(|(_, signature)| covers(signature, alarms))
+        .map(|(name, _)| name)
+        .collect()
+}
+
+/// Whether a signature holds every alarm.
+fn covers(signature: &[bool], alarms: &[bool]) -> bool {
+    signature.len() == alarms.len() && alarms.iter().zip(signature).all(|(&a, &s)| !a || s)
 }
 
 #[cfg(test)]
@@ -101,5 +129,19 @@ mod tests {
         assert_eq!(FSM.candidates(&[true, false]), ["a"]);
         assert_eq!(FSM.candidates(&[true, true]), ["b", "c"]);
         assert_eq!(FSM.candidates(&[false, true]), ["b", "c"]);
+    }
+
+    #[test]
+    fn suspects_are_every_signature_that_holds_the_alarms() {
+        assert_eq!(FSM.suspects(&[false, false]), Vec::<&str>::new());
+        // `a` matches exactly, but a fault of `b` or `c` too small to reach r2 looks the same.
+        assert_eq!(FSM.suspects(&[true, false]), ["a", "b", "c"]);
+        assert_eq!(FSM.suspects(&[false, true]), ["b", "c"]);
+        assert_eq!(FSM.suspects(&[true, true]), ["b", "c"]);
+        // A signature of another length never matches.
+        assert_eq!(
+            suspects([("x", &[true][..])], &[true, false]),
+            Vec::<&str>::new()
+        );
     }
 }

@@ -17,7 +17,7 @@ mod threshold;
 mod window;
 
 pub use bank::{Bank, Each, SavitzkyGolayBank};
-pub use decision::{candidates, Component, Fsm};
+pub use decision::{candidates, suspects, Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
 pub use integrate::{EstimatedIntegral, Trapezoid};
 pub use threshold::Threshold;

@@ -9,4 +9,5 @@ fn main() {
     let r: [f64; rlc_series::RESIDUAL_COUNT] = rlc_series::residuals(&p, &s);
     assert!(r.iter().all(|x| *x == 0.0));
     assert!(rlc_series::candidates(&[false, false]).is_empty());
+    assert!(rlc_series::suspects(&[false, false]).is_empty());
 }
