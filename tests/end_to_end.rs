@@ -6,15 +6,71 @@ mod common;
 use common::{bgc, code, stderr, stdout};
 use serde_json::Value;
 
-/// Seconds simulated, and when faults come.
+/// Seconds simulated, when faults come and how long they take to develop, in units of a
+/// model's time scale ([`Excitation::scale`]).
 const DURATION: f64 = 3.0;
 const FAULT_AT: f64 = 1.5;
+const FAULT_RISE: f64 = 0.3;
+
+/// How a model is driven: the inputs `amplitude * (1 - cos(1.3 t/scale) + ...)` reach its
+/// operating range at its own pace, and a fault multiplies a parameter by `factor`.
+struct Excitation {
+    /// Seconds per unit of the generic input's time; the step is a thousandth of it.
+    scale: f64,
+    amplitude: f64,
+    factor: f64,
+    /// Initial states, where the model is watched around an operating point.
+    initial: &'static [&'static str],
+}
+
+/// Each model's excitation: its time constants and operating range, from its parameters.
+/// A fault developing over [`FAULT_RISE`] rather than at once: an inertia or a capacitance
+/// changed at once makes the measured speed or voltage jump (momentum and charge are the
+/// states), which no physical fault does.
+fn excitation(file: &str) -> Excitation {
+    // Tanks filled to where their flows settle at a tenth of a litre per second: empty, the
+    // noise on a pressure difference near zero reaches the orifice laws' square roots.
+    let initial: &[&str] = match file {
+        "two_tank.bg" => &["initial q_tank1 = 0.018", "initial q_tank2 = 0.011"],
+        "three_tank.bg" => &[
+            "initial q_tank1 = 0.0077",
+            "initial q_tank3 = 0.0062",
+            "initial q_tank2 = 0.0046",
+        ],
+        _ => &[],
+    };
+    let (scale, amplitude, factor) = match file {
+        // Levels move over minutes; pumps give a tenth of a litre per second.
+        "three_tank.bg" | "two_tank.bg" => (100.0, 1e-4, 2.0),
+        // Zone time constants of 200 s and 1,800 s, a heater of 100 W.
+        "thermal_two_zone.bg" => (500.0, 100.0, 2.0),
+        // RC time constants of 0.1 s to 1 s.
+        "wheatstone_bridge.bg" => (0.3, 1.0, 2.0),
+        // A 160 Hz tank circuit (RC = 5 ms).
+        "parallel_rlc.bg" => (0.003, 1.0, 2.0),
+        // A 50 Hz cone resonance.
+        "loudspeaker.bg" => (0.05, 1.0, 2.0),
+        // A 16 Hz load resonance, pump flows of 0.1 l/s.
+        "hydraulic_cylinder.bg" => (0.3, 1e-4, 2.0),
+        // A 21 Hz shaft resonance. The shaft's internal damping moves ARR1 by a thousandth of
+        // its stiffness' share here: only a tenfold change of it shows.
+        "torque_sensor_drive.bg" => (0.1, 1.0, 10.0),
+        _ => (1.0, 1.0, 2.0),
+    };
+    Excitation {
+        scale,
+        amplitude,
+        factor,
+        initial,
+    }
+}
 
 /// One model's run: its JSON and the scenario every record shares.
 struct Case {
     model: String,
     json: Value,
     scenario: Vec<String>,
+    excitation: Excitation,
     dir: std::path::PathBuf,
 }
 
@@ -24,7 +80,13 @@ impl Case {
         let out = bgc(&[&model, "--emit", "json"]);
         assert_eq!(code(&out), 0, "{}", stderr(&out));
         let json: Value = serde_json::from_str(&stdout(&out)).expect("json");
-        let mut scenario = vec![format!("duration {DURATION}"), "step 0.001".to_string()];
+        let excitation = excitation(file);
+        let (scale, amplitude) = (excitation.scale, excitation.amplitude);
+        let mut scenario = vec![
+            format!("duration {}", DURATION * scale),
+            format!("step {}", 1e-3 * scale),
+        ];
+        scenario.extend(excitation.initial.iter().map(|s| s.to_string()));
         if file == "coulomb_friction.bg" {
             // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
             scenario.push("input F = 60*t + 2*sin(3*t)".into());
@@ -37,10 +99,10 @@ impl Case {
                 .iter()
                 .enumerate()
             {
-                let w = 1.3 + 0.7 * k as f64;
-                let v = 2.9 + 0.4 * k as f64;
+                let w = (1.3 + 0.7 * k as f64) / scale;
+                let v = (2.9 + 0.4 * k as f64) / scale;
                 scenario.push(format!(
-                    "input {} = 1 - cos({w}*t) + 0.3*sin({v}*t)^2",
+                    "input {} = {amplitude}*(1 - cos({w}*t) + 0.3*sin({v}*t)^2)",
                     u.as_str().expect("name")
                 ));
             }
@@ -51,6 +113,7 @@ impl Case {
             model,
             json,
             scenario,
+            excitation,
             dir,
         }
     }
@@ -89,7 +152,7 @@ impl Case {
     }
 
     /// Residual rows of `record` against thresholds calibrated on `healthy`: time, alarms,
-    /// candidates.
+    /// suspects.
     fn alarms(&self, record: &str, healthy: &str) -> Vec<(f64, Vec<bool>, Vec<String>)> {
         let out = bgc(&[
             "residuals",
@@ -111,12 +174,12 @@ impl Case {
                 let cells: Vec<&str> = line.split(',').collect();
                 let t: f64 = cells[0].parse().expect("time");
                 let on = (0..n).map(|k| cells[1 + 2 * n + k] == "1").collect();
-                let candidates = cells[1 + 3 * n]
+                let suspects = cells[2 + 3 * n]
                     .split(' ')
                     .filter(|c| !c.is_empty())
                     .map(str::to_string)
                     .collect();
-                (t, on, candidates)
+                (t, on, suspects)
             })
             .collect()
     }
@@ -177,36 +240,40 @@ fn no_model_alarms_when_healthy() {
     }
 }
 
-/// In the models whose ARRs each see every fault of their signature at this excitation,
-/// every detectable fault raises an alarm that names the component, and none before it
-/// comes. A component's fault doubles the parameters that are its own (one shared with
-/// another component, as the three tanks' section `A`, would be two faults at once: a
-/// component with none of its own is left out); a sensor's fault is a gain of 1.5, which
-/// every ARR reading the signal sees while it moves (an offset is invisible to an ARR that
-/// reads only the signal's derivatives).
+/// Every detectable fault raises an alarm whose suspects (the components consistent with the
+/// alarms, with no exoneration) hold the faulty component, and none comes before it. A
+/// component's fault multiplies the parameters that are its own (one shared with another
+/// component, as the three tanks' section `A`, would be two faults at once: a component with
+/// none of its own is left out); a sensor's fault is a gain of 1.5, which every ARR reading
+/// the signal sees while it moves (an offset is invisible to an ARR that reads only the
+/// signal's derivatives).
 ///
-/// Left out, with what this excitation (slow, smooth inputs) shows of them:
-/// `four_mass_chain`, `three_tank`, `two_tank`, `thermal_two_zone`, `wheatstone_bridge`,
-/// `parallel_rlc`, `loudspeaker`, `hydraulic_cylinder`, `torque_sensor_drive`,
-/// `backlash_bench_table3` (its motor inertia). In each, at
-/// least one fault moves a residual of its signature by less than the calibrated threshold
-/// (a middle spring of the chain at low frequency, a pipe far from its operating point),
-/// so the alarms are only part of its signature and the exact-match decision names another
-/// component; or a changed trajectory moves the derivative estimates' error past a
-/// threshold the fault does not touch.
+/// Left out, and why:
+/// - `four_mass_chain`: its two ARRs are of order four in the speeds; at any pace, the noise
+///   their estimates amplify hides the middle masses, springs and dampers. Residuals of lower
+///   order (one per part of the chain) are issue [6/6]'s subject.
+/// - `backlash_bench_table3`'s motor inertia `Jm`: its load mode (fs/Js = 1,000 s⁻¹) is as fast
+///   as the 1 kHz sampling. A change of the motor's inertia changes its speed (momentum is the
+///   state), which excites that mode; the trapezoidal integral of the twist in ARR2 drifts by
+///   it, and ARR2, which the fault does not touch, alarms.
 #[test]
 fn each_detectable_fault_is_named() {
-    for file in [
-        "backlash_bench.bg",
-        "dc_motor.bg",
-        "resistive_loop.bg",
-        "rigid_gear_drive.bg",
-        "varistor_loop.bg",
-        "coulomb_friction.bg",
-        "quarter_car.bg",
-        "rlc_series.bg",
-    ] {
-        let case = Case::new(file, "faults");
+    const LEFT_OUT: [(&str, &str); 2] = [
+        ("four_mass_chain.bg", "*"),
+        ("backlash_bench_table3.bg", "Jm"),
+    ];
+    for file in models() {
+        let left_out = |name: &str| {
+            LEFT_OUT
+                .iter()
+                .any(|&(f, c)| f == file && (c == "*" || c == name))
+        };
+        if left_out("*") {
+            continue;
+        }
+        let case = Case::new(&file, "faults");
+        let Excitation { scale, factor, .. } = case.excitation;
+        let (at, rise) = (FAULT_AT * scale, FAULT_RISE * scale);
         let clean = case.simulate("clean.csv", &[]);
         let mut noise = case.noise(&case.peaks(&clean));
         let calibration = {
@@ -217,10 +284,10 @@ fn each_detectable_fault_is_named() {
         noise.push("seed 3".into());
         let mut faults = 0;
         for row in case.json["fsm"]["rows"].as_array().expect("rows") {
-            if row["Db"] != 1 {
+            let name = row["component"].as_str().expect("name");
+            if row["Db"] != 1 || left_out(name) {
                 continue;
             }
-            let name = row["component"].as_str().expect("name");
             let kind = row["kind"].as_str().expect("kind");
             let parameters: Vec<&str> = row["parameters"]
                 .as_array()
@@ -241,10 +308,10 @@ fn each_detectable_fault_is_named() {
                 .filter(|p| !shared.contains(**p))
                 .collect();
             let fault: Vec<String> = match kind {
-                "De" | "Df" => vec![format!("fault sensor {name} * 1.5 at {FAULT_AT}")],
+                "De" | "Df" => vec![format!("fault sensor {name} * 1.5 at {at}")],
                 _ if !own.is_empty() => own
                     .iter()
-                    .map(|p| format!("fault {p} = 2*{p} at {FAULT_AT}"))
+                    .map(|p| format!("fault {p} = {factor}*{p} from {at} to {}", at + rise))
                     .collect(),
                 // A source whose value is an input or a modulation, or a component whose
                 // parameters others share: no single fault of its own to inject.
@@ -256,12 +323,12 @@ fn each_detectable_fault_is_named() {
             let alarms = case.alarms(&record, &calibration);
             let early = alarms
                 .iter()
-                .filter(|(t, on, _)| *t < FAULT_AT - 0.05 && on.iter().any(|&a| a))
+                .filter(|(t, on, _)| *t < at - 0.05 * scale && on.iter().any(|&a| a))
                 .count();
             assert_eq!(early, 0, "{file}: {name}: alarms before its fault");
             let named = alarms
                 .iter()
-                .filter(|(t, _, c)| *t > FAULT_AT && c.iter().any(|c| c == name))
+                .filter(|(t, _, c)| *t > at && c.iter().any(|c| c == name))
                 .count();
             assert!(
                 named > 100,
