@@ -140,6 +140,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         .collect();
     let n = c.arrs.len();
     let mut raw = vec![0.0; names.len()];
+    let mut now: Vec<Option<f64>> = vec![None; n];
+    let mut on = vec![false; n];
     let mut drawn = Drawn::new(n, args.plot.is_some());
     // The rows are computed here and written as text by a second thread, chunk by chunk:
     // writing numbers costs about what computing them does.
@@ -149,8 +151,9 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         let head = header(&c);
         let writer = scope.spawn(move || {
             let mut out = head;
+            let mut named = Named::default();
             for chunk in receive {
-                chunk.write(&mut out, rows);
+                chunk.write(&mut out, rows, &mut named);
             }
             out
         });
@@ -159,25 +162,23 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             for (v, column) in raw.iter_mut().zip(&data.columns) {
                 *v = column[k];
             }
-            let Some((at, residuals, bounds)) = generator.push(t, &raw, args.adaptive) else {
+            let Some(e) = generator.push(t, &raw, args.adaptive) else {
                 continue;
             };
-            let now: Vec<Option<f64>> = levels
-                .iter()
-                .zip(&bounds)
-                .map(|(l, b)| l.map(|l| l + b))
-                .collect();
-            let on: Vec<bool> = residuals
-                .iter()
+            for (((now, on), alarm), ((l, b), &r)) in now
+                .iter_mut()
+                .zip(&mut on)
                 .zip(&mut alarms)
-                .zip(&now)
-                .map(|((&r, a), l)| match (a.as_mut(), l) {
-                    (Some(a), Some(l)) => a.update_with_level(r, *l),
+                .zip(levels.iter().zip(e.bounds).zip(e.residuals))
+            {
+                *now = l.map(|l| l + b);
+                *on = match (alarm.as_mut(), *now) {
+                    (Some(a), Some(l)) => a.update_with_level(r, l),
                     _ => false,
-                })
-                .collect();
-            chunk.push(at, &residuals, &now, &on);
-            drawn.push(at, &residuals, &now, &on);
+                };
+            }
+            chunk.push(e.at, e.residuals, &now, &on);
+            drawn.push(e.at, e.residuals, &now, &on);
             if chunk.time.len() == CHUNK_ROWS {
                 // The writer stops only when this side has: it cannot have gone away.
                 let _ = send.send(std::mem::take(&mut chunk));
@@ -272,9 +273,9 @@ fn calibrate(mut generator: Generator, healthy: &Data, rate: f64, margin: f64) -
         for (v, column) in raw.iter_mut().zip(&healthy.columns) {
             *v = column[k];
         }
-        if let Some((_, r, _)) = generator.push(t, &raw, false) {
-            seen.resize(r.len(), Vec::new());
-            for (s, r) in seen.iter_mut().zip(r) {
+        if let Some(e) = generator.push(t, &raw, false) {
+            seen.resize(e.residuals.len(), Vec::new());
+            for (s, r) in seen.iter_mut().zip(e.residuals) {
                 s.push(r.abs());
             }
         }
@@ -358,7 +359,7 @@ impl Chunk {
     }
 
     /// Appends the rows as CSV, with the candidates and the suspects of each row's alarms.
-    fn write(&self, out: &mut String, rows: &[(&str, Vec<bool>)]) {
+    fn write(&self, out: &mut String, rows: &[(&str, Vec<bool>)], named: &mut Named) {
         let n = self.residuals.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
             let span = k * n..(k + 1) * n;
@@ -377,13 +378,34 @@ impl Chunk {
             for &a in on {
                 out.push_str(if a { ",1" } else { ",0" });
             }
-            let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
-            out.push(',');
-            out.push_str(&bondgraph::candidates(fsm(), on).join(" "));
-            out.push(',');
-            out.push_str(&bondgraph::suspects(fsm(), on).join(" "));
+            out.push_str(named.cells(rows, on));
             out.push('\n');
         }
+    }
+}
+
+/// The candidates and suspects cells of the last alarm pattern: alarms change seldom, and
+/// naming them for every row would cost more than the rest of the row.
+#[derive(Default)]
+struct Named {
+    alarms: Vec<bool>,
+    cells: String,
+}
+
+impl Named {
+    /// `,candidates,suspects` for `on`.
+    fn cells(&mut self, rows: &[(&str, Vec<bool>)], on: &[bool]) -> &str {
+        if self.alarms != on || self.cells.is_empty() {
+            let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
+            self.cells = format!(
+                ",{},{}",
+                bondgraph::candidates(fsm(), on).join(" "),
+                bondgraph::suspects(fsm(), on).join(" ")
+            );
+            self.alarms.clear();
+            self.alarms.extend_from_slice(on);
+        }
+        &self.cells
     }
 }
 
@@ -581,7 +603,21 @@ pub struct Generator {
     values: Vec<f64>,
     auxiliary: Vec<f64>,
     int_values: Vec<(Id, f64)>,
+    /// Reused between samples, so that a sample allocates nothing.
     scratch: Vec<f64>,
+    buffer: Vec<f64>,
+    residuals: Vec<f64>,
+    bounds: Vec<f64>,
+}
+
+/// The residuals at one instant, as [`Generator::push`] gives them.
+pub struct Estimate<'g> {
+    /// The instant of the estimates: the sample's time minus the estimators' delay.
+    pub at: f64,
+    /// Each ARR's residual.
+    pub residuals: &'g [f64],
+    /// Each residual's bound from parameter uncertainty (zeros when not asked for).
+    pub bounds: &'g [f64],
 }
 
 impl Generator {
@@ -759,14 +795,16 @@ impl Generator {
             values: vec![0.0; readings.quantities.len()],
             auxiliary: vec![0.0; aux_index.len()],
             scratch: Vec::new(),
+            buffer: Vec::new(),
+            residuals: Vec::new(),
+            bounds: Vec::new(),
         })
     }
 
     /// Takes the raw samples at `t` (in [`Readings::raw`] order) and returns, once the windows
-    /// are full, the instant of the estimates (`t` minus the estimators' delay), the residuals
-    /// there, and with `bounds` each residual's bound from parameter uncertainty,
-    /// `Σ |∂r/∂θ| Δθ` (else zeros).
-    pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<(f64, Vec<f64>, Vec<f64>)> {
+    /// are full, the residuals at the instant of the estimates and, with `bounds`, each
+    /// residual's bound from parameter uncertainty, `Σ |∂r/∂θ| Δθ` (else zeros).
+    pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<Estimate<'_>> {
         let mut ready = true;
         for (k, (e, &x)) in self.estimators.iter_mut().zip(raw).enumerate() {
             match e.push(x) {
@@ -789,40 +827,42 @@ impl Generator {
         }
         let at = t - self.delay;
         let mut scratch = std::mem::take(&mut self.scratch);
+        let mut buffer = std::mem::take(&mut self.buffer);
         if !self.nonlinear.is_empty() {
             self.update_integrals();
-            let v =
-                self.integrands
-                    .values(|l| self.leaf(l, at), |id| self.integral(id), &mut scratch);
-            for ((i, trapezoid), v) in self.nonlinear.iter_mut().zip(v) {
+            self.evaluate(&self.integrands, at, &mut scratch, &mut buffer);
+            for ((i, trapezoid), &v) in self.nonlinear.iter_mut().zip(&buffer) {
                 self.values[*i] = trapezoid.push(at, v);
             }
         }
         self.update_integrals();
         for j in 0..self.auxiliaries.len() {
-            let v = self.auxiliaries[j].values(
-                |l| self.leaf(l, at),
-                |id| self.integral(id),
-                &mut scratch,
-            );
-            self.auxiliary[j] = v.first().copied().unwrap_or(f64::NAN);
+            self.evaluate(&self.auxiliaries[j], at, &mut scratch, &mut buffer);
+            self.auxiliary[j] = buffer.first().copied().unwrap_or(f64::NAN);
         }
-        let residuals =
-            self.arrs
-                .values(|l| self.leaf(l, at), |id| self.integral(id), &mut scratch);
-        let mut bound = vec![0.0; residuals.len()];
+        let mut residuals = std::mem::take(&mut self.residuals);
+        self.evaluate(&self.arrs, at, &mut scratch, &mut residuals);
+        self.bounds.clear();
+        self.bounds.resize(residuals.len(), 0.0);
         if bounds && !self.weights.is_empty() {
-            let s = self.sensitivities.values(
-                |l| self.leaf(l, at),
-                |id| self.integral(id),
-                &mut scratch,
-            );
-            for (&(k, delta), s) in self.weights.iter().zip(s) {
-                bound[k] += s.abs() * delta;
+            self.evaluate(&self.sensitivities, at, &mut scratch, &mut buffer);
+            for (&(k, delta), s) in self.weights.iter().zip(&buffer) {
+                self.bounds[k] += s.abs() * delta;
             }
         }
         self.scratch = scratch;
-        Some((at, residuals, bound))
+        self.buffer = buffer;
+        self.residuals = residuals;
+        Some(Estimate {
+            at,
+            residuals: &self.residuals,
+            bounds: &self.bounds,
+        })
+    }
+
+    /// The roots of `tape` at `at` into `out`.
+    fn evaluate(&self, tape: &Tape<Leaf>, at: f64, scratch: &mut Vec<f64>, out: &mut Vec<f64>) {
+        tape.values_into(|l| self.leaf(l, at), |id| self.integral(id), scratch, out);
     }
 
     fn update_integrals(&mut self) {
