@@ -107,7 +107,83 @@ pub fn emit(c: &Compiled) -> String {
     arrs(&mut out, c);
     out.push('\n');
     fsm_table(&mut out, c);
+    if !c.arrs.is_empty() {
+        out.push('\n');
+        isolability(&mut out, c);
+    }
     out
+}
+
+/// Above this many components the isolability matrix is left to the classes, which say the
+/// same (it is block-diagonal by class).
+pub const DENSE_ISOLABILITY_LIMIT: usize = 30;
+
+/// The fault classes with the ARRs and with every residual possible, then the matrix.
+fn isolability(out: &mut String, c: &Compiled) {
+    let i = &c.isolability;
+    let _ = writeln!(
+        out,
+        "fault classes (single faults; the components of a class cannot be told apart)"
+    );
+    classes(out, c, &i.selected, "with these ARRs");
+    classes(
+        out,
+        c,
+        &i.possible,
+        "with every residual the equations allow (structural)",
+    );
+    let n = c.components.len();
+    if n == 0 || n > DENSE_ISOLABILITY_LIMIT {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "isolability matrix (row told from column: 1 by these ARRs, + only by another residual, 0 never)"
+    );
+    let width = c
+        .components
+        .values()
+        .map(|r| r.name.len())
+        .max()
+        .unwrap_or(0);
+    let handles: Vec<_> = c.components.iter().map(|(h, _)| h).collect();
+    let mut header = format!("  {:<width$}", "");
+    for h in &handles {
+        let _ = write!(header, " {}", c.components[*h].name);
+    }
+    let _ = writeln!(out, "{}", header.trim_end());
+    for &a in &handles {
+        let mut line = format!("  {:<width$}", c.components[a].name);
+        for &b in &handles {
+            let cell = if i.selected.isolable(a, b) {
+                "1"
+            } else if i.possible.isolable(a, b) {
+                "+"
+            } else {
+                "0"
+            };
+            let w = c.components[b].name.len();
+            let _ = write!(line, " {cell:>w$}");
+        }
+        let _ = writeln!(out, "{line}");
+    }
+}
+
+fn classes(out: &mut String, c: &Compiled, k: &bondgraph_core::FaultClasses, title: &str) {
+    let _ = writeln!(out, "  {title}: {} classes", k.classes.len());
+    let names = |members: &[bondgraph_core::Handle<bondgraph_core::Component>]| {
+        members
+            .iter()
+            .map(|&h| c.components[h].name.as_str())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    for (n, class) in k.classes.iter().enumerate() {
+        let _ = writeln!(out, "    {:>3}  {}", n + 1, names(class));
+    }
+    if !k.undetectable.is_empty() {
+        let _ = writeln!(out, "    undetectable: {}", names(&k.undetectable));
+    }
 }
 
 fn arrs(out: &mut String, c: &Compiled) {

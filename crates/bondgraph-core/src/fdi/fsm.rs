@@ -61,6 +61,8 @@ pub struct Fsm {
     pub residuals: Vec<String>,
     /// Rows: elements in declaration order, then modulations, then detectors.
     pub rows: Vec<Row>,
+    /// The classes every residual the equations allow reaches (by row).
+    pub possible: super::isolability::Classes,
 }
 
 /// The parameters each `let` uses, directly or through other `let`s, computed once in
@@ -199,6 +201,7 @@ impl Fsm {
     /// The matrix of a diagnosed model, in time linear in the total size of the ARRs' cones.
     pub fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
         let components = components(model);
+        let possible = super::isolability::structural(&diagnosis.causal.system, &components);
         let mut node_row: HashMap<NodeId, usize> = HashMap::new();
         let mut let_row: HashMap<LetId, usize> = HashMap::new();
         for (i, c) in components.iter().enumerate() {
@@ -275,6 +278,7 @@ impl Fsm {
                 .map(|i| format!("r{i}"))
                 .collect(),
             rows,
+            possible,
         }
     }
 }

@@ -3,10 +3,13 @@
 mod arr;
 pub mod auxiliary;
 mod basis;
+mod dominators;
 pub mod eliminate;
 mod fsm;
+pub mod isolability;
 mod operator;
 mod sensitivity;
+pub mod structure;
 
 pub use arr::{diagnose, Diagnosis};
 pub use fsm::{ComponentKind, Fsm};

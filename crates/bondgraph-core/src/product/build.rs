@@ -52,6 +52,7 @@ pub(crate) fn build(
         auxiliaries: Arena::default(),
         diagnosed: false,
         components: Arena::default(),
+        isolability: Isolability::default(),
         causality: Vec::new(),
         graph: Graph::default(),
         diagnostics: Diagnostics::default(),
@@ -397,6 +398,20 @@ impl<'m> Builder<'m> {
             }
         }
         isolability(&mut c.components);
+        let marks: Vec<Vec<usize>> = c.components.values().map(|r| r.marks.clone()).collect();
+        c.isolability = Isolability {
+            selected: fault_classes(&fdi::isolability::of_signatures(&marks)),
+            possible: fault_classes(&fsm.possible),
+        };
+    }
+}
+
+/// Component indices as handles.
+fn fault_classes(c: &fdi::isolability::Classes) -> FaultClasses {
+    let handles = |k: &[usize]| k.iter().map(|&i| Handle::new(i)).collect();
+    FaultClasses {
+        classes: c.classes.iter().map(|k| handles(k)).collect(),
+        undetectable: handles(&c.undetectable),
     }
 }
 

@@ -280,6 +280,46 @@ impl Component {
     }
 }
 
+/// Single faults grouped by what tells them apart: the fault classes. A fault is isolable
+/// from another when it is detectable and in another class; the isolability matrix is
+/// therefore block-diagonal, one block per class (see [`FaultClasses::isolable`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FaultClasses {
+    /// The detectable components, in classes that nothing tells apart: each class in row
+    /// order, the classes by their first member.
+    pub classes: Vec<Vec<Handle<Component>>>,
+    /// The components no residual shows.
+    pub undetectable: Vec<Handle<Component>>,
+}
+
+impl FaultClasses {
+    /// The class of a component, by position in [`FaultClasses::classes`]; `None` if it is
+    /// undetectable.
+    pub fn class_of(&self, c: Handle<Component>) -> Option<usize> {
+        self.classes.iter().position(|k| k.contains(&c))
+    }
+
+    /// Whether a fault of `a` can be told from one of `b`: `a` is detectable and its class
+    /// is not `b`'s. An undetectable fault is told from nothing.
+    pub fn isolable(&self, a: Handle<Component>, b: Handle<Component>) -> bool {
+        match (self.class_of(a), self.class_of(b)) {
+            (Some(x), Some(y)) => x != y,
+            (Some(_), None) => true,
+            (None, _) => false,
+        }
+    }
+}
+
+/// What the residuals can tell apart.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Isolability {
+    /// With the ARRs in [`Compiled::arrs`] (their signatures).
+    pub selected: FaultClasses,
+    /// With every residual the model's equations allow, by a structural analysis: the most
+    /// any set of residuals from these detectors can reach.
+    pub possible: FaultClasses,
+}
+
 /// Which causality a report is about.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -408,6 +448,8 @@ pub struct Compiled {
     pub diagnosed: bool,
     /// The rows of the fault signature matrix.
     pub components: Arena<Component>,
+    /// The fault classes, with the ARRs and with every residual possible.
+    pub isolability: Isolability,
     /// The causality reports of the modes that were run.
     pub causality: Vec<CausalityReport>,
     /// The bond graph.
