@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use bondgraph_core::diagnostic::Severity;
-use bondgraph_core::{Compiled, Printer, Signal};
+use bondgraph_core::{Compiled, Component, FaultClasses, Handle, Printer, Signal};
 
 use crate::names;
 
@@ -87,6 +87,7 @@ pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
     state_space(&mut out, c);
     arrs(&mut out, c);
     fsm(&mut out, c, form);
+    isolability(&mut out, c);
     diagnostics(&mut out, c);
     out.push_str("}\n");
     out
@@ -221,6 +222,27 @@ fn fsm(out: &mut String, c: &Compiled, form: FsmForm) {
         "  \"fsm\": {{\n    \"residuals\": {},\n    \"rows\": [{}\n    ]\n  }},",
         list(c.arrs.iter().map(|a| string(&a.name))),
         rows.join(",")
+    );
+}
+
+/// The fault classes with the ARRs (`selected`) and with every residual possible
+/// (`possible`); the isolability matrix follows from them and is not written.
+fn isolability(out: &mut String, c: &Compiled) {
+    let classes = |k: &FaultClasses| {
+        let names = |members: &[Handle<Component>]| {
+            list(members.iter().map(|&h| string(&c.components[h].name)))
+        };
+        format!(
+            "{{\"classes\": {}, \"undetectable\": {}}}",
+            list(k.classes.iter().map(|class| names(class))),
+            names(&k.undetectable)
+        )
+    };
+    let _ = writeln!(
+        out,
+        "  \"isolability\": {{\"selected\": {}, \"possible\": {}}},",
+        classes(&c.isolability.selected),
+        classes(&c.isolability.possible)
     );
 }
 

@@ -249,8 +249,10 @@ fn broken(head: &str, terms: &[(bool, String)], tail: &str) -> String {
     out
 }
 
+/// The FSM as the paper's Table 2, with each component's fault class: with these ARRs, and
+/// with every residual the model's equations allow (a table note says which is which).
 fn fsm(out: &mut String, c: &Compiled) {
-    let cols = "l".to_string() + &"c".repeat(2 + c.arrs.len());
+    let cols = "l".to_string() + &"c".repeat(4 + c.arrs.len());
     let _ = writeln!(
         out,
         "% Fault signature matrix\n\\begin{{tabular}}{{{cols}}}\n\\hline"
@@ -259,8 +261,13 @@ fn fsm(out: &mut String, c: &Compiled) {
     for arr in &c.arrs {
         let _ = write!(header, " & {}", escape(&arr.name));
     }
+    header.push_str(" & Class & Class$^*$");
     let _ = writeln!(out, "{header} \\\\\n\\hline");
-    for row in c.components.values() {
+    let class = |k: &bondgraph_core::FaultClasses, h| {
+        k.class_of(h)
+            .map_or("--".to_string(), |n| (n + 1).to_string())
+    };
+    for (h, row) in c.components.iter() {
         let bit = |b: bool| if b { "1" } else { "0" };
         let mut line = format!(
             "{} ({}) & {} & {}",
@@ -272,9 +279,20 @@ fn fsm(out: &mut String, c: &Compiled) {
         for s in row.signature(c.arrs.len()) {
             let _ = write!(line, " & {}", bit(s));
         }
+        let _ = write!(
+            line,
+            " & {} & {}",
+            class(&c.isolability.selected, h),
+            class(&c.isolability.possible, h)
+        );
         let _ = writeln!(out, "{line} \\\\");
     }
-    out.push_str("\\hline\n\\end{tabular}\n");
+    let _ = writeln!(
+        out,
+        "\\hline\n\\end{{tabular}}\n\\par\\smallskip{{\\footnotesize Class: the {} fault classes these ARRs tell apart; Class$^*$: the {} that residuals of the model's other equation sets could; --: undetectable.\\par}}",
+        c.isolability.selected.classes.len(),
+        c.isolability.possible.classes.len()
+    );
 }
 
 /// Text safe in LaTeX's text mode.
