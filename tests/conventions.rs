@@ -19,6 +19,7 @@ fn canonical() -> Options {
     Options {
         derive: Derive::Everything,
         simplify: None,
+        ..Options::default()
     }
 }
 

@@ -67,6 +67,11 @@ fn every_model_checks_and_every_emitter_is_snapshotted() {
             &emit(&model, &["--emit", "json", "--fsm", "sparse"]),
         );
         insta::assert_snapshot!("json", json);
+        // The residuals beyond one per detector, and what they tell apart.
+        insta::assert_snapshot!(
+            "best",
+            emit(&model, &["--emit", "text", "--residuals", "best"])
+        );
         compile_latex(&model, &emit(&model, &["--emit", "latex", "--standalone"]));
         let causality = bgc(&["causality", &model]);
         assert_eq!(code(&causality), 0);
@@ -103,12 +108,17 @@ fn schema(model: &str, text: &str) {
             assert!(arr[key].is_string(), "{model}: ARR{} lacks {key}", i + 1);
         }
         assert!(arr["components"].is_array());
+        assert!(
+            arr["without"].as_array().is_some_and(Vec::is_empty),
+            "{model}: one detector's ARR of the whole model"
+        );
         for r in arr["reads"].as_array().expect("reads") {
             assert!(
                 r["signal"].is_string() && r["orders"].is_array() && r["integral"].is_boolean()
             );
         }
     }
+    isolability(model, &v);
     for row in v["fsm"]["rows"].as_array().expect("rows") {
         let signature = row["signature"].as_array().expect("signature");
         assert_eq!(signature.len(), residuals.len());
@@ -118,6 +128,55 @@ fn schema(model: &str, text: &str) {
             assert!(row[key].is_string());
         }
         assert!(row["parameters"].is_array() && row["signals"].is_array());
+    }
+}
+
+/// The classes partition the FSM's rows, the selected ones are the signatures', and the
+/// structural ones are at least as fine.
+fn isolability(model: &str, v: &serde_json::Value) {
+    let iso = &v["isolability"];
+    assert_eq!(iso["residuals"], "per-sensor");
+    assert!(iso["candidates"].is_null());
+    let rows: Vec<(&str, &serde_json::Value)> = v["fsm"]["rows"]
+        .as_array()
+        .expect("rows")
+        .iter()
+        .map(|r| (r["component"].as_str().expect("name"), &r["signature"]))
+        .collect();
+    let class_of = |set: &str| {
+        let mut of = std::collections::HashMap::new();
+        for (k, class) in iso[set]["classes"]
+            .as_array()
+            .expect("classes")
+            .iter()
+            .enumerate()
+        {
+            for name in class.as_array().expect("class") {
+                assert!(of.insert(name.as_str().expect("name"), Some(k)).is_none());
+            }
+        }
+        for name in iso[set]["undetectable"].as_array().expect("undetectable") {
+            assert!(of.insert(name.as_str().expect("name"), None).is_none());
+        }
+        assert_eq!(of.len(), rows.len(), "{model}: {set} covers every row once");
+        of
+    };
+    let (selected, possible) = (class_of("selected"), class_of("possible"));
+    for &(a, sa) in &rows {
+        for &(b, sb) in &rows {
+            let detected = sa.as_array().expect("signature").iter().any(|x| x == 1);
+            assert_eq!(
+                detected && selected[a] == selected[b],
+                detected && sa == sb,
+                "{model}: {a} and {b}"
+            );
+            if possible[a].is_some() && possible[a] == possible[b] {
+                assert!(
+                    selected[a] == selected[b],
+                    "{model}: the ARRs tell {a} from {b}, the structure cannot"
+                );
+            }
+        }
     }
 }
 

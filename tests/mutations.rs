@@ -132,6 +132,7 @@ fn check_located(name: &str, what: &str, bytes: &[u8]) {
     let options = Options {
         derive: Derive::Everything,
         simplify: None,
+        ..Options::default()
     };
     let diagnostics = match bondgraph_core::compile(text, name, &options) {
         Ok(out) => {
@@ -219,6 +220,7 @@ fn mutated_models_never_crash_the_library_and_every_error_is_located() {
             let options = Options {
                 derive: Derive::Nothing,
                 simplify: None,
+                ..Options::default()
             };
             if std::str::from_utf8(&mutant).map_or(true, |t| {
                 bondgraph_core::compile(t, &name, &options).is_err()

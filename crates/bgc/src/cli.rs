@@ -5,7 +5,9 @@ use std::process::ExitCode;
 
 use std::time::Duration;
 
-use bondgraph_core::{Compiled, Derive, Limits, Options, Stop, Unsimplified, VerifyOptions};
+use bondgraph_core::{
+    Compiled, Derive, Limits, Options, ResidualSet, Stop, Unsimplified, VerifyOptions,
+};
 use clap::{Parser, Subcommand, ValueEnum};
 
 use crate::report;
@@ -42,8 +44,35 @@ pub struct Args {
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
 
+    /// Which residuals to derive: one ARR per detector (as the reference paper does), the
+    /// smallest set found that tells apart every fault class bgc can reach (`best`), or
+    /// every candidate with a signature of its own (`all`).
+    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+    residuals: ResidualsArg,
+
     #[command(flatten)]
     simplify: SimplifyArgs,
+}
+
+/// `--residuals`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ResidualsArg {
+    /// One ARR per detector.
+    PerSensor,
+    /// The smallest set found that reaches the most isolability the candidates allow.
+    Best,
+    /// Every candidate with a signature of its own.
+    All,
+}
+
+impl ResidualsArg {
+    fn set(self) -> ResidualSet {
+        match self {
+            ResidualsArg::PerSensor => ResidualSet::PerSensor,
+            ResidualsArg::Best => ResidualSet::Best,
+            ResidualsArg::All => ResidualSet::All,
+        }
+    }
 }
 
 /// How expressions are written: the e-graph search for their shortest form.
@@ -132,6 +161,9 @@ enum Command {
         /// The step, in seconds.
         #[arg(long, value_name = "H", default_value_t = VerifyOptions::default().step)]
         step: f64,
+        /// Which residuals to derive and check (see `bgc --help`).
+        #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+        residuals: ResidualsArg,
         /// Write the table to FILE instead of standard output.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
@@ -221,11 +253,17 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 state_scale,
                 steps,
                 step,
+                residuals,
                 output,
             }),
             _,
         ) => {
-            let c = compile(&model, Derive::Everything, args.simplify.limits()?)?;
+            let c = compile_with(
+                &model,
+                Derive::Everything,
+                args.simplify.limits()?,
+                residuals.set(),
+            )?;
             succeeded(&c)?;
             let options = VerifyOptions {
                 input_scale,
@@ -263,7 +301,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Target::Dot => None,
                 _ => args.simplify.limits()?,
             };
-            let c = compile(&model, derive, limits)?;
+            let c = compile_with(&model, derive, limits, args.residuals.set())?;
             let text = match args.emit {
                 Target::Text => bondgraph_codegen::text::emit(&c),
                 Target::Json => bondgraph_codegen::json::emit_with(
@@ -326,8 +364,22 @@ pub(crate) fn compile(
     derive: Derive,
     simplify: Option<Limits>,
 ) -> Result<Compiled, Failure> {
+    compile_with(path, derive, simplify, ResidualSet::PerSensor)
+}
+
+/// [`compile`] with the residual set asked for.
+pub(crate) fn compile_with(
+    path: &Path,
+    derive: Derive,
+    simplify: Option<Limits>,
+    residuals: ResidualSet,
+) -> Result<Compiled, Failure> {
     let (name, bytes) = read(path)?;
-    let options = Options { derive, simplify };
+    let options = Options {
+        derive,
+        simplify,
+        residuals,
+    };
     let out = report::compile(&name, bytes, &options).ok_or(Failure::Invalid)?;
     warn_unsimplified(&out.unsimplified);
     Ok(out.compiled)

@@ -80,6 +80,7 @@ mod tests {
         let options = Options {
             derive,
             simplify: None,
+            ..Options::default()
         };
         match bondgraph_core::compile(text, "test.bg", &options) {
             Ok(out) => out.compiled,

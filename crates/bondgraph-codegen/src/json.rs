@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 
 use bondgraph_core::diagnostic::Severity;
-use bondgraph_core::{Compiled, Component, FaultClasses, Handle, Printer, Signal};
+use bondgraph_core::{Compiled, Component, FaultClasses, Handle, Printer, ResidualSet, Signal};
 
 use crate::names;
 
@@ -169,13 +169,14 @@ fn arrs(out: &mut String, c: &Compiled) {
                 )
             });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"reads\": {}, \"sensitivities\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"sensitivities\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
                 string(&printer.text(arr.expr)),
                 list(auxiliaries),
                 list(components),
+                list(arr.without.iter().map(|h| string(&c.components[*h].name))),
                 list(reads),
                 arr.sensitivities.as_ref().map_or("null".to_string(), |s| {
                     let entries: Vec<String> = s
@@ -238,10 +239,20 @@ fn isolability(out: &mut String, c: &Compiled) {
             names(&k.undetectable)
         )
     };
+    let set = match c.isolability.residuals {
+        ResidualSet::PerSensor => "per-sensor",
+        ResidualSet::Best => "best",
+        ResidualSet::All => "all",
+    };
     let _ = writeln!(
         out,
-        "  \"isolability\": {{\"selected\": {}, \"possible\": {}}},",
+        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}}},",
+        string(set),
         classes(&c.isolability.selected),
+        c.isolability
+            .candidates
+            .as_ref()
+            .map_or("null".to_string(), classes),
         classes(&c.isolability.possible)
     );
 }

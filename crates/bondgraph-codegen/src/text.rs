@@ -126,12 +126,38 @@ fn isolability(out: &mut String, c: &Compiled) {
         "fault classes (single faults; the components of a class cannot be told apart)"
     );
     classes(out, c, &i.selected, "with these ARRs");
+    if let Some(candidates) = &i.candidates {
+        classes(
+            out,
+            c,
+            candidates,
+            "with every candidate residual bgc could write",
+        );
+    }
     classes(
         out,
         c,
         &i.possible,
         "with every residual the equations allow (structural)",
     );
+    let reached = i.candidates.as_ref().unwrap_or(&i.selected).classes.len();
+    if i.capped {
+        let _ = writeln!(
+            out,
+            "  (more than {} classes: bgc looks for residuals beyond one per detector only in smaller models)",
+            bondgraph_core::MAX_DERIVATIONS
+        );
+    } else if i.candidates.is_none() && reached < i.possible.classes.len() {
+        let _ = writeln!(
+            out,
+            "  (`--residuals best` looks for residuals that tell more classes apart)"
+        );
+    } else if reached < i.possible.classes.len() {
+        let _ = writeln!(
+            out,
+            "  (the classes no candidate tells apart need a residual bgc does not derive yet: one that solves a law for a variable it holds nonlinearly, or that eliminates a component's parameter between its own equations, as p·q = F·v does a TF's ratio)"
+        );
+    }
     let n = c.components.len();
     if n == 0 || n > DENSE_ISOLABILITY_LIMIT {
         return;
@@ -207,9 +233,19 @@ fn arrs(out: &mut String, c: &Compiled) {
     }
     for arr in &c.arrs {
         let sensor = arr.sensor.map_or("-", |s| c.sensors[s].name.as_str());
+        let without = if arr.without.is_empty() {
+            String::new()
+        } else {
+            let names: Vec<&str> = arr
+                .without
+                .iter()
+                .map(|&h| c.components[h].name.as_str())
+                .collect();
+            format!(", without {}", names.join(" "))
+        };
         let _ = writeln!(
             out,
-            "  {} (junction {}, sensor {sensor}):\n    {} = 0",
+            "  {} (junction {}, sensor {sensor}{without}):\n    {} = 0",
             arr.name,
             arr.junction,
             printer.text(arr.expr)

@@ -17,6 +17,7 @@ fn parse_and_validate(c: &mut Criterion) {
         let options = Options {
             derive: Derive::Nothing,
             simplify: None,
+            ..Options::default()
         };
         assert!(compile(&text, "chain.bg", &options).is_ok());
         group.throughput(Throughput::Elements(elements as u64));

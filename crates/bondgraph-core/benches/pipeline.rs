@@ -17,6 +17,7 @@ fn run(text: &str, derive: Derive, simplify: bool) -> Compiled {
     let options = Options {
         derive,
         simplify: simplify.then(Default::default),
+        ..Options::default()
     };
     match compile(text, "chain.bg", &options) {
         Ok(out) => out.compiled,

@@ -2,6 +2,7 @@
 
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::display::Unsimplified;
+use crate::fdi::ResidualSet;
 use crate::graph::{first_too_large, MAX_EXPANDED};
 use crate::pipeline::analyse;
 use crate::product::{build, Compiled};
@@ -25,6 +26,8 @@ pub struct Options {
     pub derive: Derive,
     /// The e-graph's limits for writing expressions; `None` keeps the canonical forms.
     pub simplify: Option<Limits>,
+    /// Which residuals to derive and keep.
+    pub residuals: ResidualSet,
 }
 
 impl Default for Options {
@@ -32,6 +35,7 @@ impl Default for Options {
         Options {
             derive: Derive::Everything,
             simplify: Some(Limits::default()),
+            residuals: ResidualSet::default(),
         }
     }
 }
@@ -84,7 +88,11 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
             unsimplified: Vec::new(),
         });
     }
-    let mut analysis = analyse(&model, options.derive == Derive::Everything);
+    let mut analysis = analyse(
+        &model,
+        options.derive == Derive::Everything,
+        options.residuals,
+    );
     if options.simplify.is_none() {
         analysis.normalise();
     }

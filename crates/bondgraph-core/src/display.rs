@@ -41,10 +41,17 @@ impl Analysis<'_> {
             }
             best
         };
-        if let Some((d, _)) = &mut self.diagnosis {
-            let mut simplifier = Simplifier::default();
-            for arr in &mut d.arrs {
-                arr.residual = shorter(&mut d.causal.system.pool, &mut simplifier, arr.residual);
+        if let Some(diagnosed) = &mut self.diagnosis {
+            let keep: Vec<(usize, usize)> =
+                diagnosed.chosen.iter().map(|c| (c.source, c.arr)).collect();
+            for (source, d) in diagnosed.sources.iter_mut().enumerate() {
+                let mut simplifier = Simplifier::default();
+                for (k, arr) in d.arrs.iter_mut().enumerate() {
+                    if keep.contains(&(source, k)) {
+                        arr.residual =
+                            shorter(&mut d.causal.system.pool, &mut simplifier, arr.residual);
+                    }
+                }
             }
         }
         let mut simplifier = Simplifier::default();
@@ -109,10 +116,23 @@ impl Analysis<'_> {
             }
             r.expr
         };
-        if let Some((d, _)) = &mut self.diagnosis {
-            let pool = &mut d.causal.system.pool;
-            for arr in &mut d.arrs {
-                arr.residual = choose(pool, &mut simplifier, arr.residual, &|| arr.name.clone());
+        if let Some(diagnosed) = &mut self.diagnosis {
+            let keep: Vec<(usize, usize)> =
+                diagnosed.chosen.iter().map(|c| (c.source, c.arr)).collect();
+            for (source, d) in diagnosed.sources.iter_mut().enumerate() {
+                let pool = &mut d.causal.system.pool;
+                // A simplifier remembers expressions of one pool.
+                let mut fresh = Simplifier::default();
+                let simplifier = if source == 0 {
+                    &mut simplifier
+                } else {
+                    &mut fresh
+                };
+                for (k, arr) in d.arrs.iter_mut().enumerate() {
+                    if keep.contains(&(source, k)) {
+                        arr.residual = choose(pool, simplifier, arr.residual, &|| arr.name.clone());
+                    }
+                }
             }
         }
         let state = &mut self.state;

@@ -24,6 +24,8 @@ mod verify;
 pub use compile::{compile, without_bom, Derive, Options, Output};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
+pub use fdi::candidates::MAX_DERIVATIONS;
+pub use fdi::ResidualSet;
 pub use product::*;
 pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 #[cfg(feature = "simulate")]

@@ -2,6 +2,9 @@
 //! their expressions are shown is `display.rs`, how the product is built `product/`.
 
 use crate::causality::{assign, Causal, Mode};
+use crate::fdi::candidates::{self, Candidate, ResidualSet};
+use crate::fdi::isolability::Classes;
+use crate::fdi::Component;
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::BondGraph;
 use crate::sim::{state_space_of, StateSpace};
@@ -15,19 +18,68 @@ pub(crate) struct Analysis<'m> {
     /// State equations.
     pub state: StateSpace,
     /// Diagnosis causality, ARRs and the FSM, when they were asked for.
-    pub diagnosis: Option<(Diagnosis, Fsm)>,
+    pub diagnosis: Option<Diagnosed>,
+}
+
+/// The residuals derived, and those kept.
+pub(crate) struct Diagnosed {
+    /// The derivations: the whole model first, then (with candidates) one per fault class
+    /// left out.
+    pub sources: Vec<Diagnosis>,
+    /// The FSM of the whole model's ARRs: its components and the structural classes.
+    pub fsm: Fsm,
+    /// The residuals kept, in order, each with the components it shows.
+    pub chosen: Vec<Candidate>,
+    /// The classes every candidate together tells apart, when candidates were derived.
+    pub candidates: Option<Classes>,
+    /// Which residuals were asked for.
+    pub set: ResidualSet,
+    /// Whether the model had too many classes to look for candidates.
+    pub capped: bool,
+}
+
+impl Diagnosed {
+    /// The whole model's derivation.
+    pub fn base(&self) -> &Diagnosis {
+        &self.sources[0]
+    }
+}
+
+/// The ARRs of `model`, with candidates beyond one per detector unless `set` asks only for
+/// those.
+fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
+    let d = diagnose(model);
+    let fsm = Fsm::new(model, &d);
+    let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
+    let possible = if set == ResidualSet::PerSensor {
+        // One derivation only: the whole model's ARRs, as they are.
+        Classes::default()
+    } else {
+        fsm.possible.clone()
+    };
+    let found = candidates::candidates(model, d, &components, &possible);
+    let all: Vec<&Candidate> = found.list.iter().collect();
+    let classes = candidates::classes_of(&all, components.len());
+    let chosen = candidates::select(&found.list, components.len(), set)
+        .into_iter()
+        .map(|k| found.list[k].clone())
+        .collect();
+    Diagnosed {
+        sources: found.sources,
+        fsm,
+        chosen,
+        candidates: (set != ResidualSet::PerSensor).then_some(classes),
+        set,
+        capped: found.capped,
+    }
 }
 
 /// Runs the pipeline on a valid model: the state equations always, the ARRs and FSM when
 /// `diagnose` says so.
-pub(crate) fn analyse(model: &BondGraph, with_arrs: bool) -> Analysis<'_> {
+pub(crate) fn analyse(model: &BondGraph, with_arrs: bool, set: ResidualSet) -> Analysis<'_> {
     let integral = assign(model, Mode::Integral);
     let state = state_space_of(model, &integral);
-    let diagnosis = with_arrs.then(|| {
-        let d = diagnose(model);
-        let fsm = Fsm::new(model, &d);
-        (d, fsm)
-    });
+    let diagnosis = with_arrs.then(|| diagnosed(model, set));
     Analysis {
         model,
         integral,

@@ -55,6 +55,20 @@ pub fn assign(model: &BondGraph, mode: Mode) -> Causal {
     }
 }
 
+/// Orients the equations of `model` for diagnosis with those `drop` accepts left out: the
+/// model without some components, whose redundant equations are residuals that a fault of
+/// those components cannot reach.
+pub fn assign_without(model: &BondGraph, drop: &dyn Fn(&equations::Equation) -> bool) -> Causal {
+    let mut system = equations::build(model, Mode::Diagnosis);
+    system.equations.retain(|e| !drop(e));
+    let solved = solve::solve(model, &mut system, Mode::Diagnosis);
+    Causal {
+        mode: Mode::Diagnosis,
+        system,
+        solved,
+    }
+}
+
 impl Causal {
     /// The value of an unknown, if it was computed.
     pub fn value(&self, var: Var) -> Option<ExprId> {

@@ -5,8 +5,8 @@ use std::collections::BTreeSet;
 
 use super::auxiliary::{self, Auxiliary};
 use super::eliminate::eliminate;
-use crate::causality::equations::VarId;
-use crate::causality::{assign, report, Causal, Mode};
+use crate::causality::equations::{Equation, VarId};
+use crate::causality::{assign, assign_without, report, Causal, Mode};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf};
@@ -47,7 +47,16 @@ pub struct Diagnosis {
 
 /// Derives the ARRs of `model`.
 pub fn diagnose(model: &BondGraph) -> Diagnosis {
-    let mut causal = assign(model, Mode::Diagnosis);
+    from_causal(model, assign(model, Mode::Diagnosis))
+}
+
+/// Derives the ARRs of `model` with the equations `drop` accepts left out.
+pub fn diagnose_without(model: &BondGraph, drop: &dyn Fn(&Equation) -> bool) -> Diagnosis {
+    from_causal(model, assign_without(model, drop))
+}
+
+/// The ARRs of equations in diagnosis causality.
+fn from_causal(model: &BondGraph, mut causal: Causal) -> Diagnosis {
     let redundant = causal.redundant();
     let mut eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
     super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);

@@ -197,26 +197,31 @@ fn deep_lets(model: &BondGraph, expr: &SignalExpr) -> BTreeSet<LetId> {
     out
 }
 
-impl Fsm {
-    /// The matrix of a diagnosed model, in time linear in the total size of the ARRs' cones.
-    pub fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
-        let components = components(model);
-        let possible = super::isolability::structural(&diagnosis.causal.system, &components);
-        let mut node_row: HashMap<NodeId, usize> = HashMap::new();
-        let mut let_row: HashMap<LetId, usize> = HashMap::new();
-        for (i, c) in components.iter().enumerate() {
-            if let Some(n) = c.node {
-                node_row.insert(n, i);
-            }
-            if let Some(l) = c.modulation {
-                let_row.insert(l, i);
-            }
+/// For each ARR of `diagnosis`, the rows of `components` whose fault it can show, in
+/// increasing order; in time linear in the total size of the ARRs' cones.
+pub fn arr_rows(
+    model: &BondGraph,
+    diagnosis: &Diagnosis,
+    components: &[Component],
+) -> Vec<Vec<usize>> {
+    let mut node_row: HashMap<NodeId, usize> = HashMap::new();
+    let mut let_row: HashMap<LetId, usize> = HashMap::new();
+    for (i, c) in components.iter().enumerate() {
+        if let Some(n) = c.node {
+            node_row.insert(n, i);
         }
-        let mut marks: Vec<Vec<usize>> = vec![Vec::new(); components.len()];
-        for (k, arr) in diagnosis.arrs.iter().enumerate() {
+        if let Some(l) = c.modulation {
+            let_row.insert(l, i);
+        }
+    }
+    let pool = &diagnosis.causal.system.pool;
+    diagnosis
+        .arrs
+        .iter()
+        .map(|arr| {
             // What the simplified residual still contains.
             let (mut sensors, mut params) = (BTreeSet::new(), BTreeSet::new());
-            for leaf in diagnosis.causal.system.pool.leaves(arr.expanded) {
+            for leaf in pool.leaves(arr.expanded) {
                 match leaf {
                     Leaf::Sensor(s, _) => {
                         sensors.insert(s);
@@ -230,7 +235,6 @@ impl Fsm {
             // A component with parameters of its own is marked only where the residual
             // depends on one of them: a parameter that cancels cannot show a fault, even if
             // it is still written (a factor of both a numerator and a denominator).
-            let pool = &diagnosis.causal.system.pool;
             let depends = dependences(pool, arr.expanded, model);
             let survives = |c: &Component| {
                 c.parameters.is_empty()
@@ -248,10 +252,26 @@ impl Fsm {
             }
             rows.extend(arr.lets.iter().filter_map(|l| let_row.get(l)));
             rows.extend(sensors.iter().filter_map(|s| node_row.get(s)));
+            rows.into_iter()
+                .filter(|&r| survives(&components[r]))
+                .collect()
+        })
+        .collect()
+}
+
+impl Fsm {
+    /// The matrix of a diagnosed model, with the classes every residual of its equations
+    /// could reach.
+    pub fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
+        let components = components(model);
+        let possible = super::isolability::structural(&diagnosis.causal.system, &components);
+        let mut marks: Vec<Vec<usize>> = vec![Vec::new(); components.len()];
+        for (k, rows) in arr_rows(model, diagnosis, &components)
+            .into_iter()
+            .enumerate()
+        {
             for r in rows {
-                if survives(&components[r]) {
-                    marks[r].push(k);
-                }
+                marks[r].push(k);
             }
         }
         let mut count: HashMap<&[usize], usize> = HashMap::new();

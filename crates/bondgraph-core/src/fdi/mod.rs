@@ -3,6 +3,7 @@
 mod arr;
 pub mod auxiliary;
 mod basis;
+pub mod candidates;
 mod dominators;
 pub mod eliminate;
 mod fsm;
@@ -12,4 +13,5 @@ mod sensitivity;
 pub mod structure;
 
 pub use arr::{diagnose, Diagnosis};
-pub use fsm::{ComponentKind, Fsm};
+pub use candidates::ResidualSet;
+pub use fsm::{Component, ComponentKind, Fsm};

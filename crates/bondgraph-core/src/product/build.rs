@@ -6,9 +6,9 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use super::*;
 use crate::causality::{self, Causal, Strong};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Severity};
-use crate::fdi::{self, Fsm};
+use crate::fdi;
 use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
-use crate::pipeline::Analysis;
+use crate::pipeline::{Analysis, Diagnosed};
 use crate::symbolic::{Leaf, Node, Pool};
 
 /// Why an expression cannot enter the product.
@@ -72,13 +72,14 @@ pub(crate) fn build(
             &a.state.problems,
         ));
         b.state_space(&mut c, a, &mut stage);
-        if let Some((d, fsm)) = &a.diagnosis {
+        if let Some(dd) = &a.diagnosis {
+            let d = dd.base();
             for p in &d.problems {
                 stage.push(p.clone());
             }
             c.causality
                 .push(report(model, &d.causal, Mode::Diagnosis, &d.problems));
-            b.arrs(&mut c, d, fsm, &mut stage);
+            b.arrs(&mut c, dd, &mut stage);
             super::uncertainty::sensitivities(&mut c);
             c.diagnosed = true;
         }
@@ -308,11 +309,13 @@ impl<'m> Builder<'m> {
         }
     }
 
-    /// Copies the auxiliary signals some ARR reads, each after those it reads, named `z1`,
-    /// `z2`… in that order, apart from every name of the model.
-    fn auxiliaries(&mut self, c: &mut Compiled, d: &fdi::Diagnosis) {
+    /// Copies the auxiliary signals the ARRs `picked` of `d` read, each after those it reads,
+    /// named `z1`, `z2`… in that order, apart from every name of the model and every
+    /// auxiliary signal already copied.
+    fn auxiliaries(&mut self, c: &mut Compiled, d: &fdi::Diagnosis, picked: &[usize]) {
+        self.auxiliary_of.clear();
         let pool = &d.causal.system.pool;
-        let roots: Vec<_> = d.arrs.iter().map(|a| a.residual).collect();
+        let roots: Vec<_> = picked.iter().map(|&k| d.arrs[k].residual).collect();
         let mut used = BTreeSet::new();
         let mut stack: Vec<u32> = aux_leaves(pool, &roots);
         while let Some(k) = stack.pop() {
@@ -322,7 +325,8 @@ impl<'m> Builder<'m> {
                 }
             }
         }
-        let taken = model_names(self.model);
+        let mut taken = model_names(self.model);
+        taken.extend(c.auxiliaries.values().map(|a| a.name.clone()));
         let mut number = 0usize;
         for k in used {
             let aux = &d.auxiliaries[k as usize];
@@ -345,40 +349,52 @@ impl<'m> Builder<'m> {
         }
     }
 
-    /// The ARRs that could be derived, and the FSM over them.
-    fn arrs(&mut self, c: &mut Compiled, d: &fdi::Diagnosis, fsm: &Fsm, stage: &mut Diagnostics) {
+    /// The ARRs kept that could be written, and the FSM over them.
+    fn arrs(&mut self, c: &mut Compiled, dd: &Diagnosed, stage: &mut Diagnostics) {
         let m = self.model;
-        let pool = &d.causal.system.pool;
-        self.auxiliaries(c, d);
-        let mut kept: Vec<Option<usize>> = Vec::new();
-        for arr in &d.arrs {
-            match self.import(&mut c.exprs, pool, arr.residual, false) {
-                Ok(e) => {
-                    kept.push(Some(c.arrs.len()));
-                    let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, e);
-                    c.arrs.push(Arr {
-                        name: String::new(),
-                        junction: m.node(arr.junction).name.clone(),
-                        sensor: arr.sensor.map(|s| self.sensor_of[&s]),
-                        expr: e,
-                        components: Vec::new(),
-                        reads,
-                        integrals,
-                        auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
-                        sensitivities: None,
-                    });
-                }
-                Err(why) => {
-                    kept.push(None);
-                    stage.push(refusal(m, &arr.name, arr.junction, why));
+        // The components each ARR written shows.
+        let mut shown: Vec<&[usize]> = Vec::new();
+        for (source, d) in dd.sources.iter().enumerate() {
+            let picks: Vec<_> = dd.chosen.iter().filter(|k| k.source == source).collect();
+            if picks.is_empty() {
+                continue;
+            }
+            let indices: Vec<usize> = picks.iter().map(|k| k.arr).collect();
+            self.auxiliaries(c, d, &indices);
+            let pool = &d.causal.system.pool;
+            for pick in picks {
+                let arr = &d.arrs[pick.arr];
+                match self.import(&mut c.exprs, pool, arr.residual, false) {
+                    Ok(e) => {
+                        shown.push(&pick.rows);
+                        let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, e);
+                        c.arrs.push(Arr {
+                            name: String::new(),
+                            junction: m.node(arr.junction).name.clone(),
+                            sensor: arr.sensor.map(|s| self.sensor_of[&s]),
+                            expr: e,
+                            components: Vec::new(),
+                            without: pick.without.iter().map(|&r| Handle::new(r)).collect(),
+                            reads,
+                            integrals,
+                            auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
+                            sensitivities: None,
+                        });
+                    }
+                    Err(why) => stage.push(refusal(m, &arr.name, arr.junction, why)),
                 }
             }
         }
         for (i, arr) in c.arrs.iter_mut().enumerate() {
             arr.name = format!("ARR{}", i + 1);
         }
-        for row in &fsm.rows {
-            let marks: Vec<usize> = row.marks.iter().filter_map(|&k| kept[k]).collect();
+        let mut marks: Vec<Vec<usize>> = vec![Vec::new(); dd.fsm.rows.len()];
+        for (k, rows) in shown.iter().enumerate() {
+            for &r in rows.iter() {
+                marks[r].push(k);
+            }
+        }
+        for (row, marks) in dd.fsm.rows.iter().zip(marks) {
             let h = c.components.push(Component {
                 name: row.component.name.clone(),
                 kind: component_kind(row.component.kind),
@@ -401,7 +417,10 @@ impl<'m> Builder<'m> {
         let marks: Vec<Vec<usize>> = c.components.values().map(|r| r.marks.clone()).collect();
         c.isolability = Isolability {
             selected: fault_classes(&fdi::isolability::of_signatures(&marks)),
-            possible: fault_classes(&fsm.possible),
+            candidates: dd.candidates.as_ref().map(fault_classes),
+            possible: fault_classes(&dd.fsm.possible),
+            residuals: dd.set,
+            capped: dd.capped,
         };
     }
 }

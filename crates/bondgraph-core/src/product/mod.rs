@@ -213,6 +213,9 @@ pub struct Arr {
     pub expr: Expr,
     /// The FSM rows it is sensitive to.
     pub components: Vec<Handle<Component>>,
+    /// The components whose equations were left out to derive it: their faults cannot reach
+    /// it (empty for one detector's ARR of the whole model).
+    pub without: Vec<Handle<Component>>,
     /// The signals it reads, in input then sensor order.
     pub reads: Vec<SignalUse>,
     /// The arguments of the `int(..)` it holds that are not one signal's integral.
@@ -313,11 +316,18 @@ impl FaultClasses {
 /// What the residuals can tell apart.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Isolability {
+    /// Which residuals [`Compiled::arrs`] holds.
+    pub residuals: crate::ResidualSet,
     /// With the ARRs in [`Compiled::arrs`] (their signatures).
     pub selected: FaultClasses,
+    /// With every candidate residual bgc could write (`None` when only one ARR per detector
+    /// was derived).
+    pub candidates: Option<FaultClasses>,
     /// With every residual the model's equations allow, by a structural analysis: the most
     /// any set of residuals from these detectors can reach.
     pub possible: FaultClasses,
+    /// Whether the model has too many fault classes for bgc to look for candidates.
+    pub capped: bool,
 }
 
 /// Which causality a report is about.

@@ -1,0 +1,205 @@
+//! Residuals beyond one per detector, and the choice of a set of them.
+//!
+//! A residual that a fault of class `L` cannot reach is an ARR of the model with `L`'s
+//! equations left out: the same derivation (causality, elimination), on fewer equations. One
+//! derivation per fault class gives, for every pair of classes the structure can tell apart,
+//! residuals that see one and not the other, where bgc can write them: a part of the model
+//! whose only residual needs a law solved for an unknown it holds nonlinearly (the bench's
+//! link torque `K z + w(z)` for the twist `z`) yields none, and the classes it would have
+//! separated stay together (reported against the structural classes).
+//!
+//! Derivations cost a diagnosis each, so they are made for models of at most
+//! [`MAX_DERIVATIONS`] classes; the choice among candidates is greedy.
+
+use std::collections::{BTreeSet, HashMap};
+
+use super::arr::{diagnose_without, Diagnosis};
+use super::fsm::{arr_rows, Component};
+use super::isolability::Classes;
+use crate::graph::BondGraph;
+use crate::symbolic::Leaf;
+
+/// Models with more fault classes keep one ARR per detector: each class costs a derivation.
+pub const MAX_DERIVATIONS: usize = 64;
+
+/// Which residuals the product carries.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ResidualSet {
+    /// One ARR per detector, as the reference paper does (the default).
+    #[default]
+    PerSensor,
+    /// The smallest set found (greedily) that tells apart every class the candidates can,
+    /// lowest derivative order first.
+    Best,
+    /// Every candidate with a signature of its own.
+    All,
+}
+
+/// A residual: an ARR of one of the derivations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Candidate {
+    /// The derivation it comes from (0: the whole model).
+    pub source: usize,
+    /// Its position among that derivation's ARRs.
+    pub arr: usize,
+    /// The components (rows) whose fault it shows, increasing.
+    pub rows: Vec<usize>,
+    /// The components whose equations were left out to derive it.
+    pub without: Vec<usize>,
+    /// The highest derivative it reads of any signal.
+    pub order: u32,
+}
+
+/// The derivations and the residuals found in them, one per signature.
+pub struct Candidates {
+    /// The derivations: the whole model first, then one per class left out.
+    pub sources: Vec<Diagnosis>,
+    /// The residuals: every ARR of the whole model first, then each candidate with a
+    /// signature none before it has.
+    pub list: Vec<Candidate>,
+    /// Whether the model had too many classes for derivations beyond the whole model.
+    pub capped: bool,
+}
+
+/// The highest derivative a residual reads.
+fn order(d: &Diagnosis, k: usize) -> u32 {
+    d.causal
+        .system
+        .pool
+        .leaves(d.arrs[k].expanded)
+        .into_iter()
+        .filter_map(|l| match l {
+            Leaf::Sensor(_, n) | Leaf::Input(_, n) => Some(n),
+            _ => None,
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// The candidates of `model`: its own ARRs (`base`), then those of the model without each
+/// class of `possible` in turn.
+pub fn candidates(
+    model: &BondGraph,
+    base: Diagnosis,
+    components: &[Component],
+    possible: &Classes,
+) -> Candidates {
+    let capped = possible.classes.len() > MAX_DERIVATIONS;
+    let mut sources = vec![base];
+    let mut without: Vec<Vec<usize>> = vec![Vec::new()];
+    if !capped {
+        for class in &possible.classes {
+            let nodes: BTreeSet<_> = class.iter().filter_map(|&i| components[i].node).collect();
+            let lets: BTreeSet<_> = class
+                .iter()
+                .filter_map(|&i| components[i].modulation)
+                .collect();
+            let drop = |eq: &crate::causality::equations::Equation| {
+                nodes.contains(&eq.owner) || eq.lets.iter().any(|l| lets.contains(l))
+            };
+            sources.push(diagnose_without(model, &drop));
+            without.push(class.clone());
+        }
+    }
+    let mut list: Vec<Candidate> = Vec::new();
+    let mut seen: HashMap<Vec<usize>, usize> = HashMap::new();
+    for (source, d) in sources.iter().enumerate() {
+        for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
+            // The whole model's ARRs are all kept, whatever their signatures.
+            if rows.is_empty() && source > 0 {
+                continue;
+            }
+            let c = Candidate {
+                source,
+                arr,
+                order: order(d, arr),
+                without: without[source].clone(),
+                rows,
+            };
+            match seen.get(&c.rows) {
+                // One per signature: the per-detector one, else the lowest order.
+                Some(&k) if source > 0 && c.order < list[k].order && list[k].source > 0 => {
+                    list[k] = c;
+                }
+                Some(_) if source > 0 => {}
+                _ => {
+                    seen.insert(c.rows.clone(), list.len());
+                    list.push(c);
+                }
+            }
+        }
+    }
+    Candidates {
+        sources,
+        list,
+        capped,
+    }
+}
+
+/// The classes a set of residuals tells apart, over `n` components.
+pub fn classes_of(list: &[&Candidate], n: usize) -> Classes {
+    let mut marks: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (k, c) in list.iter().enumerate() {
+        for &r in &c.rows {
+            marks[r].push(k);
+        }
+    }
+    super::isolability::of_signatures(&marks)
+}
+
+/// The candidates (by position in `list`) that `set` keeps, over `n` components.
+pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
+    match set {
+        ResidualSet::PerSensor => (0..list.len()).filter(|&k| list[k].source == 0).collect(),
+        ResidualSet::All => (0..list.len()).collect(),
+        ResidualSet::Best => best(list, n),
+    }
+}
+
+/// Greedy: the residual that splits the most pairs of components still together (detection
+/// counted as splitting from the undetectable), lowest order then fewest components on ties,
+/// until the classes are those of every candidate together.
+fn best(list: &[Candidate], n: usize) -> Vec<usize> {
+    let all: Vec<&Candidate> = list.iter().collect();
+    let target = classes_of(&all, n);
+    // The group of each component: residuals chosen so far it shows in.
+    let mut group: Vec<Vec<usize>> = vec![Vec::new(); n];
+    let mut chosen: Vec<usize> = Vec::new();
+    loop {
+        let picked: Vec<&Candidate> = chosen.iter().map(|&k| &list[k]).collect();
+        if classes_of(&picked, n) == target || chosen.len() == list.len() {
+            break;
+        }
+        let mut sizes: HashMap<&[usize], usize> = HashMap::new();
+        for g in &group {
+            *sizes.entry(g.as_slice()).or_default() += 1;
+        }
+        let score = |c: &Candidate| {
+            let mut inside: HashMap<&[usize], usize> = HashMap::new();
+            for &r in &c.rows {
+                *inside.entry(group[r].as_slice()).or_default() += 1;
+            }
+            inside
+                .iter()
+                .map(|(g, &k)| k * (sizes[g] - k))
+                .sum::<usize>()
+        };
+        let next = (0..list.len())
+            .filter(|k| !chosen.contains(k))
+            .map(|k| (score(&list[k]), k))
+            .filter(|&(s, _)| s > 0)
+            .max_by(|a, b| {
+                a.0.cmp(&b.0)
+                    .then(list[b.1].order.cmp(&list[a.1].order))
+                    .then(list[b.1].rows.len().cmp(&list[a.1].rows.len()))
+                    .then(b.1.cmp(&a.1))
+            });
+        let Some((_, k)) = next else { break };
+        for &r in &list[k].rows {
+            group[r].push(chosen.len());
+        }
+        chosen.push(k);
+    }
+    chosen.sort_unstable();
+    chosen
+}

@@ -1,0 +1,137 @@
+//! Residuals beyond one per detector, end to end: the fault classes `--residuals best`
+//! reaches against the structural ones, the residuals it writes checked by `bgc verify`.
+
+mod common;
+
+use common::{bgc, code, stderr, stdout};
+use serde_json::Value;
+
+/// The JSON product of `model` with `--residuals set`.
+fn product(model: &str, set: &str) -> Value {
+    let out = bgc(&[model, "--emit", "json", "--residuals", set]);
+    assert_eq!(code(&out), 0, "{model}: {}", stderr(&out));
+    serde_json::from_str(&stdout(&out)).expect("valid JSON")
+}
+
+/// The classes of one set, as sorted lists of names.
+fn classes(v: &Value) -> Vec<Vec<String>> {
+    let mut out: Vec<Vec<String>> = v["classes"]
+        .as_array()
+        .expect("classes")
+        .iter()
+        .map(|c| {
+            let mut names: Vec<String> = c
+                .as_array()
+                .expect("class")
+                .iter()
+                .map(|n| n.as_str().expect("name").to_string())
+                .collect();
+            names.sort();
+            names
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+/// faultdiagnosistoolbox's figures, found here without enumerating minimal sets, and
+/// reached by the residuals `best` writes: the DC motor 5, the three-tank 8, the quarter-car
+/// 5, the four-mass chain 9, where one ARR per detector gives 3, 6, 3 and 3.
+#[test]
+fn best_reaches_the_structural_classes() {
+    for (model, per_sensor, possible) in [
+        ("models/dc_motor.bg", 3, 5),
+        ("models/three_tank.bg", 6, 8),
+        ("models/quarter_car.bg", 3, 5),
+        ("models/four_mass_chain.bg", 3, 9),
+    ] {
+        let plain = product(model, "per-sensor");
+        assert_eq!(
+            classes(&plain["isolability"]["selected"]).len(),
+            per_sensor,
+            "{model}"
+        );
+        assert!(plain["isolability"]["candidates"].is_null());
+        let best = product(model, "best");
+        let iso = &best["isolability"];
+        assert_eq!(iso["residuals"], "best");
+        assert_eq!(classes(&iso["possible"]).len(), possible, "{model}");
+        assert_eq!(
+            classes(&iso["selected"]),
+            classes(&iso["possible"]),
+            "{model}"
+        );
+        // No more residuals than `all` has, and some beyond one per detector.
+        let all = product(model, "all");
+        let (b, a) = (
+            best["arrs"].as_array().expect("arrs").len(),
+            all["arrs"].as_array().expect("arrs").len(),
+        );
+        let detectors = best["sensors"].as_array().expect("sensors").len();
+        assert!(b > detectors && b <= a, "{model}: best {b}, all {a}");
+    }
+}
+
+/// The bench: the load told from the link and the motor by the motor and link alone (the
+/// ARR without the load); the link and its backlash, the gear and the encoders stay
+/// together, because telling them apart needs the link's law `K z + w(z)` solved for `z`.
+#[test]
+fn the_bench_separates_the_load_and_says_what_it_cannot() {
+    let best = product("models/backlash_bench.bg", "best");
+    let iso = &best["isolability"];
+    let names = |v: &[&str]| {
+        let mut v: Vec<String> = v.iter().map(|s| s.to_string()).collect();
+        v.sort();
+        v
+    };
+    let mut expected = vec![
+        names(&["U", "Rm", "Lm", "motor", "Jm", "fm", "Wm"]),
+        names(&["link", "w"]),
+        names(&["gear", "y1", "y2"]),
+        names(&["Jl", "fl", "Wl"]),
+    ];
+    expected.sort();
+    assert_eq!(classes(&iso["selected"]), expected);
+    assert_eq!(classes(&iso["possible"]).len(), 7);
+    let without_load = best["arrs"]
+        .as_array()
+        .expect("arrs")
+        .iter()
+        .find(|a| a["without"].as_array().is_some_and(|w| !w.is_empty()))
+        .expect("a residual beyond one per detector");
+    assert_eq!(
+        without_load["without"],
+        serde_json::json!(["Jl", "fl", "Wl"])
+    );
+    let text = stdout(&bgc(&["models/backlash_bench.bg", "--residuals", "best"]));
+    assert!(text.contains("without Jl fl Wl"), "{text}");
+    assert!(text.contains("bgc does not derive yet"), "{text}");
+}
+
+/// Every residual `all` writes passes `bgc verify` (on the healthy plant at round-off, each
+/// FSM entry moved by its fault), on the models where verify applies. Left out:
+/// `varistor_loop` (verify cannot go through a nonlinear algebraic loop),
+/// `backlash_bench_table3` (its residual without the load holds `exp(γ z)³`, which
+/// overflows once `γ z` passes 236 on verify's trajectories: a form to be made robust) and
+/// `loudspeaker` (its residual without the current reads the drive voltage only through
+/// `Bl U' / (Km Re)`, a 1e-8 share of its size at verify's faults: marked, rightly, but
+/// below what verify counts as moved).
+#[test]
+fn every_candidate_passes_verify() {
+    let left_out = [
+        "varistor_loop.bg",
+        "backlash_bench_table3.bg",
+        "loudspeaker.bg",
+    ];
+    let mut models: Vec<String> = std::fs::read_dir(common::root().join("models"))
+        .expect("models")
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|f| f.ends_with(".bg") && !left_out.contains(&f.as_str()))
+        .collect();
+    models.sort();
+    for m in models {
+        let path = format!("models/{m}");
+        let out = bgc(&["verify", &path, "--residuals", "all"]);
+        assert_eq!(code(&out), 0, "{m}:\n{}{}", stdout(&out), stderr(&out));
+    }
+}
