@@ -135,3 +135,26 @@ fn every_candidate_passes_verify() {
         assert_eq!(code(&out), 0, "{m}:\n{}{}", stdout(&out), stderr(&out));
     }
 }
+
+/// `bgc sensors`: the bench needs the motor current to split the motor's class; the DC motor
+/// needs nothing; a component that does not exist is a usage error that names it.
+#[test]
+fn sensors_proposes_the_missing_detector() {
+    let out = bgc(&["sensors", "models/backlash_bench.bg"]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("add this (1 detector):\n  1. Df on elec\n"),
+        "{text}"
+    );
+    let out = bgc(&["sensors", "models/dc_motor.bg", "--goal", "detectable"]);
+    assert_eq!(code(&out), 0);
+    assert!(stdout(&out).contains("nothing to add"));
+    let out = bgc(&["sensors", "models/dc_motor.bg", "--component", "nope"]);
+    assert_eq!(code(&out), 2);
+    assert!(
+        stderr(&out).contains("`nope` is not a component"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -175,6 +175,9 @@ enum Command {
     /// measured signal) and write residuals, thresholds, alarms and candidate components as
     /// CSV.
     Residuals(crate::residuals::ResidualArgs),
+    /// Propose the fewest detectors to add so that components become detectable, or as
+    /// isolable as detectors can make them (judged structurally).
+    Sensors(crate::sensors::SensorArgs),
     /// Print the causality of a model in both modes: storage causality, what sets each
     /// junction, conflicts and algebraic loops.
     Causality {
@@ -241,6 +244,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
         }
         (Some(Command::Simulate(simulate)), _) => crate::simulate::run(simulate),
         (Some(Command::Residuals(residuals)), _) => crate::residuals::run(residuals),
+        (Some(Command::Sensors(sensors)), _) => crate::sensors::run(sensors),
         (Some(Command::Causality { model, output }), _) => {
             let c = compile(&model, Derive::Everything, None)?;
             write(output.as_deref(), &bondgraph_codegen::text::causality(&c))?;

@@ -7,6 +7,7 @@ mod cli;
 mod plot;
 mod report;
 mod residuals;
+mod sensors;
 mod simulate;
 mod summary;
 

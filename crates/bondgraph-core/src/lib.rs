@@ -25,6 +25,7 @@ pub use compile::{compile, without_bom, Derive, Options, Output};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
 pub use fdi::candidates::MAX_DERIVATIONS;
+pub use fdi::placement::{Goal, NamedClasses, NewDetector, Placement, PlacementError, Proposal};
 pub use fdi::ResidualSet;
 pub use product::*;
 pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
@@ -45,4 +46,21 @@ fn load(text: &str) -> (Option<BondGraph>, Diagnostics) {
     diagnostics.sort();
     let graph = graph.filter(|_| !diagnostics.has_errors());
     (graph, diagnostics)
+}
+
+/// Where to add detectors so that `targets` (component names; all when empty) reach `goal`:
+/// the second front door, for `bgc sensors`. `Err` holds the diagnostics of a model that is
+/// not valid.
+pub fn place_sensors(
+    source: &str,
+    targets: &[String],
+    goal: Goal,
+) -> Result<Result<Placement, PlacementError>, Diagnostics> {
+    let (model, diagnostics) = load(without_bom(source));
+    match model {
+        Some(model) if !diagnostics.has_errors() => {
+            Ok(fdi::placement::place(&model, targets, goal))
+        }
+        _ => Err(diagnostics),
+    }
 }

@@ -9,6 +9,7 @@ pub mod eliminate;
 mod fsm;
 pub mod isolability;
 mod operator;
+pub mod placement;
 mod sensitivity;
 pub mod structure;
 
