@@ -155,7 +155,8 @@ fn isolability(out: &mut String, c: &Compiled) {
     } else if reached < i.possible.classes.len() {
         let _ = writeln!(
             out,
-            "  (the classes no candidate tells apart need a residual bgc does not derive yet: one that solves a law for a variable it holds nonlinearly, or that eliminates a component's parameter between its own equations, as p·q = F·v does a TF's ratio)"
+            "  (telling the rest apart needs a residual bgc does not write: one that solves a law for a variable it holds nonlinearly, one that eliminates a component's parameter between its own equations (as p·q = F·v does a TF's ratio), or one longer than {} nodes written out)",
+            bondgraph_core::MAX_CANDIDATE_SIZE
         );
     }
     let n = c.components.len();

@@ -119,6 +119,11 @@ impl Analysis<'_> {
         if let Some(diagnosed) = &mut self.diagnosis {
             let keep: Vec<(usize, usize)> =
                 diagnosed.chosen.iter().map(|c| (c.source, c.arr)).collect();
+            // Named as the product will name them: by their place among those kept.
+            let name = |source: usize, k: usize| {
+                let at = keep.iter().position(|&x| x == (source, k)).unwrap_or(0);
+                format!("ARR{}", at + 1)
+            };
             for (source, d) in diagnosed.sources.iter_mut().enumerate() {
                 let pool = &mut d.causal.system.pool;
                 // A simplifier remembers expressions of one pool.
@@ -130,7 +135,7 @@ impl Analysis<'_> {
                 };
                 for (k, arr) in d.arrs.iter_mut().enumerate() {
                     if keep.contains(&(source, k)) {
-                        arr.residual = choose(pool, simplifier, arr.residual, &|| arr.name.clone());
+                        arr.residual = choose(pool, simplifier, arr.residual, &|| name(source, k));
                     }
                 }
             }

@@ -24,7 +24,7 @@ mod verify;
 pub use compile::{compile, without_bom, Derive, Options, Output};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
-pub use fdi::candidates::MAX_DERIVATIONS;
+pub use fdi::candidates::{MAX_CANDIDATE_SIZE, MAX_DERIVATIONS};
 pub use fdi::placement::{Goal, NamedClasses, NewDetector, Placement, PlacementError, Proposal};
 pub use fdi::ResidualSet;
 pub use product::*;

@@ -19,8 +19,26 @@ use super::isolability::Classes;
 use crate::graph::BondGraph;
 use crate::symbolic::Leaf;
 
-/// Models with more fault classes keep one ARR per detector: each class costs a derivation.
-pub const MAX_DERIVATIONS: usize = 64;
+/// Models with more fault classes keep one ARR per detector: each class costs a derivation
+/// of the whole model (a 30-stage chain's 57 take over a minute).
+pub const MAX_DERIVATIONS: usize = 32;
+
+/// Candidates longer than this, written out, are not kept: a residual of a whole part of a
+/// machine with every derivative its elimination needs is not one to evaluate on a bench.
+/// The ARRs of the whole model are kept whatever their size.
+pub const MAX_CANDIDATE_SIZE: u64 = 20_000;
+
+/// The size of `root` written out as a tree.
+fn written_size(pool: &crate::symbolic::Pool, root: crate::symbolic::ExprId) -> u64 {
+    let mut size: HashMap<crate::symbolic::ExprId, u64> = HashMap::new();
+    pool.visit_reachable(&[root], |id, node| {
+        let s = crate::symbolic::children(node)
+            .map(|c| size.get(&c).copied().unwrap_or(0))
+            .fold(1u64, u64::saturating_add);
+        size.insert(id, s);
+    });
+    size.get(&root).copied().unwrap_or(0)
+}
 
 /// Which residuals the product carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -105,8 +123,12 @@ pub fn candidates(
     let mut seen: HashMap<Vec<usize>, usize> = HashMap::new();
     for (source, d) in sources.iter().enumerate() {
         for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
-            // The whole model's ARRs are all kept, whatever their signatures.
-            if rows.is_empty() && source > 0 {
+            // The whole model's ARRs are all kept, whatever their signatures and sizes.
+            if source > 0
+                && (rows.is_empty()
+                    || written_size(&d.causal.system.pool, d.arrs[arr].residual)
+                        > MAX_CANDIDATE_SIZE)
+            {
                 continue;
             }
             let c = Candidate {
