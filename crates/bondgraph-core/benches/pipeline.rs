@@ -122,8 +122,25 @@ fn per_stage_default(c: &mut Criterion) {
     );
 }
 
+/// The structural fault classes of the chain with its own parameters per stage: parsing,
+/// the diagnosis equations and the classes (one dominator tree per round, the rounds as many
+/// as the faults near one detector), no ARR derived.
+fn classes(c: &mut Criterion) {
+    let mut group = c.benchmark_group("classes");
+    group.sample_size(10);
+    for stages in [100, 1_000, 10_000] {
+        let text = mass_spring_chain_varied(stages, 5);
+        group.throughput(Throughput::Elements(stages as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
+            b.iter(|| black_box(bondgraph_core::structural_classes(black_box(text))))
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    classes,
     state_equations,
     full_pipeline,
     simplify,

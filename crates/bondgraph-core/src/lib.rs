@@ -64,3 +64,18 @@ pub fn place_sensors(
         _ => Err(diagnostics),
     }
 }
+
+/// The number of structural fault classes of a model's text (for benchmarks): parsing, the
+/// diagnosis equations and the classes, no ARR derived.
+#[doc(hidden)]
+pub fn structural_classes(source: &str) -> Option<usize> {
+    let (model, diagnostics) = load(source);
+    let model = model.filter(|_| !diagnostics.has_errors())?;
+    let system = causality::equations::build(&model, causality::Mode::Diagnosis);
+    let components = fdi::components(&model);
+    Some(
+        fdi::isolability::structural(&system, &components)
+            .classes
+            .len(),
+    )
+}

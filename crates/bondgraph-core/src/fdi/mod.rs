@@ -15,4 +15,4 @@ pub mod structure;
 
 pub use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;
-pub use fsm::{Component, ComponentKind, Fsm};
+pub use fsm::{components, Component, ComponentKind, Fsm};
