@@ -4,6 +4,7 @@
 //!
 //! ```ignore
 //! bondgraph::bond_graph!("models/backlash_bench.bg"); // relative to CARGO_MANIFEST_DIR
+//! bondgraph::bond_graph!("models/dc_motor.bg", residuals = best); // as `--residuals best`
 //! bondgraph::bond_graph! {
 //!     model rc
 //!     param R1 = 2
@@ -17,7 +18,7 @@
 use std::path::{Path, PathBuf};
 
 use bondgraph_core::diagnostic::{Diagnostics, LineIndex};
-use bondgraph_core::{compile, Options};
+use bondgraph_core::{compile, Options, ResidualSet};
 use proc_macro::{Delimiter, Spacing, TokenStream, TokenTree};
 use quote::quote;
 
@@ -37,6 +38,8 @@ struct Source {
     path: Option<PathBuf>,
     /// For an inline model, where each token starts in `text`, and its span in the caller.
     tokens: Vec<(usize, proc_macro::Span)>,
+    /// Which residuals to generate (`residuals = per_sensor | best | all` after a path).
+    residuals: ResidualSet,
 }
 
 fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::TokenStream> {
@@ -58,7 +61,11 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
             _ => fail(message),
         }
     };
-    let out = compile(&source.text, &source.name, &Options::default()).map_err(|d| refuse(&d))?;
+    let options = Options {
+        residuals: source.residuals,
+        ..Options::default()
+    };
+    let out = compile(&source.text, &source.name, &options).map_err(|d| refuse(&d))?;
     let c = out.compiled;
     if c.has_errors() {
         return Err(refuse(&c.diagnostics));
@@ -119,9 +126,10 @@ fn first_error(source: &Source, diagnostics: &Diagnostics) -> (String, usize) {
 /// The model from a path literal or inline tokens.
 fn read(input: TokenStream) -> Result<Source, String> {
     let tokens: Vec<TokenTree> = input.clone().into_iter().collect();
-    if let [TokenTree::Literal(lit)] = tokens.as_slice() {
+    if let [TokenTree::Literal(lit), rest @ ..] = tokens.as_slice() {
         if let Ok(path) = syn::parse_str::<syn::LitStr>(&lit.to_string()) {
-            return from_file(&path.value());
+            let residuals = residual_set(rest)?;
+            return from_file(&path.value()).map(|s| Source { residuals, ..s });
         }
     }
     if tokens.is_empty() {
@@ -136,7 +144,29 @@ fn read(input: TokenStream) -> Result<Source, String> {
         name: "inline model".to_string(),
         path: None,
         tokens,
+        residuals: ResidualSet::PerSensor,
     })
+}
+
+/// What follows the path: nothing, or `, residuals = per_sensor | best | all`.
+fn residual_set(rest: &[TokenTree]) -> Result<ResidualSet, String> {
+    let text: Vec<String> = rest.iter().map(ToString::to_string).collect();
+    let words: Vec<&str> = text.iter().map(String::as_str).collect();
+    match words.as_slice() {
+        [] => Ok(ResidualSet::PerSensor),
+        [",", "residuals", "=", set] => match *set {
+            "per_sensor" => Ok(ResidualSet::PerSensor),
+            "best" => Ok(ResidualSet::Best),
+            "all" => Ok(ResidualSet::All),
+            other => Err(format!(
+                "`residuals = {other}`: expected `per_sensor`, `best` or `all`"
+            )),
+        },
+        _ => Err(format!(
+            "after the model's path, expected nothing or `, residuals = per_sensor | best | all`, found `{}`",
+            words.join(" ")
+        )),
+    }
 }
 
 /// Overrides the directory model paths are relative to: trybuild compiles its cases in a
@@ -159,6 +189,7 @@ fn from_file(relative: &str) -> Result<Source, String> {
         name: relative.to_string(),
         path: Some(path),
         tokens: Vec::new(),
+        residuals: ResidualSet::PerSensor,
     })
 }
 
