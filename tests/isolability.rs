@@ -106,7 +106,7 @@ fn the_bench_separates_the_load_and_says_what_it_cannot() {
     let text = stdout(&bgc(&["models/backlash_bench.bg", "--residuals", "best"]));
     assert!(text.contains("without Jl fl Wl"), "{text}");
     assert!(
-        text.contains("needs a residual bgc does not write"),
+        text.contains("not written: a residual without link that would show w\n"),
         "{text}"
     );
 }

@@ -246,14 +246,24 @@ fn isolability(out: &mut String, c: &Compiled) {
     };
     let _ = writeln!(
         out,
-        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}}},",
+        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}, \"unrealised\": {}}},",
         string(set),
         classes(&c.isolability.selected),
         c.isolability
             .candidates
             .as_ref()
             .map_or("null".to_string(), classes),
-        classes(&c.isolability.possible)
+        classes(&c.isolability.possible),
+        list(c.isolability.unrealised.iter().map(|u| {
+            let names =
+                |hs: &[Handle<Component>]| list(hs.iter().map(|&h| string(&c.components[h].name)));
+            format!(
+                "{{\"without\": {}, \"unseen\": {}, \"reasons\": {}}}",
+                names(&u.without),
+                names(&u.unseen),
+                list(u.reasons.iter().map(|r| string(r)))
+            )
+        }))
     );
 }
 

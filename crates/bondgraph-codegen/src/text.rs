@@ -152,12 +152,35 @@ fn isolability(out: &mut String, c: &Compiled) {
             out,
             "  (`--residuals best` looks for residuals that tell more classes apart)"
         );
-    } else if reached < i.possible.classes.len() {
+    } else if reached < i.possible.classes.len() && i.unrealised.is_empty() {
         let _ = writeln!(
             out,
             "  (telling the rest apart needs a residual bgc does not write: one that solves a law for a variable it holds nonlinearly, one that eliminates a component's parameter between its own equations (as p·q = F·v does a TF's ratio), or one longer than {} nodes written out)",
             bondgraph_core::MAX_CANDIDATE_SIZE
         );
+    }
+    for u in &i.unrealised {
+        let names = |hs: &[bondgraph_core::Handle<bondgraph_core::Component>]| {
+            hs.iter()
+                .map(|&h| c.components[h].name.as_str())
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        let _ = writeln!(
+            out,
+            "  not written: a residual without {} that would show {}",
+            names(&u.without),
+            names(&u.unseen)
+        );
+        for reason in &u.reasons {
+            let _ = writeln!(out, "    ({reason})");
+        }
+        if u.reasons.is_empty() {
+            let _ = writeln!(
+                out,
+                "    (bgc's derivation found no causal path to what it needs; such a residual usually needs a law solved for a variable it holds nonlinearly, or a parameter eliminated between a component's own equations)"
+            );
+        }
     }
     let n = c.components.len();
     if n == 0 || n > DENSE_ISOLABILITY_LIMIT {

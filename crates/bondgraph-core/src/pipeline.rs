@@ -36,6 +36,8 @@ pub(crate) struct Diagnosed {
     pub set: ResidualSet,
     /// Whether the model had too many classes to look for candidates.
     pub capped: bool,
+    /// The derivations that gave fewer residuals than the structure allows.
+    pub unrealised: Vec<candidates::Unrealised>,
 }
 
 impl Diagnosed {
@@ -71,6 +73,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
         candidates: (set != ResidualSet::PerSensor).then_some(classes),
         set,
         capped: found.capped,
+        unrealised: found.unrealised,
     }
 }
 

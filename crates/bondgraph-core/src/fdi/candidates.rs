@@ -68,8 +68,22 @@ pub struct Candidate {
     pub order: u32,
 }
 
+/// A derivation without a class that should have given residuals seeing some components,
+/// and gave none that bgc can write.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unrealised {
+    /// The components left out.
+    pub without: Vec<usize>,
+    /// The components a residual without them could show and no written one does.
+    pub unseen: Vec<usize>,
+    /// What the derivation met, in the model's names.
+    pub reasons: Vec<String>,
+}
+
 /// The derivations and the residuals found in them, one per signature.
 pub struct Candidates {
+    /// The derivations that fell short of the structure, and why.
+    pub unrealised: Vec<Unrealised>,
     /// The derivations: the whole model first, then one per class left out.
     pub sources: Vec<Diagnosis>,
     /// The residuals: every ARR of the whole model first, then each candidate with a
@@ -121,8 +135,17 @@ pub fn candidates(
     }
     let mut list: Vec<Candidate> = Vec::new();
     let mut seen: HashMap<Vec<usize>, usize> = HashMap::new();
+    let (structure, faults) =
+        super::isolability::fault_structure(&sources[0].causal.system, components);
+    let mut unrealised = Vec::new();
     for (source, d) in sources.iter().enumerate() {
+        let mut shown: BTreeSet<usize> = BTreeSet::new();
         for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
+            if source == 0
+                || written_size(&d.causal.system.pool, d.arrs[arr].residual) <= MAX_CANDIDATE_SIZE
+            {
+                shown.extend(rows.iter().copied());
+            }
             // The whole model's ARRs are all kept, whatever their signatures and sizes.
             if source > 0
                 && (rows.is_empty()
@@ -150,11 +173,36 @@ pub fn candidates(
                 }
             }
         }
+        if source == 0 {
+            continue;
+        }
+        let left_out = &without[source];
+        let Some(&first) = left_out.first() else {
+            continue;
+        };
+        let could = super::isolability::seen_without(&structure, &faults, faults[first]);
+        let unseen: Vec<usize> = (0..components.len())
+            .filter(|&i| could[i] && !shown.contains(&i) && !left_out.contains(&i))
+            .collect();
+        if !unseen.is_empty() {
+            unrealised.push(Unrealised {
+                without: left_out.clone(),
+                unseen,
+                // A detector left without an ARR is what is being reported, not why.
+                reasons: d
+                    .problems
+                    .iter()
+                    .map(|p| p.message.clone())
+                    .filter(|m| !m.starts_with("the detector `"))
+                    .collect(),
+            });
+        }
     }
     Candidates {
         sources,
         list,
         capped,
+        unrealised,
     }
 }
 

@@ -112,6 +112,15 @@ pub fn structural(system: &System, components: &[Component]) -> Classes {
     classes(&s, &faults)
 }
 
+/// For each fault of `faults`, whether a residual of the model without fault `f`'s
+/// equation can show it: its equation stays in `(M \ {f})⁺`. O(E·√V).
+pub fn seen_without(s: &Structure, faults: &[Eq], f: Eq) -> Vec<bool> {
+    let mut active = vec![true; s.len()];
+    active[f.0 as usize] = false;
+    let plus = s.overdetermined(&active, &s.matching(&active));
+    faults.iter().map(|g| plus[g.0 as usize]).collect()
+}
+
 /// The classes of the faults `faults` (one equation each) in `s`.
 ///
 /// Removing a free equation (one the matching leaves out) needs no repair of the matching,

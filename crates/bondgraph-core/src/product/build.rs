@@ -421,6 +421,15 @@ impl<'m> Builder<'m> {
             possible: fault_classes(&dd.fsm.possible),
             residuals: dd.set,
             capped: dd.capped,
+            unrealised: dd
+                .unrealised
+                .iter()
+                .map(|u| Unrealised {
+                    without: u.without.iter().map(|&i| Handle::new(i)).collect(),
+                    unseen: u.unseen.iter().map(|&i| Handle::new(i)).collect(),
+                    reasons: u.reasons.clone(),
+                })
+                .collect(),
         };
     }
 }

@@ -328,6 +328,21 @@ pub struct Isolability {
     pub possible: FaultClasses,
     /// Whether the model has too many fault classes for bgc to look for candidates.
     pub capped: bool,
+    /// The residuals the structure allows that bgc could not write, by the components they
+    /// would be derived without.
+    pub unrealised: Vec<Unrealised>,
+}
+
+/// Residuals of the model without some components that the structure allows and bgc could
+/// not write: what they would show, and what the derivation met.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unrealised {
+    /// The components left out.
+    pub without: Vec<Handle<Component>>,
+    /// The components such a residual would show that no written one without them does.
+    pub unseen: Vec<Handle<Component>>,
+    /// What the derivation met, in the model's names.
+    pub reasons: Vec<String>,
 }
 
 /// Which causality a report is about.
