@@ -9,13 +9,15 @@
 //! separated stay together (reported against the structural classes).
 //!
 //! Derivations cost a diagnosis each, so they are made for models of at most
-//! [`MAX_DERIVATIONS`] classes; the choice among candidates is greedy.
+//! [`MAX_DERIVATIONS`] classes; the choice among candidates is exhaustive within
+//! [`MAX_SELECTIONS`] evaluations, then greedy.
 
 use std::collections::{BTreeSet, HashMap};
 
 use super::arr::{diagnose_without, Diagnosis};
 use super::fsm::{arr_rows, Component};
 use super::isolability::Classes;
+use super::subsets::for_each_subset;
 use crate::graph::BondGraph;
 use crate::symbolic::Leaf;
 
@@ -46,8 +48,8 @@ pub enum ResidualSet {
     /// One ARR per detector, as the reference paper does (the default).
     #[default]
     PerSensor,
-    /// The smallest set found (greedily) that tells apart every class the candidates can,
-    /// lowest derivative order first.
+    /// The smallest set that tells apart every class the candidates can, lowest total
+    /// derivative order among those (exhaustive within a budget, then greedy).
     Best,
     /// Every candidate with a signature of its own.
     All,
@@ -226,18 +228,48 @@ pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
     }
 }
 
-/// Greedy: the residual that splits the most pairs of components still together (detection
-/// counted as splitting from the undetectable), lowest order then fewest components on ties,
-/// until the classes are those of every candidate together.
+/// Set evaluations the exact search of [`best`] may make before it turns greedy.
+pub const MAX_SELECTIONS: usize = 100_000;
+
+/// The smallest set of candidates whose classes are those of every candidate together: every
+/// set of one, then two… candidates while [`MAX_SELECTIONS`] lasts, the lowest total
+/// derivative order among the smallest that do; past the budget, [`greedy`].
 fn best(list: &[Candidate], n: usize) -> Vec<usize> {
     let all: Vec<&Candidate> = list.iter().collect();
     let target = classes_of(&all, n);
+    let mut budget = MAX_SELECTIONS;
+    for size in 1..=list.len() {
+        let mut found: Option<(u32, Vec<usize>)> = None;
+        let complete = for_each_subset(list.len(), size, &mut budget, |set| {
+            let picked: Vec<&Candidate> = set.iter().map(|&k| &list[k]).collect();
+            if classes_of(&picked, n) != target {
+                return;
+            }
+            let order = picked.iter().map(|c| c.order).sum();
+            if found.as_ref().is_none_or(|(o, _)| order < *o) {
+                found = Some((order, set.to_vec()));
+            }
+        });
+        if !complete {
+            break;
+        }
+        if let Some((_, set)) = found {
+            return set;
+        }
+    }
+    greedy(list, n, &target)
+}
+
+/// Greedy: the residual that splits the most pairs of components still together (detection
+/// counted as splitting from the undetectable), lowest order then fewest components on ties,
+/// until the classes are `target`.
+fn greedy(list: &[Candidate], n: usize, target: &Classes) -> Vec<usize> {
     // The group of each component: residuals chosen so far it shows in.
     let mut group: Vec<Vec<usize>> = vec![Vec::new(); n];
     let mut chosen: Vec<usize> = Vec::new();
     loop {
         let picked: Vec<&Candidate> = chosen.iter().map(|&k| &list[k]).collect();
-        if classes_of(&picked, n) == target || chosen.len() == list.len() {
+        if classes_of(&picked, n) == *target || chosen.len() == list.len() {
             break;
         }
         let mut sizes: HashMap<&[usize], usize> = HashMap::new();

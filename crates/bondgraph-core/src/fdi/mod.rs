@@ -12,6 +12,7 @@ mod operator;
 pub mod placement;
 mod sensitivity;
 pub mod structure;
+mod subsets;
 
 pub use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;

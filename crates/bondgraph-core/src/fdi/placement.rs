@@ -14,6 +14,7 @@ use std::collections::BTreeSet;
 use super::fsm::{components, Component};
 use super::isolability::{classes, fault_structure, Classes};
 use super::structure::Eq;
+use super::subsets::for_each_subset;
 use crate::causality::equations::{self, Var};
 use crate::causality::Mode;
 use crate::graph::{BondGraph, JunctionKind, NodeId, NodeKind};
@@ -293,30 +294,6 @@ fn greedy(
     }
 }
 
-/// Calls `f` on every `size`-subset of `0..n` in lexicographic order while `budget` lasts;
-/// whether all were visited.
-fn for_each_subset(n: usize, size: usize, budget: &mut usize, mut f: impl FnMut(&[usize])) -> bool {
-    if size > n {
-        return true;
-    }
-    let mut set: Vec<usize> = (0..size).collect();
-    loop {
-        if *budget == 0 {
-            return false;
-        }
-        *budget -= 1;
-        f(&set);
-        // The next combination: the rightmost index that can move, moved, the rest after it.
-        let Some(i) = (0..size).rev().find(|&i| set[i] < n - size + i) else {
-            return true;
-        };
-        set[i] += 1;
-        for k in i + 1..size {
-            set[k] = set[k - 1] + 1;
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -333,18 +310,6 @@ mod tests {
             .iter()
             .map(|d| format!("{} {}", d.kind, d.junction))
             .collect()
-    }
-
-    #[test]
-    fn subsets_are_all_visited_once() {
-        let mut seen = Vec::new();
-        let mut budget = 100;
-        assert!(for_each_subset(5, 2, &mut budget, |s| seen.push(s.to_vec())));
-        assert_eq!(seen.len(), 10);
-        assert_eq!(seen[0], [0, 1]);
-        assert_eq!(seen[9], [3, 4]);
-        let mut budget = 3;
-        assert!(!for_each_subset(5, 2, &mut budget, |_| {}));
     }
 
     /// The DC motor measured by its current and speed already reaches the most any detector
