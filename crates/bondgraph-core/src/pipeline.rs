@@ -59,7 +59,14 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
     } else {
         fsm.possible.clone()
     };
-    let found = candidates::candidates(model, d, &components, &possible);
+    // What each ARR shows, as the FSM found it.
+    let mut rows: Vec<Vec<usize>> = vec![Vec::new(); d.arrs.len()];
+    for (r, row) in fsm.rows.iter().enumerate() {
+        for &k in &row.marks {
+            rows[k].push(r);
+        }
+    }
+    let found = candidates::candidates(model, d, rows, &components, &possible);
     let all: Vec<&Candidate> = found.list.iter().collect();
     let classes = candidates::classes_of(&all, components.len());
     let chosen = candidates::select(&found.list, components.len(), set)

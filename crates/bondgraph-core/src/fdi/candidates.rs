@@ -110,11 +110,12 @@ fn order(d: &Diagnosis, k: usize) -> u32 {
         .unwrap_or(0)
 }
 
-/// The candidates of `model`: its own ARRs (`base`), then those of the model without each
-/// class of `possible` in turn.
+/// The candidates of `model`: its own ARRs (`base`, showing `base_rows` each, as its FSM
+/// found), then those of the model without each class of `possible` in turn.
 pub fn candidates(
     model: &BondGraph,
     base: Diagnosis,
+    base_rows: Vec<Vec<usize>>,
     components: &[Component],
     possible: &Classes,
 ) -> Candidates {
@@ -135,25 +136,42 @@ pub fn candidates(
             without.push(class.clone());
         }
     }
-    let mut list: Vec<Candidate> = Vec::new();
-    let mut seen: HashMap<Vec<usize>, usize> = HashMap::new();
+    // The whole model's ARRs are all kept, whatever their signatures and sizes.
+    let mut list: Vec<Candidate> = base_rows
+        .into_iter()
+        .enumerate()
+        .map(|(arr, rows)| Candidate {
+            source: 0,
+            arr,
+            order: order(&sources[0], arr),
+            without: Vec::new(),
+            rows,
+        })
+        .collect();
+    if sources.len() == 1 {
+        return Candidates {
+            sources,
+            list,
+            capped,
+            unrealised: Vec::new(),
+        };
+    }
+    let mut seen: HashMap<Vec<usize>, usize> = list
+        .iter()
+        .enumerate()
+        .map(|(k, c)| (c.rows.clone(), k))
+        .collect();
     let (structure, faults) =
         super::isolability::fault_structure(&sources[0].causal.system, components);
     let mut unrealised = Vec::new();
-    for (source, d) in sources.iter().enumerate() {
+    for (source, d) in sources.iter().enumerate().skip(1) {
         let mut shown: BTreeSet<usize> = BTreeSet::new();
         for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
-            if source == 0
-                || written_size(&d.causal.system.pool, d.arrs[arr].residual) <= MAX_CANDIDATE_SIZE
-            {
-                shown.extend(rows.iter().copied());
+            if written_size(&d.causal.system.pool, d.arrs[arr].residual) > MAX_CANDIDATE_SIZE {
+                continue;
             }
-            // The whole model's ARRs are all kept, whatever their signatures and sizes.
-            if source > 0
-                && (rows.is_empty()
-                    || written_size(&d.causal.system.pool, d.arrs[arr].residual)
-                        > MAX_CANDIDATE_SIZE)
-            {
+            shown.extend(rows.iter().copied());
+            if rows.is_empty() {
                 continue;
             }
             let c = Candidate {
@@ -165,18 +183,13 @@ pub fn candidates(
             };
             match seen.get(&c.rows) {
                 // One per signature: the per-detector one, else the lowest order.
-                Some(&k) if source > 0 && c.order < list[k].order && list[k].source > 0 => {
-                    list[k] = c;
-                }
-                Some(_) if source > 0 => {}
-                _ => {
+                Some(&k) if c.order < list[k].order && list[k].source > 0 => list[k] = c,
+                Some(_) => {}
+                None => {
                     seen.insert(c.rows.clone(), list.len());
                     list.push(c);
                 }
             }
-        }
-        if source == 0 {
-            continue;
         }
         let left_out = &without[source];
         let Some(&first) = left_out.first() else {

@@ -413,10 +413,14 @@ impl<'m> Builder<'m> {
                 c.arrs[k].components.push(h);
             }
         }
-        isolability(&mut c.components);
         let marks: Vec<Vec<usize>> = c.components.values().map(|r| r.marks.clone()).collect();
+        let selected = fdi::isolability::of_signatures(&marks);
+        // `Ib`: detectable, and no other row has the same signature.
+        for class in selected.classes.iter().filter(|k| k.len() == 1) {
+            c.components.get_mut(Handle::new(class[0])).isolable = true;
+        }
         c.isolability = Isolability {
-            selected: fault_classes(&fdi::isolability::of_signatures(&marks)),
+            selected: fault_classes(&selected),
             candidates: dd.candidates.as_ref().map(fault_classes),
             possible: fault_classes(&dd.fsm.possible),
             residuals: dd.set,
@@ -440,21 +444,6 @@ fn fault_classes(c: &fdi::isolability::Classes) -> FaultClasses {
     FaultClasses {
         classes: c.classes.iter().map(|k| handles(k)).collect(),
         undetectable: handles(&c.undetectable),
-    }
-}
-
-/// `Ib`: detectable, and no other row has the same signature.
-fn isolability(components: &mut Arena<Component>) {
-    let mut count: HashMap<Vec<usize>, usize> = HashMap::new();
-    for c in components.values() {
-        *count.entry(c.marks.clone()).or_default() += 1;
-    }
-    let isolable: Vec<bool> = components
-        .values()
-        .map(|c| c.detectable && count.get(&c.marks) == Some(&1))
-        .collect();
-    for (i, flag) in isolable.into_iter().enumerate() {
-        components.get_mut(Handle::new(i)).isolable = flag;
     }
 }
 
