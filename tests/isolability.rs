@@ -111,6 +111,62 @@ fn the_bench_separates_the_load_and_says_what_it_cannot() {
     );
 }
 
+/// The Wheatstone bridge seen from its two node voltages is one conductance between them:
+/// the structure tells its five resistors apart, but bgc writes every residual the equations
+/// allow without each of them and the other four cancel in all of them (a sum of node
+/// balances). The bound it reports is then what `best` reaches: nothing is left to find.
+#[test]
+fn cancellations_bgc_proves_bring_the_bound_down_to_what_it_writes() {
+    let best = product("models/wheatstone_bridge.bg", "best");
+    let iso = &best["isolability"];
+    assert_eq!(classes(&iso["possible"]).len(), 9);
+    assert_eq!(classes(&iso["bound"]), classes(&iso["selected"]));
+    assert!(classes(&iso["bound"]).contains(&vec![
+        "ra".to_string(),
+        "rb".into(),
+        "rc".into(),
+        "rd".into(),
+        "rm".into()
+    ]));
+    for u in iso["unrealised"].as_array().expect("unrealised") {
+        assert_eq!(u["complete"], true, "{u}");
+        assert_eq!(u["cancelled"], u["unseen"], "{u}");
+    }
+    // On the bench the backlash torque cancels from the residual without the link (it is
+    // taken from one shaft and given to the other), but the derivation without the backlash
+    // is not complete, so the bound stays the structure's.
+    let bench = product("models/backlash_bench.bg", "best");
+    let iso = &bench["isolability"];
+    let without_link = iso["unrealised"]
+        .as_array()
+        .expect("unrealised")
+        .iter()
+        .find(|u| u["without"] == serde_json::json!(["link"]))
+        .expect("the residual without the link");
+    assert_eq!(without_link["cancelled"], serde_json::json!(["w"]));
+    assert_eq!(classes(&iso["bound"]), classes(&iso["possible"]));
+}
+
+/// The sensor `bgc sensors` proposes for the bench, the motor current, makes every residual
+/// explicit that the encoders alone could only get by solving the link's law for its twist:
+/// `best` then tells 8 classes apart, the motor encoder on its own among them.
+#[test]
+fn the_bench_with_its_motor_current_measured_tells_the_encoder_apart() {
+    let text =
+        std::fs::read_to_string(common::root().join("models/backlash_bench.bg")).expect("bench");
+    let dir = std::env::temp_dir().join(format!("bgc-bench-current-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("bench_current.bg");
+    std::fs::write(&path, format!("{text}\nDf i on elec \"motor current\"\n")).expect("write");
+    let best = product(path.to_str().expect("path"), "best");
+    let iso = &best["isolability"];
+    let selected = classes(&iso["selected"]);
+    assert_eq!(selected.len(), 8, "{selected:?}");
+    assert!(selected.contains(&vec!["y1".to_string()]), "{selected:?}");
+    assert!(selected.contains(&vec!["i".to_string()]), "{selected:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every residual `all` writes passes `bgc verify` (on the healthy plant at round-off, each
 /// FSM entry moved by its fault), on the models where verify applies. Left out:
 /// `varistor_loop` (verify cannot go through a nonlinear algebraic loop),

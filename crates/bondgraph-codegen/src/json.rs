@@ -246,7 +246,7 @@ fn isolability(out: &mut String, c: &Compiled) {
     };
     let _ = writeln!(
         out,
-        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}, \"unrealised\": {}}},",
+        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}, \"bound\": {}, \"unrealised\": {}}},",
         string(set),
         classes(&c.isolability.selected),
         c.isolability
@@ -254,13 +254,19 @@ fn isolability(out: &mut String, c: &Compiled) {
             .as_ref()
             .map_or("null".to_string(), classes),
         classes(&c.isolability.possible),
+        c.isolability
+            .bound
+            .as_ref()
+            .map_or("null".to_string(), classes),
         list(c.isolability.unrealised.iter().map(|u| {
             let names =
                 |hs: &[Handle<Component>]| list(hs.iter().map(|&h| string(&c.components[h].name)));
             format!(
-                "{{\"without\": {}, \"unseen\": {}, \"reasons\": {}}}",
+                "{{\"without\": {}, \"unseen\": {}, \"cancelled\": {}, \"complete\": {}, \"reasons\": {}}}",
                 names(&u.without),
                 names(&u.unseen),
+                names(&u.cancelled),
+                u.complete,
                 list(u.reasons.iter().map(|r| string(r)))
             )
         }))

@@ -140,6 +140,15 @@ fn isolability(out: &mut String, c: &Compiled) {
         &i.possible,
         "with every residual the equations allow (structural)",
     );
+    let most = i.bound.as_ref().unwrap_or(&i.possible);
+    if most != &i.possible {
+        classes(
+            out,
+            c,
+            most,
+            "with every residual the equations allow, counting the dependences bgc proved cancel",
+        );
+    }
     let reached = i.candidates.as_ref().unwrap_or(&i.selected).classes.len();
     if i.capped {
         let _ = writeln!(
@@ -147,12 +156,12 @@ fn isolability(out: &mut String, c: &Compiled) {
             "  (more than {} classes: bgc looks for residuals beyond one per detector only in smaller models)",
             bondgraph_core::MAX_DERIVATIONS
         );
-    } else if i.candidates.is_none() && reached < i.possible.classes.len() {
+    } else if i.candidates.is_none() && reached < most.classes.len() {
         let _ = writeln!(
             out,
             "  (`--residuals best` looks for residuals that tell more classes apart)"
         );
-    } else if reached < i.possible.classes.len() && i.unrealised.is_empty() {
+    } else if reached < most.classes.len() && i.unrealised.is_empty() {
         let _ = writeln!(
             out,
             "  (telling the rest apart needs a residual bgc does not write: one that solves a law for a variable it holds nonlinearly, one that eliminates a component's parameter between its own equations (as p·q = F·v does a TF's ratio), or one longer than {} nodes written out)",
@@ -172,13 +181,35 @@ fn isolability(out: &mut String, c: &Compiled) {
             names(&u.without),
             names(&u.unseen)
         );
+        if u.complete {
+            let _ = writeln!(
+                out,
+                "    (bgc wrote as many residuals without {} as the equations allow, and the terms of {} cancel in every one; the structure counts a dependence the equations do not have)",
+                names(&u.without),
+                names(&u.cancelled)
+            );
+        } else if !u.cancelled.is_empty() {
+            let _ = writeln!(
+                out,
+                "    ({}: a residual bgc derived without {} reads their equations, and their terms cancel in it; the structure counts a dependence that is not there)",
+                names(&u.cancelled),
+                names(&u.without)
+            );
+        }
+        let unreached: Vec<_> = u
+            .unseen
+            .iter()
+            .copied()
+            .filter(|h| !u.cancelled.contains(h))
+            .collect();
         for reason in &u.reasons {
             let _ = writeln!(out, "    ({reason})");
         }
-        if u.reasons.is_empty() {
+        if u.reasons.is_empty() && !unreached.is_empty() {
             let _ = writeln!(
                 out,
-                "    (bgc's derivation found no causal path to what it needs; such a residual usually needs a law solved for a variable it holds nonlinearly, or a parameter eliminated between a component's own equations)"
+                "    ({}: bgc's derivation found no causal path to them; such a residual usually needs a law solved for a variable it holds nonlinearly, or a parameter eliminated between a component's own equations)",
+                names(&unreached)
             );
         }
     }
@@ -207,7 +238,7 @@ fn isolability(out: &mut String, c: &Compiled) {
         for &b in &handles {
             let cell = if i.selected.isolable(a, b) {
                 "1"
-            } else if i.possible.isolable(a, b) {
+            } else if most.isolable(a, b) {
                 "+"
             } else {
                 "0"

@@ -32,6 +32,9 @@ pub(crate) struct Diagnosed {
     pub chosen: Vec<Candidate>,
     /// The classes every candidate together tells apart, when candidates were derived.
     pub candidates: Option<Classes>,
+    /// The structural classes merged where derivations proved dependences cancel, when
+    /// candidates were derived.
+    pub bound: Option<Classes>,
     /// Which residuals were asked for.
     pub set: ResidualSet,
     /// Whether the model had too many classes to look for candidates.
@@ -78,6 +81,8 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
         fsm,
         chosen,
         candidates: (set != ResidualSet::PerSensor).then_some(classes),
+        bound: (set != ResidualSet::PerSensor)
+            .then(|| candidates::bound(&possible, &found.unrealised)),
         set,
         capped: found.capped,
         unrealised: found.unrealised,

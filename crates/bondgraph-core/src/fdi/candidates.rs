@@ -78,6 +78,15 @@ pub struct Unrealised {
     pub without: Vec<usize>,
     /// The components a residual without them could show and no written one does.
     pub unseen: Vec<usize>,
+    /// Those of `unseen` whose equations a written residual of the derivation does use, and
+    /// whose terms cancel in it: a dependence the structure counts is not there (the bench's
+    /// backlash torque, taken from one shaft and given to the other; a bridge's branch
+    /// currents in the sum of its nodes' balances).
+    pub cancelled: Vec<usize>,
+    /// Whether the derivation wrote as many residuals as the structure without these
+    /// components has redundancy: then no residual without them shows any of `unseen`, and
+    /// `cancelled` is all of it.
+    pub complete: bool,
     /// What the derivation met, in the model's names.
     pub reasons: Vec<String>,
 }
@@ -166,19 +175,34 @@ pub fn candidates(
     let mut unrealised = Vec::new();
     for (source, d) in sources.iter().enumerate().skip(1) {
         let mut shown: BTreeSet<usize> = BTreeSet::new();
+        let mut written: Vec<&super::arr::Arr> = Vec::new();
+        let used = |written: &[&super::arr::Arr], i: usize| {
+            let c = &components[i];
+            written.iter().any(|a| {
+                c.node.is_some_and(|n| a.nodes.contains(&n))
+                    || c.modulation.is_some_and(|l| a.lets.contains(&l))
+            })
+        };
         for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
             if written_size(&d.causal.system.pool, d.arrs[arr].residual) > MAX_CANDIDATE_SIZE {
                 continue;
             }
+            written.push(&d.arrs[arr]);
             shown.extend(rows.iter().copied());
             if rows.is_empty() {
                 continue;
             }
+            // A component left out that the residual still shows (a law reading a sensor
+            // left out) is not one it is without.
             let c = Candidate {
                 source,
                 arr,
                 order: order(d, arr),
-                without: without[source].clone(),
+                without: without[source]
+                    .iter()
+                    .copied()
+                    .filter(|i| rows.binary_search(i).is_err())
+                    .collect(),
                 rows,
             };
             match seen.get(&c.rows) {
@@ -200,8 +224,19 @@ pub fn candidates(
             .filter(|&i| could[i] && !shown.contains(&i) && !left_out.contains(&i))
             .collect();
         if !unseen.is_empty() {
+            let mut active = vec![true; structure.len()];
+            active[faults[first].0 as usize] = false;
+            let redundancy =
+                active.iter().filter(|&&a| a).count() - structure.matching(&active).size();
+            let complete = written.len() >= redundancy;
             unrealised.push(Unrealised {
                 without: left_out.clone(),
+                cancelled: unseen
+                    .iter()
+                    .copied()
+                    .filter(|&i| complete || used(&written, i))
+                    .collect(),
+                complete,
                 unseen,
                 // A detector left without an ARR is what is being reported, not why.
                 reasons: d
@@ -219,6 +254,52 @@ pub fn candidates(
         capped,
         unrealised,
     }
+}
+
+/// The structural classes `possible`, merged where derivations prove the structure counts
+/// too much: when bgc wrote every residual the equations allow without class `C` and the
+/// terms of a component of class `X` cancel in each, every residual that shows `X` shows
+/// `C` too. That containment is transitive, so classes that contain each other in a cycle
+/// show in the same residuals: one class. O(classes²) on at most [`MAX_DERIVATIONS`].
+pub fn bound(possible: &Classes, unrealised: &[Unrealised]) -> Classes {
+    let n = possible.classes.len();
+    let mut class_of: HashMap<usize, usize> = HashMap::new();
+    for (k, class) in possible.classes.iter().enumerate() {
+        for &i in class {
+            class_of.insert(i, k);
+        }
+    }
+    // within[x][c]: every residual showing class x shows class c.
+    let mut within = vec![vec![false; n]; n];
+    for (k, row) in within.iter_mut().enumerate() {
+        row[k] = true;
+    }
+    for u in unrealised.iter().filter(|u| u.complete) {
+        let Some(&c) = u.without.first().and_then(|i| class_of.get(i)) else {
+            continue;
+        };
+        for x in u.cancelled.iter().filter_map(|i| class_of.get(i)) {
+            within[*x][c] = true;
+        }
+    }
+    for m in 0..n {
+        let through = within[m].clone();
+        for row in within.iter_mut().filter(|row| row[m]) {
+            for (x, &y) in row.iter_mut().zip(&through) {
+                *x |= y;
+            }
+        }
+    }
+    let mut labels: Vec<Option<usize>> = vec![None; class_of.len() + possible.undetectable.len()];
+    for (k, class) in possible.classes.iter().enumerate() {
+        let first = (0..=k).find(|&j| within[k][j] && within[j][k]).unwrap_or(k);
+        for &i in class {
+            if let Some(l) = labels.get_mut(i) {
+                *l = Some(first);
+            }
+        }
+    }
+    Classes::from_labels(&labels)
 }
 
 /// The classes a set of residuals tells apart, over `n` components.
@@ -317,4 +398,43 @@ fn greedy(list: &[Candidate], n: usize, target: &Classes) -> Vec<usize> {
     }
     chosen.sort_unstable();
     chosen
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn proof(without: usize, cancelled: &[usize], complete: bool) -> Unrealised {
+        Unrealised {
+            without: vec![without],
+            unseen: cancelled.to_vec(),
+            cancelled: cancelled.to_vec(),
+            complete,
+            reasons: Vec::new(),
+        }
+    }
+
+    /// Classes merge where complete derivations prove containment both ways, through a
+    /// cycle too; one way, or from an incomplete derivation, they stay apart.
+    #[test]
+    fn bound_merges_the_classes_that_contain_each_other() {
+        let possible = Classes {
+            classes: vec![vec![0], vec![1, 2], vec![3], vec![4], vec![5]],
+            undetectable: vec![6],
+        };
+        let proofs = [
+            // 0 ⊆ {1,2} ⊆ 3 ⊆ 0: one class.
+            proof(1, &[0], true),
+            proof(3, &[2], true),
+            proof(0, &[3], true),
+            // 5 ⊆ 4 only: apart.
+            proof(4, &[5], true),
+            // 4 ⊆ 5 from an incomplete derivation: no proof.
+            proof(5, &[4], false),
+        ];
+        let b = bound(&possible, &proofs);
+        assert_eq!(b.classes, vec![vec![0, 1, 2, 3], vec![4], vec![5]]);
+        assert_eq!(b.undetectable, vec![6]);
+        assert_eq!(bound(&possible, &[]), possible);
+    }
 }

@@ -15,8 +15,9 @@ use std::collections::HashMap;
 use super::dominators;
 use super::fsm::Component;
 use super::structure::{Eq, Structure};
-use crate::causality::equations::System;
+use crate::causality::equations::{Equation, Relation, System};
 use crate::graph::{LetId, NodeId};
+use crate::symbolic::{ExprId, Leaf};
 
 /// Faults grouped by what can tell them apart.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -30,7 +31,7 @@ pub struct Classes {
 
 impl Classes {
     /// From the class of each detectable fault (`None`: undetectable), over `n` faults.
-    fn from_labels(labels: &[Option<usize>]) -> Classes {
+    pub(crate) fn from_labels(labels: &[Option<usize>]) -> Classes {
         let mut out = Classes::default();
         let mut index: std::collections::HashMap<usize, usize> = Default::default();
         for (i, label) in labels.iter().enumerate() {
@@ -87,6 +88,13 @@ pub fn fault_structure(system: &System, components: &[Component]) -> (Structure,
         for &l in &eq.lets {
             by_let.entry(l).or_default().push(i);
         }
+        // A law that reads a sensor (the bench's backlash torque, computed from the
+        // encoders) is wrong when that sensor is: its fault enters there too.
+        for sensor in sensors_read(system, eq) {
+            if sensor != eq.owner {
+                by_owner.entry(sensor).or_default().push(i);
+            }
+        }
     }
     let none = Vec::new();
     let faults = components
@@ -104,6 +112,31 @@ pub fn fault_structure(system: &System, components: &[Component]) -> (Structure,
         })
         .collect();
     (s, faults)
+}
+
+/// The detectors whose readings an equation's expressions use.
+fn sensors_read(system: &System, eq: &Equation) -> Vec<NodeId> {
+    let exprs: Vec<ExprId> = match &eq.relation {
+        Relation::Assign { value, .. } => vec![*value],
+        Relation::Scale { k, .. } => vec![*k],
+        Relation::Law { rhs, .. } => vec![*rhs],
+        Relation::Sum { .. } => Vec::new(),
+        Relation::Storage {
+            derivative,
+            integral,
+        } => derivative.iter().chain(integral).map(|d| d.1).collect(),
+    };
+    let mut out: Vec<NodeId> = exprs
+        .into_iter()
+        .flat_map(|e| system.pool.leaves(e))
+        .filter_map(|leaf| match leaf {
+            Leaf::Sensor(node, _) => Some(node),
+            _ => None,
+        })
+        .collect();
+    out.sort();
+    out.dedup();
+    out
 }
 
 /// The classes every residual the equations allow can reach together.
@@ -354,6 +387,31 @@ mod tests {
         assert_eq!(fast, slow, "{file}");
         assert_eq!(classes_by_removal(&s, &faults), slow, "{file}");
         (fast.classes.len(), count)
+    }
+
+    /// The bench's backlash torque is computed from the encoders: a fault of either encoder
+    /// enters the two sources that read it, not only the detector's own equation.
+    #[test]
+    fn a_sensor_fault_enters_every_law_that_reads_the_sensor() {
+        let path = format!(
+            "{}/../../models/backlash_bench.bg",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let (model, _) = crate::load(&std::fs::read_to_string(path).expect("model"));
+        let model = model.expect("bench");
+        let causal = assign(&model, Mode::Diagnosis);
+        let components = super::super::fsm::components(&model);
+        let (s, faults) = fault_structure(&causal.system, &components);
+        let row = |name: &str| components.iter().position(|c| c.name == name).expect(name);
+        let fault_var = |name: &str| s.vars(faults[row(name)])[0];
+        for sensor in ["y1", "y2"] {
+            let mut owners: Vec<&str> = (0..causal.system.equations.len())
+                .filter(|&e| s.vars(Eq(e as u32)).contains(&fault_var(sensor)))
+                .map(|e| model.node(causal.system.equations[e].owner).name.as_str())
+                .collect();
+            owners.sort();
+            assert_eq!(owners, ["Wl", "Wm", sensor], "{sensor}");
+        }
     }
 
     /// On every model small enough to enumerate its minimal over-determined sets, the classes

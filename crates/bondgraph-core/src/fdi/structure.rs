@@ -264,7 +264,7 @@ impl Structure {
 
 impl Matching {
     /// The number of matched pairs.
-    #[cfg(test)]
+    /// How many unknowns it matches.
     pub fn size(&self) -> usize {
         self.eq_var.iter().filter(|v| v.is_some()).count()
     }

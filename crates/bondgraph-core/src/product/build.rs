@@ -422,6 +422,7 @@ impl<'m> Builder<'m> {
         c.isolability = Isolability {
             selected: fault_classes(&selected),
             candidates: dd.candidates.as_ref().map(fault_classes),
+            bound: dd.bound.as_ref().map(fault_classes),
             possible: fault_classes(&dd.fsm.possible),
             residuals: dd.set,
             capped: dd.capped,
@@ -431,6 +432,8 @@ impl<'m> Builder<'m> {
                 .map(|u| Unrealised {
                     without: u.without.iter().map(|&i| Handle::new(i)).collect(),
                     unseen: u.unseen.iter().map(|&i| Handle::new(i)).collect(),
+                    cancelled: u.cancelled.iter().map(|&i| Handle::new(i)).collect(),
+                    complete: u.complete,
                     reasons: u.reasons.clone(),
                 })
                 .collect(),

@@ -323,6 +323,11 @@ pub struct Isolability {
     /// With every candidate residual bgc could write (`None` when only one ARR per detector
     /// was derived).
     pub candidates: Option<FaultClasses>,
+    /// With every residual the equations allow, once the dependences bgc proved cancel are
+    /// taken out of the structural classes (`None` with only one ARR per detector): the
+    /// classes of [`Isolability::possible`], merged where every residual without one class
+    /// cancels another's terms.
+    pub bound: Option<FaultClasses>,
     /// With every residual the model's equations allow, by a structural analysis: the most
     /// any set of residuals from these detectors can reach.
     pub possible: FaultClasses,
@@ -341,6 +346,12 @@ pub struct Unrealised {
     pub without: Vec<Handle<Component>>,
     /// The components such a residual would show that no written one without them does.
     pub unseen: Vec<Handle<Component>>,
+    /// Those of `unseen` that a residual derived without them reads, and whose terms cancel
+    /// in it: the structure counts a dependence that is not there.
+    pub cancelled: Vec<Handle<Component>>,
+    /// Whether bgc wrote as many residuals without these components as the equations allow:
+    /// then none can show `unseen`.
+    pub complete: bool,
     /// What the derivation met, in the model's names.
     pub reasons: Vec<String>,
 }
