@@ -6,7 +6,7 @@ use std::collections::{BTreeSet, HashMap};
 use petgraph::Direction::{Incoming, Outgoing};
 
 use super::Mode;
-use crate::expr::Expr;
+use crate::expr::{BinOp, Expr};
 use crate::graph::{
     BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,
     Signal, SignalExpr,
@@ -26,6 +26,9 @@ pub enum Var {
     Flow(BondId),
     /// The common variable of a junction (effort of a 0, flow of a 1).
     Common(NodeId),
+    /// The value of a `let` held as an unknown: a modulation whose fault is being left out,
+    /// eliminated between the sources it scales.
+    Let(LetId),
 }
 
 impl Var {
@@ -51,6 +54,7 @@ impl Var {
                 };
                 format!("the common {what} of junction `{}`", node.name)
             }
+            Var::Let(l) => format!("the value of `{}`", model.lets[l.0 as usize].name),
         }
     }
 
@@ -71,6 +75,7 @@ impl Var {
                     _ => format!("f_{}", node.name),
                 }
             }
+            Var::Let(l) => model.lets[l.0 as usize].name.clone(),
         }
     }
 
@@ -82,6 +87,7 @@ impl Var {
                 vec![tail, head]
             }
             Var::Common(j) => vec![j],
+            Var::Let(_) => Vec::new(),
         }
     }
 }
@@ -185,9 +191,17 @@ impl System {
 
 /// Writes the equations of `model` for `mode`.
 pub fn build(model: &BondGraph, mode: Mode) -> System {
+    build_freeing(model, mode, &[])
+}
+
+/// Writes the equations of `model` for `mode`, with the `let`s of `free` held as unknowns in
+/// the sources that scale them (`MSe W = N*w`): one source then gives the value, and the
+/// others check it. Other laws that use them keep their expressions.
+pub fn build_freeing(model: &BondGraph, mode: Mode, free: &[LetId]) -> System {
     let mut b = Builder {
         model,
         mode,
+        free,
         sys: System {
             vars: Vec::new(),
             equations: Vec::new(),
@@ -215,9 +229,57 @@ pub fn build(model: &BondGraph, mode: Mode) -> System {
     b.sys
 }
 
+/// The factor of a source's value over a free `let`.
+enum Scale<'e> {
+    /// `k * w` or `w * k`.
+    By(&'e SignalExpr),
+    /// `w / k`.
+    Over(&'e SignalExpr),
+    /// `w` or `-w`.
+    Unit(f64),
+}
+
+/// `value` as a factor times one `let` of `free`, the factor free of it; `None` when it is
+/// not of that form.
+fn scaled_let<'e>(value: &'e SignalExpr, free: &[LetId]) -> Option<(LetId, Scale<'e>)> {
+    let free_let = |e: &SignalExpr| match e {
+        Expr::Leaf(Signal::Let(l)) if free.contains(l) => Some(*l),
+        _ => None,
+    };
+    let (l, k) = match value {
+        Expr::Neg(a) => (free_let(a)?, Scale::Unit(-1.0)),
+        Expr::Binary(BinOp::Mul, a, b) => match (free_let(a), free_let(b)) {
+            (Some(l), None) => (l, Scale::By(b)),
+            (None, Some(l)) => (l, Scale::By(a)),
+            _ => return None,
+        },
+        Expr::Binary(BinOp::Div, a, b) => (free_let(a)?, Scale::Over(b)),
+        e => (free_let(e)?, Scale::Unit(1.0)),
+    };
+    let mentions = match &k {
+        Scale::By(k) | Scale::Over(k) => names_a_let(k),
+        Scale::Unit(_) => false,
+    };
+    (!mentions).then_some((l, k))
+}
+
+/// Whether `e` names any `let` (the factor of a free one must not depend on it, even
+/// through another).
+fn names_a_let(e: &SignalExpr) -> bool {
+    match e {
+        Expr::Num(_) => false,
+        Expr::Leaf(s) => matches!(s, Signal::Let(_)),
+        Expr::Neg(a) | Expr::Der(a, _) | Expr::Int(a) => names_a_let(a),
+        Expr::Binary(_, a, b) => names_a_let(a) || names_a_let(b),
+        Expr::Call(_, args) => args.iter().any(names_a_let),
+    }
+}
+
 struct Builder<'m> {
     model: &'m BondGraph,
     mode: Mode,
+    /// `let`s held as unknowns where a source scales them.
+    free: &'m [LetId],
     sys: System,
     /// Each `let` as an expression, with the `let`s it names itself.
     lets: Vec<Option<(ExprId, Vec<LetId>)>>,
@@ -441,6 +503,20 @@ impl Builder<'_> {
                 } else {
                     self.var(Var::Flow(b))
                 };
+                if let Some((l, k)) = scaled_let(law.expr(), self.free) {
+                    let k = match k {
+                        Scale::By(k) => self.expr(k, &mut |_| None, &mut used),
+                        Scale::Over(k) => {
+                            let k = self.expr(k, &mut |_| None, &mut used);
+                            let one = self.sys.pool.num(1.0);
+                            self.sys.pool.binary(BinOp::Div, one, k)
+                        }
+                        Scale::Unit(x) => self.sys.pool.num(x),
+                    };
+                    let w = self.var(Var::Let(l));
+                    self.push(node, Relation::Scale { a: var, b: w, k }, used);
+                    return;
+                }
                 let value = self.expr(law.expr(), &mut |_| None, &mut used);
                 self.push(node, Relation::Assign { var, value }, used);
             }
@@ -612,5 +688,79 @@ impl Builder<'_> {
                 );
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::graph::ParamId;
+
+    fn leaf(s: Signal) -> Box<SignalExpr> {
+        Box::new(Expr::Leaf(s))
+    }
+
+    /// A source scales a free `let` by a factor that names no `let`; anything else keeps its
+    /// expression.
+    #[test]
+    fn a_source_scaling_a_free_let_is_recognised() {
+        let (w, z, n) = (LetId(0), LetId(1), Signal::Param(ParamId(0)));
+        let free = [w];
+        let by = |e: SignalExpr| {
+            scaled_let(&e, &free).map(|(l, k)| {
+                (
+                    l,
+                    matches!(k, Scale::By(_)),
+                    matches!(k, Scale::Over(_)),
+                    match k {
+                        Scale::Unit(x) => x,
+                        _ => 0.0,
+                    },
+                )
+            })
+        };
+        assert_eq!(by(Expr::Leaf(Signal::Let(w))), Some((w, false, false, 1.0)));
+        assert_eq!(
+            by(Expr::Neg(leaf(Signal::Let(w)))),
+            Some((w, false, false, -1.0))
+        );
+        assert_eq!(
+            by(Expr::Binary(BinOp::Mul, leaf(n), leaf(Signal::Let(w)))),
+            Some((w, true, false, 0.0))
+        );
+        assert_eq!(
+            by(Expr::Binary(BinOp::Mul, leaf(Signal::Let(w)), leaf(n))),
+            Some((w, true, false, 0.0))
+        );
+        assert_eq!(
+            by(Expr::Binary(BinOp::Div, leaf(Signal::Let(w)), leaf(n))),
+            Some((w, false, true, 0.0))
+        );
+        // Not free, not a product, a factor naming a `let`, the `let` twice.
+        assert_eq!(by(Expr::Leaf(Signal::Let(z))), None);
+        assert_eq!(
+            by(Expr::Binary(BinOp::Add, leaf(n), leaf(Signal::Let(w)))),
+            None
+        );
+        assert_eq!(
+            by(Expr::Binary(
+                BinOp::Mul,
+                leaf(Signal::Let(z)),
+                leaf(Signal::Let(w))
+            )),
+            None
+        );
+        assert_eq!(
+            by(Expr::Binary(
+                BinOp::Mul,
+                leaf(Signal::Let(w)),
+                leaf(Signal::Let(w))
+            )),
+            None
+        );
+        assert_eq!(
+            by(Expr::Binary(BinOp::Div, leaf(n), leaf(Signal::Let(w)))),
+            None
+        );
     }
 }

@@ -57,9 +57,15 @@ pub fn assign(model: &BondGraph, mode: Mode) -> Causal {
 
 /// Orients the equations of `model` for diagnosis with those `drop` accepts left out: the
 /// model without some components, whose redundant equations are residuals that a fault of
-/// those components cannot reach.
-pub fn assign_without(model: &BondGraph, drop: &dyn Fn(&equations::Equation) -> bool) -> Causal {
-    let mut system = equations::build(model, Mode::Diagnosis);
+/// those components cannot reach. The `let`s of `free` are held as unknowns in the sources
+/// that scale them (see [`equations::build_freeing`]): a modulation left out is eliminated
+/// between its sources instead of losing them all.
+pub fn assign_freeing(
+    model: &BondGraph,
+    free: &[crate::graph::LetId],
+    drop: &dyn Fn(&equations::Equation) -> bool,
+) -> Causal {
+    let mut system = equations::build_freeing(model, Mode::Diagnosis, free);
     system.equations.retain(|e| !drop(e));
     let solved = solve::solve(model, &mut system, Mode::Diagnosis);
     Causal {

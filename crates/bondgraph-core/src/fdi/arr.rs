@@ -6,7 +6,7 @@ use std::collections::BTreeSet;
 use super::auxiliary::{self, Auxiliary};
 use super::eliminate::eliminate;
 use crate::causality::equations::{Equation, VarId};
-use crate::causality::{assign, assign_without, report, Causal, Mode};
+use crate::causality::{assign, assign_freeing, report, Causal, Mode};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf};
@@ -50,9 +50,14 @@ pub fn diagnose(model: &BondGraph) -> Diagnosis {
     from_causal(model, assign(model, Mode::Diagnosis))
 }
 
-/// Derives the ARRs of `model` with the equations `drop` accepts left out.
-pub fn diagnose_without(model: &BondGraph, drop: &dyn Fn(&Equation) -> bool) -> Diagnosis {
-    from_causal(model, assign_without(model, drop))
+/// Derives the ARRs of `model` with the `let`s of `free` held as unknowns where sources scale
+/// them, and the equations `drop` accepts left out.
+pub fn diagnose_freeing(
+    model: &BondGraph,
+    free: &[LetId],
+    drop: &dyn Fn(&Equation) -> bool,
+) -> Diagnosis {
+    from_causal(model, assign_freeing(model, free, drop))
 }
 
 /// The ARRs of equations in diagnosis causality.

@@ -14,7 +14,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 
-use super::arr::{diagnose_without, Diagnosis};
+use super::arr::{diagnose_freeing, Diagnosis};
 use super::fsm::{arr_rows, Component};
 use super::isolability::Classes;
 use super::subsets::for_each_subset;
@@ -141,7 +141,8 @@ pub fn candidates(
             let drop = |eq: &crate::causality::equations::Equation| {
                 nodes.contains(&eq.owner) || eq.lets.iter().any(|l| lets.contains(l))
             };
-            sources.push(diagnose_without(model, &drop));
+            let free: Vec<_> = lets.iter().copied().collect();
+            sources.push(diagnose_freeing(model, &free, &drop));
             without.push(class.clone());
         }
     }
