@@ -225,3 +225,30 @@ fn sensors_proposes_the_missing_detector() {
         stderr(&out)
     );
 }
+
+/// Above 32 classes each class is left out of the part of the model around it: the chain at
+/// 40 stages (75 structural classes) gets its candidates that way, in seconds, and `best`
+/// tells apart at least what one ARR per detector does.
+#[test]
+fn a_large_model_derives_its_candidates_around_each_class() {
+    let text = bondgraph_core::generate::mass_spring_chain_varied(40, 5);
+    let dir = std::env::temp_dir().join(format!("bgc-chain40-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("chain40.bg");
+    std::fs::write(&path, text).expect("write");
+    let path = path.to_str().expect("path");
+    let plain = product(path, "per-sensor");
+    let best = product(path, "best");
+    let (p, b) = (
+        classes(&plain["isolability"]["selected"]).len(),
+        classes(&best["isolability"]["selected"]).len(),
+    );
+    assert!(b >= p, "best {b}, per-sensor {p}");
+    assert!(classes(&best["isolability"]["possible"]).len() > 32);
+    let text = stdout(&bgc(&[path, "--residuals", "best"]));
+    assert!(
+        text.contains("each class was left out of the part of the model around it"),
+        "{text}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -153,8 +153,9 @@ fn isolability(out: &mut String, c: &Compiled) {
     if i.capped {
         let _ = writeln!(
             out,
-            "  (more than {} classes: bgc looks for residuals beyond one per detector only in smaller models)",
-            bondgraph_core::MAX_DERIVATIONS
+            "  (more than {} classes: each class was left out of the part of the model around it, up to {} detectors of other classes; the residuals the structure allows over longer stretches are not derived)",
+            bondgraph_core::MAX_DERIVATIONS,
+            bondgraph_core::WINDOW_DETECTORS
         );
     } else if i.candidates.is_none() && reached < most.classes.len() {
         let _ = writeln!(

@@ -138,9 +138,43 @@ fn classes(c: &mut Criterion) {
     group.finish();
 }
 
+/// The candidate residuals of the chain: parsing, the whole model's ARRs and FSM, the
+/// structural classes, and one derivation of the part around each class (above 32 classes).
+fn candidates(c: &mut Criterion) {
+    let mut group = c.benchmark_group("candidates");
+    group.sample_size(10);
+    for stages in [100, 1_000, 10_000] {
+        let text = mass_spring_chain_varied(stages, 5);
+        group.throughput(Throughput::Elements(stages as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
+            b.iter(|| black_box(bondgraph_core::candidate_residuals(black_box(text))))
+        });
+    }
+    group.finish();
+}
+
+/// The choice of `--residuals best` among the chain's candidates, found once beforehand.
+fn selection(c: &mut Criterion) {
+    let mut group = c.benchmark_group("selection");
+    group.sample_size(10);
+    for stages in [100, 1_000, 10_000] {
+        let text = mass_spring_chain_varied(stages, 5);
+        let Some(set) = bondgraph_core::candidate_residuals(&text) else {
+            continue;
+        };
+        group.throughput(Throughput::Elements(stages as u64));
+        group.bench_with_input(BenchmarkId::from_parameter(stages), &set, |b, set| {
+            b.iter(|| black_box(set.best()))
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     classes,
+    candidates,
+    selection,
     state_equations,
     full_pipeline,
     simplify,

@@ -24,7 +24,7 @@ mod verify;
 pub use compile::{compile, without_bom, Derive, Options, Output};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
-pub use fdi::candidates::{MAX_CANDIDATE_SIZE, MAX_DERIVATIONS};
+pub use fdi::candidates::{MAX_CANDIDATE_SIZE, MAX_DERIVATIONS, WINDOW_DETECTORS};
 pub use fdi::placement::{Goal, NamedClasses, NewDetector, Placement, PlacementError, Proposal};
 pub use fdi::ResidualSet;
 pub use product::*;
@@ -63,6 +63,44 @@ pub fn place_sensors(
         }
         _ => Err(diagnostics),
     }
+}
+
+/// The candidate residuals of a model, ready to be chosen from (for benchmarks).
+#[doc(hidden)]
+pub struct CandidateSet {
+    list: Vec<fdi::candidates::Candidate>,
+    components: usize,
+}
+
+impl CandidateSet {
+    /// How many candidates there are.
+    pub fn len(&self) -> usize {
+        self.list.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.list.is_empty()
+    }
+
+    /// How many residuals `--residuals best` keeps, and how many classes they tell apart.
+    pub fn best(&self) -> (usize, usize) {
+        let kept = fdi::candidates::select(&self.list, self.components, ResidualSet::Best);
+        let picked: Vec<_> = kept.iter().map(|&k| &self.list[k]).collect();
+        let classes = fdi::candidates::classes_of(&picked, self.components);
+        (kept.len(), classes.classes.len())
+    }
+}
+
+/// The candidate residuals of a model's text (for benchmarks): parsing, the whole model's
+/// ARRs and FSM, the structural classes, and one derivation per class (of the part around
+/// it, above [`MAX_DERIVATIONS`] classes).
+#[doc(hidden)]
+pub fn candidate_residuals(source: &str) -> Option<CandidateSet> {
+    let (model, diagnostics) = load(source);
+    let model = model.filter(|_| !diagnostics.has_errors())?;
+    let (list, components) = pipeline::candidate_list(&model);
+    Some(CandidateSet { list, components })
 }
 
 /// The number of structural fault classes of a model's text (for benchmarks): parsing, the

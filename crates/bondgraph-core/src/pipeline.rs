@@ -37,7 +37,8 @@ pub(crate) struct Diagnosed {
     pub bound: Option<Classes>,
     /// Which residuals were asked for.
     pub set: ResidualSet,
-    /// Whether the model had too many classes to look for candidates.
+    /// Whether the model had too many classes for whole-model derivations (candidates came
+    /// from the part around each class).
     pub capped: bool,
     /// The derivations that gave fewer residuals than the structure allows.
     pub unrealised: Vec<candidates::Unrealised>,
@@ -48,6 +49,28 @@ impl Diagnosed {
     pub fn base(&self) -> &Diagnosis {
         &self.sources[0]
     }
+}
+
+/// The rows each of the `arrs` ARRs shows, as the FSM found them.
+fn shown_by(fsm: &Fsm, arrs: usize) -> Vec<Vec<usize>> {
+    let mut rows: Vec<Vec<usize>> = vec![Vec::new(); arrs];
+    for (r, row) in fsm.rows.iter().enumerate() {
+        for &k in &row.marks {
+            rows[k].push(r);
+        }
+    }
+    rows
+}
+
+/// Every candidate residual of `model` (the structural classes' derivations included), over
+/// how many components: what `--residuals best` chooses from.
+pub(crate) fn candidate_list(model: &BondGraph) -> (Vec<Candidate>, usize) {
+    let d = diagnose(model);
+    let fsm = Fsm::new(model, &d);
+    let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
+    let rows = shown_by(&fsm, d.arrs.len());
+    let found = candidates::candidates(model, d, rows, &components, &fsm.possible);
+    (found.list, components.len())
 }
 
 /// The ARRs of `model`, with candidates beyond one per detector unless `set` asks only for
@@ -62,13 +85,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
     } else {
         fsm.possible.clone()
     };
-    // What each ARR shows, as the FSM found it.
-    let mut rows: Vec<Vec<usize>> = vec![Vec::new(); d.arrs.len()];
-    for (r, row) in fsm.rows.iter().enumerate() {
-        for &k in &row.marks {
-            rows[k].push(r);
-        }
-    }
+    let rows = shown_by(&fsm, d.arrs.len());
     let found = candidates::candidates(model, d, rows, &components, &possible);
     let all: Vec<&Candidate> = found.list.iter().collect();
     let classes = candidates::classes_of(&all, components.len());

@@ -198,6 +198,12 @@ pub fn build(model: &BondGraph, mode: Mode) -> System {
 /// the sources that scale them (`MSe W = N*w`): one source then gives the value, and the
 /// others check it. Other laws that use them keep their expressions.
 pub fn build_freeing(model: &BondGraph, mode: Mode, free: &[LetId]) -> System {
+    build_in(model, mode, free, None)
+}
+
+/// [`build_freeing`] for the nodes of `scope` only (in increasing order), when given: the
+/// equations of a part of the model, in time proportional to that part (and the `let`s).
+pub fn build_in(model: &BondGraph, mode: Mode, free: &[LetId], scope: Option<&[NodeId]>) -> System {
     let mut b = Builder {
         model,
         mode,
@@ -213,13 +219,29 @@ pub fn build_freeing(model: &BondGraph, mode: Mode, free: &[LetId]) -> System {
         lets: vec![None; model.lets.len()],
     };
     b.lets();
-    for bond in model.bonds() {
+    let (bonds, nodes): (Vec<BondId>, Vec<NodeId>) = match scope {
+        None => (model.bonds().collect(), model.nodes().collect()),
+        Some(nodes) => {
+            let mut bonds: Vec<BondId> = nodes
+                .iter()
+                .flat_map(|&n| {
+                    let mut at = model.bonds_at(n, Incoming);
+                    at.extend(model.bonds_at(n, Outgoing));
+                    at
+                })
+                .collect();
+            bonds.sort();
+            bonds.dedup();
+            (bonds, nodes.to_vec())
+        }
+    };
+    for bond in bonds {
         if model.bond(bond).kind == BondKind::Power {
             b.new_var(Var::Effort(bond));
             b.new_var(Var::Flow(bond));
         }
     }
-    for node in model.nodes() {
+    for node in nodes {
         match &model.node(node).kind {
             NodeKind::Junction(kind) => b.junction(node, *kind),
             NodeKind::Element(kind, law) => b.element(node, *kind, law),

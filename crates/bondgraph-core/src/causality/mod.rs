@@ -65,7 +65,17 @@ pub fn assign_freeing(
     free: &[crate::graph::LetId],
     drop: &dyn Fn(&equations::Equation) -> bool,
 ) -> Causal {
-    let mut system = equations::build_freeing(model, Mode::Diagnosis, free);
+    assign_in(model, free, None, drop)
+}
+
+/// [`assign_freeing`] on the equations of the nodes of `scope` only (increasing), when given.
+pub fn assign_in(
+    model: &BondGraph,
+    free: &[crate::graph::LetId],
+    scope: Option<&[crate::graph::NodeId]>,
+    drop: &dyn Fn(&equations::Equation) -> bool,
+) -> Causal {
+    let mut system = equations::build_in(model, Mode::Diagnosis, free, scope);
     system.equations.retain(|e| !drop(e));
     let solved = solve::solve(model, &mut system, Mode::Diagnosis);
     Causal {

@@ -6,7 +6,7 @@ use std::collections::BTreeSet;
 use super::auxiliary::{self, Auxiliary};
 use super::eliminate::eliminate;
 use crate::causality::equations::{Equation, VarId};
-use crate::causality::{assign, assign_freeing, report, Causal, Mode};
+use crate::causality::{assign, assign_freeing, assign_in, report, Causal, Mode};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf};
@@ -47,7 +47,7 @@ pub struct Diagnosis {
 
 /// Derives the ARRs of `model`.
 pub fn diagnose(model: &BondGraph) -> Diagnosis {
-    from_causal(model, assign(model, Mode::Diagnosis))
+    from_causal(model, assign(model, Mode::Diagnosis), true)
 }
 
 /// Derives the ARRs of `model` with the `let`s of `free` held as unknowns where sources scale
@@ -57,11 +57,23 @@ pub fn diagnose_freeing(
     free: &[LetId],
     drop: &dyn Fn(&Equation) -> bool,
 ) -> Diagnosis {
-    from_causal(model, assign_freeing(model, free, drop))
+    from_causal(model, assign_freeing(model, free, drop), true)
+}
+
+/// The ARRs of the equations of the nodes of `scope` (increasing), with the `let`s of `free`
+/// held as unknowns and those `drop` accepts left out: a part of a large model, in time
+/// proportional to the part. What keeps the part's detectors from ARRs is not reported.
+pub fn diagnose_in(
+    model: &BondGraph,
+    free: &[LetId],
+    scope: &[NodeId],
+    drop: &dyn Fn(&Equation) -> bool,
+) -> Diagnosis {
+    from_causal(model, assign_in(model, free, Some(scope), drop), false)
 }
 
 /// The ARRs of equations in diagnosis causality.
-fn from_causal(model: &BondGraph, mut causal: Causal) -> Diagnosis {
+fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Diagnosis {
     let redundant = causal.redundant();
     let mut eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
     super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);
@@ -100,8 +112,12 @@ fn from_causal(model: &BondGraph, mut causal: Causal) -> Diagnosis {
     for (i, arr) in arrs.iter_mut().enumerate() {
         arr.name = format!("ARR{}", i + 1);
     }
-    let mut problems = problems(model, &causal, &arrs);
-    for u in eliminated.problems {
+    let mut problems = if with_problems {
+        problems(model, &causal, &arrs)
+    } else {
+        Vec::new()
+    };
+    for u in eliminated.problems.into_iter().filter(|_| with_problems) {
         let var = causal.system.vars[u as usize];
         problems.push(report::at_nodes(
             model,

@@ -8,21 +8,28 @@
 //! link torque `K z + w(z)` for the twist `z`) yields none, and the classes it would have
 //! separated stay together (reported against the structural classes).
 //!
-//! Derivations cost a diagnosis each, so they are made for models of at most
-//! [`MAX_DERIVATIONS`] classes; the choice among candidates is exhaustive within
-//! [`MAX_SELECTIONS`] evaluations, then greedy.
+//! A derivation of the whole model costs a diagnosis, so above [`MAX_DERIVATIONS`] classes
+//! each class is left out of the part of the model around it instead (linear in the
+//! classes). The choice among candidates is exhaustive within a budget, then a lazy greedy
+//! (near-linear). Where the derivations fall short of the structure, [`Unrealised`] says what
+//! is missing and, where bgc can prove it, that the structure counts a dependence that cancels
+//! ([`bound`]).
 
 use std::collections::{BTreeSet, HashMap};
 
-use super::arr::{diagnose_freeing, Diagnosis};
-use super::fsm::{arr_rows, Component};
+use petgraph::Direction;
+
+use super::arr::{diagnose_freeing, diagnose_in, Diagnosis};
+use super::fsm::{arr_rows_indexed, Component, RowIndex};
 use super::isolability::Classes;
 use super::subsets::for_each_subset;
-use crate::graph::BondGraph;
+use crate::causality::equations::Equation;
+use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
 use crate::symbolic::Leaf;
 
-/// Models with more fault classes keep one ARR per detector: each class costs a derivation
-/// of the whole model (a 30-stage chain's 57 take over a minute).
+/// Models with more fault classes derive each class's residuals on the part of the model
+/// around it: a derivation of the whole model per class costs too much (a 30-stage chain's
+/// 57 take over a minute).
 pub const MAX_DERIVATIONS: usize = 32;
 
 /// Candidates longer than this, written out, are not kept: a residual of a whole part of a
@@ -100,7 +107,8 @@ pub struct Candidates {
     /// The residuals: every ARR of the whole model first, then each candidate with a
     /// signature none before it has.
     pub list: Vec<Candidate>,
-    /// Whether the model had too many classes for derivations beyond the whole model.
+    /// Whether the model had too many classes for whole-model derivations: each class was left
+    /// out of the part of the model around it, and no shortfall was analysed.
     pub capped: bool,
 }
 
@@ -120,7 +128,8 @@ fn order(d: &Diagnosis, k: usize) -> u32 {
 }
 
 /// The candidates of `model`: its own ARRs (`base`, showing `base_rows` each, as its FSM
-/// found), then those of the model without each class of `possible` in turn.
+/// found), then those of the model without each class of `possible` in turn: derived on the
+/// whole model up to [`MAX_DERIVATIONS`] classes, on a part around each class above.
 pub fn candidates(
     model: &BondGraph,
     base: Diagnosis,
@@ -128,68 +137,119 @@ pub fn candidates(
     components: &[Component],
     possible: &Classes,
 ) -> Candidates {
-    let capped = possible.classes.len() > MAX_DERIVATIONS;
-    let mut sources = vec![base];
-    let mut without: Vec<Vec<usize>> = vec![Vec::new()];
-    if !capped {
-        for class in &possible.classes {
-            let nodes: BTreeSet<_> = class.iter().filter_map(|&i| components[i].node).collect();
-            let lets: BTreeSet<_> = class
-                .iter()
-                .filter_map(|&i| components[i].modulation)
-                .collect();
-            let drop = |eq: &crate::causality::equations::Equation| {
-                nodes.contains(&eq.owner) || eq.lets.iter().any(|l| lets.contains(l))
-            };
-            let free: Vec<_> = lets.iter().copied().collect();
-            sources.push(diagnose_freeing(model, &free, &drop));
-            without.push(class.clone());
-        }
-    }
     // The whole model's ARRs are all kept, whatever their signatures and sizes.
-    let mut list: Vec<Candidate> = base_rows
+    let list: Vec<Candidate> = base_rows
         .into_iter()
         .enumerate()
         .map(|(arr, rows)| Candidate {
             source: 0,
             arr,
-            order: order(&sources[0], arr),
+            order: order(&base, arr),
             without: Vec::new(),
             rows,
         })
         .collect();
-    if sources.len() == 1 {
+    let mut found = Found {
+        seen: list
+            .iter()
+            .enumerate()
+            .map(|(k, c)| (c.rows.clone(), k))
+            .collect(),
+        list,
+        index: RowIndex::new(components),
+    };
+    if possible.classes.is_empty() {
         return Candidates {
-            sources,
-            list,
-            capped,
+            sources: vec![base],
+            list: found.list,
+            capped: false,
             unrealised: Vec::new(),
         };
     }
-    let mut seen: HashMap<Vec<usize>, usize> = list
-        .iter()
-        .enumerate()
-        .map(|(k, c)| (c.rows.clone(), k))
-        .collect();
-    let (structure, faults) =
-        super::isolability::fault_structure(&sources[0].causal.system, components);
-    let mut unrealised = Vec::new();
-    for (source, d) in sources.iter().enumerate().skip(1) {
-        let mut shown: BTreeSet<usize> = BTreeSet::new();
-        let mut written: Vec<&super::arr::Arr> = Vec::new();
-        let used = |written: &[&super::arr::Arr], i: usize| {
-            let c = &components[i];
-            written.iter().any(|a| {
-                c.node.is_some_and(|n| a.nodes.contains(&n))
-                    || c.modulation.is_some_and(|l| a.lets.contains(&l))
-            })
+    if possible.classes.len() > MAX_DERIVATIONS {
+        let sources = local(model, base, components, possible, &mut found);
+        return Candidates {
+            sources,
+            list: found.list,
+            capped: true,
+            unrealised: Vec::new(),
         };
-        for (arr, rows) in arr_rows(model, d, components).into_iter().enumerate() {
+    }
+    let (structure, faults) = super::isolability::fault_structure(&base.causal.system, components);
+    let mut sources = vec![base];
+    let mut unrealised = Vec::new();
+    for class in &possible.classes {
+        let (free, drop) = leaving_out(components, class);
+        let d = diagnose_freeing(model, &free, &drop);
+        let offered = found.offer(model, components, sources.len(), &d, class);
+        if let Some(u) = shortfall(components, &structure, &faults, &d, class, &offered) {
+            unrealised.push(u);
+        }
+        sources.push(d);
+    }
+    Candidates {
+        sources,
+        list: found.list,
+        capped: false,
+        unrealised,
+    }
+}
+
+/// The `let`s of `class` to hold as unknowns, and which equations to leave out: those its
+/// elements and detectors own, and those using its `let`s that no source scales.
+fn leaving_out(
+    components: &[Component],
+    class: &[usize],
+) -> (Vec<LetId>, impl Fn(&Equation) -> bool) {
+    let nodes: BTreeSet<NodeId> = class.iter().filter_map(|&i| components[i].node).collect();
+    let lets: BTreeSet<LetId> = class
+        .iter()
+        .filter_map(|&i| components[i].modulation)
+        .collect();
+    let free = lets.iter().copied().collect();
+    let drop =
+        move |eq: &Equation| nodes.contains(&eq.owner) || eq.lets.iter().any(|l| lets.contains(l));
+    (free, drop)
+}
+
+/// The candidates so far, one per signature.
+struct Found {
+    list: Vec<Candidate>,
+    seen: HashMap<Vec<usize>, usize>,
+    index: RowIndex,
+}
+
+/// What one derivation gave: the components its written residuals show, and those
+/// residuals.
+struct Offered {
+    shown: BTreeSet<usize>,
+    written: Vec<usize>,
+    /// Whether one of its residuals became a candidate.
+    kept: bool,
+}
+
+impl Found {
+    /// Offers the residuals of `d`, derived without `left_out`, as candidates from `source`.
+    fn offer(
+        &mut self,
+        model: &BondGraph,
+        components: &[Component],
+        source: usize,
+        d: &Diagnosis,
+        left_out: &[usize],
+    ) -> Offered {
+        let mut out = Offered {
+            shown: BTreeSet::new(),
+            written: Vec::new(),
+            kept: false,
+        };
+        let rows = arr_rows_indexed(model, d, components, &self.index);
+        for (arr, rows) in rows.into_iter().enumerate() {
             if written_size(&d.causal.system.pool, d.arrs[arr].residual) > MAX_CANDIDATE_SIZE {
                 continue;
             }
-            written.push(&d.arrs[arr]);
-            shown.extend(rows.iter().copied());
+            out.written.push(arr);
+            out.shown.extend(rows.iter().copied());
             if rows.is_empty() {
                 continue;
             }
@@ -199,62 +259,152 @@ pub fn candidates(
                 source,
                 arr,
                 order: order(d, arr),
-                without: without[source]
+                without: left_out
                     .iter()
                     .copied()
                     .filter(|i| rows.binary_search(i).is_err())
                     .collect(),
                 rows,
             };
-            match seen.get(&c.rows) {
+            match self.seen.get(&c.rows) {
                 // One per signature: the per-detector one, else the lowest order.
-                Some(&k) if c.order < list[k].order && list[k].source > 0 => list[k] = c,
+                Some(&k) if c.order < self.list[k].order && self.list[k].source > 0 => {
+                    self.list[k] = c;
+                    out.kept = true;
+                }
                 Some(_) => {}
                 None => {
-                    seen.insert(c.rows.clone(), list.len());
-                    list.push(c);
+                    self.seen.insert(c.rows.clone(), self.list.len());
+                    self.list.push(c);
+                    out.kept = true;
                 }
             }
         }
-        let left_out = &without[source];
-        let Some(&first) = left_out.first() else {
-            continue;
-        };
-        let could = super::isolability::seen_without(&structure, &faults, faults[first]);
-        let unseen: Vec<usize> = (0..components.len())
-            .filter(|&i| could[i] && !shown.contains(&i) && !left_out.contains(&i))
-            .collect();
-        if !unseen.is_empty() {
-            let mut active = vec![true; structure.len()];
-            active[faults[first].0 as usize] = false;
-            let redundancy =
-                active.iter().filter(|&&a| a).count() - structure.matching(&active).size();
-            let complete = written.len() >= redundancy;
-            unrealised.push(Unrealised {
-                without: left_out.clone(),
-                cancelled: unseen
-                    .iter()
-                    .copied()
-                    .filter(|&i| complete || used(&written, i))
-                    .collect(),
-                complete,
-                unseen,
-                // A detector left without an ARR is what is being reported, not why.
-                reasons: d
-                    .problems
-                    .iter()
-                    .map(|p| p.message.clone())
-                    .filter(|m| !m.starts_with("the detector `"))
-                    .collect(),
-            });
+        out
+    }
+}
+
+/// What the structure says a residual without `left_out` could show and the derivation's
+/// residuals do not, with why; `None` when nothing is missing.
+fn shortfall(
+    components: &[Component],
+    structure: &super::structure::Structure,
+    faults: &[super::structure::Eq],
+    d: &Diagnosis,
+    left_out: &[usize],
+    offered: &Offered,
+) -> Option<Unrealised> {
+    let &first = left_out.first()?;
+    let could = super::isolability::seen_without(structure, faults, faults[first]);
+    let unseen: Vec<usize> = (0..components.len())
+        .filter(|&i| could[i] && !offered.shown.contains(&i) && !left_out.contains(&i))
+        .collect();
+    if unseen.is_empty() {
+        return None;
+    }
+    let mut active = vec![true; structure.len()];
+    active[faults[first].0 as usize] = false;
+    let redundancy = active.iter().filter(|&&a| a).count() - structure.matching(&active).size();
+    let complete = offered.written.len() >= redundancy;
+    let used = |i: usize| {
+        let c = &components[i];
+        offered.written.iter().any(|&k| {
+            let a = &d.arrs[k];
+            c.node.is_some_and(|n| a.nodes.contains(&n))
+                || c.modulation.is_some_and(|l| a.lets.contains(&l))
+        })
+    };
+    Some(Unrealised {
+        without: left_out.to_vec(),
+        cancelled: unseen
+            .iter()
+            .copied()
+            .filter(|&i| complete || used(i))
+            .collect(),
+        complete,
+        unseen,
+        // A detector left without an ARR is what is being reported, not why.
+        reasons: d
+            .problems
+            .iter()
+            .map(|p| p.message.clone())
+            .filter(|m| !m.starts_with("the detector `"))
+            .collect(),
+    })
+}
+
+/// Detectors of other classes a part grows to hold: two on each side of a class on a line.
+pub const WINDOW_DETECTORS: usize = 4;
+
+/// The most nodes a part may hold (then it stops at the end of a layer): about eight stages
+/// of a mass–spring chain. A larger part finds residuals over longer unmeasured stretches,
+/// whose derivative order and size grow with the stretch: on a chain measured every 5th mass,
+/// parts of 80 nodes add 7 classes of 42 at 30 stages for 200 times the time.
+pub const MAX_WINDOW: usize = 40;
+
+/// Candidates of a model with more than [`MAX_DERIVATIONS`] classes: each class left out of
+/// the part of the model around it, grown layer by layer from its nodes until it holds
+/// [`WINDOW_DETECTORS`] detectors of other classes (at most [`MAX_WINDOW`] nodes). On a
+/// model whose detectors are spread, each part is bounded, so the whole is linear in the
+/// classes. Only the derivations that gave a candidate are kept.
+fn local(
+    model: &BondGraph,
+    base: Diagnosis,
+    components: &[Component],
+    possible: &Classes,
+    found: &mut Found,
+) -> Vec<Diagnosis> {
+    let mut owners: HashMap<LetId, Vec<NodeId>> = HashMap::new();
+    for eq in &base.causal.system.equations {
+        for &l in &eq.lets {
+            owners.entry(l).or_default().push(eq.owner);
         }
     }
-    Candidates {
-        sources,
-        list,
-        capped,
-        unrealised,
+    let mut sources = vec![base];
+    for class in &possible.classes {
+        let mut seeds: Vec<NodeId> = Vec::new();
+        for &i in class {
+            seeds.extend(components[i].node);
+            if let Some(l) = components[i].modulation {
+                seeds.extend(owners.get(&l).into_iter().flatten().copied());
+            }
+        }
+        let scope = window(model, &seeds);
+        let (free, drop) = leaving_out(components, class);
+        let d = diagnose_in(model, &free, &scope, &drop);
+        if found
+            .offer(model, components, sources.len(), &d, class)
+            .kept
+        {
+            sources.push(d);
+        }
     }
+    sources
+}
+
+/// The nodes around `seeds`, in increasing order (see [`local`]).
+fn window(model: &BondGraph, seeds: &[NodeId]) -> Vec<NodeId> {
+    let is_detector = |n: NodeId| matches!(model.node(n).kind, NodeKind::Detector(_));
+    let mut inside: BTreeSet<NodeId> = seeds.iter().copied().collect();
+    let mut layer: Vec<NodeId> = inside.iter().copied().collect();
+    let mut detectors = 0;
+    while !layer.is_empty() && detectors < WINDOW_DETECTORS && inside.len() < MAX_WINDOW {
+        let mut next = Vec::new();
+        for &n in &layer {
+            let mut bonds = model.bonds_at(n, Direction::Incoming);
+            bonds.extend(model.bonds_at(n, Direction::Outgoing));
+            for b in bonds {
+                let (tail, head) = model.ends(b);
+                let other = if tail == n { head } else { tail };
+                if inside.insert(other) {
+                    detectors += usize::from(is_detector(other));
+                    next.push(other);
+                }
+            }
+        }
+        layer = next;
+    }
+    inside.into_iter().collect()
 }
 
 /// The structural classes `possible`, merged where derivations prove the structure counts
@@ -326,13 +476,18 @@ pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
 /// Set evaluations the exact search of [`best`] may make before it turns greedy.
 pub const MAX_SELECTIONS: usize = 100_000;
 
+/// Work (set evaluations times components) the exact search may do: on a large model fewer
+/// sets are tried, so that the search stays within about a second whatever the size.
+pub const MAX_SELECTION_WORK: usize = 20_000_000;
+
 /// The smallest set of candidates whose classes are those of every candidate together: every
-/// set of one, then two… candidates while [`MAX_SELECTIONS`] lasts, the lowest total
-/// derivative order among the smallest that do; past the budget, [`greedy`].
+/// set of one, then two… candidates while the budget lasts ([`MAX_SELECTIONS`] sets, at most
+/// [`MAX_SELECTION_WORK`] set-components), the lowest total derivative order among the
+/// smallest that do; past the budget, [`greedy`].
 fn best(list: &[Candidate], n: usize) -> Vec<usize> {
     let all: Vec<&Candidate> = list.iter().collect();
     let target = classes_of(&all, n);
-    let mut budget = MAX_SELECTIONS;
+    let mut budget = MAX_SELECTIONS.min(MAX_SELECTION_WORK / n.max(1));
     for size in 1..=list.len() {
         let mut found: Option<(u32, Vec<usize>)> = None;
         let complete = for_each_subset(list.len(), size, &mut budget, |set| {
@@ -352,48 +507,64 @@ fn best(list: &[Candidate], n: usize) -> Vec<usize> {
             return set;
         }
     }
-    greedy(list, n, &target)
+    greedy(list, n)
 }
 
 /// Greedy: the residual that splits the most pairs of components still together (detection
-/// counted as splitting from the undetectable), lowest order then fewest components on ties,
-/// until the classes are `target`.
-fn greedy(list: &[Candidate], n: usize, target: &Classes) -> Vec<usize> {
-    // The group of each component: residuals chosen so far it shows in.
-    let mut group: Vec<Vec<usize>> = vec![Vec::new(); n];
+/// counted as splitting from the undetectable), lowest order then fewest components then
+/// first on ties, until no residual splits a pair: then the classes are those of every
+/// candidate. The pairs a residual splits only fall as the groups refine, so a score
+/// computed earlier bounds the current one: each round takes the best stale score, scores
+/// it again, and keeps it if it still leads (lazy greedy, the same choices as scoring every
+/// candidate each round). Groups are refined in place: O(Σ rows · log candidates).
+fn greedy(list: &[Candidate], n: usize) -> Vec<usize> {
+    use std::collections::BinaryHeap;
+    // The group of each component, and each group's size. Group 0 starts with one member
+    // more, shown by no residual: the undetectable, which detection tells a component from.
+    let mut group: Vec<usize> = vec![0; n];
+    let mut sizes: Vec<usize> = vec![n + 1];
+    let score = |group: &[usize], sizes: &[usize], c: &Candidate| -> usize {
+        let mut inside: HashMap<usize, usize> = HashMap::new();
+        for &r in &c.rows {
+            *inside.entry(group[r]).or_default() += 1;
+        }
+        inside.iter().map(|(g, &k)| k * (sizes[*g] - k)).sum()
+    };
+    // Larger is better: score, then lower order, fewer rows, earlier.
+    let key = |s: usize, k: usize| {
+        (
+            s,
+            std::cmp::Reverse(list[k].order),
+            std::cmp::Reverse(list[k].rows.len()),
+            std::cmp::Reverse(k),
+        )
+    };
+    let mut heap: BinaryHeap<_> = (0..list.len())
+        .map(|k| key(score(&group, &sizes, &list[k]), k))
+        .filter(|t| t.0 > 0)
+        .collect();
     let mut chosen: Vec<usize> = Vec::new();
-    loop {
-        let picked: Vec<&Candidate> = chosen.iter().map(|&k| &list[k]).collect();
-        if classes_of(&picked, n) == *target || chosen.len() == list.len() {
-            break;
+    while let Some(top) = heap.pop() {
+        let k = top.3 .0;
+        let now = key(score(&group, &sizes, &list[k]), k);
+        if now.0 == 0 {
+            continue;
         }
-        let mut sizes: HashMap<&[usize], usize> = HashMap::new();
-        for g in &group {
-            *sizes.entry(g.as_slice()).or_default() += 1;
+        if heap.peek().is_some_and(|next| *next > now) {
+            heap.push(now);
+            continue;
         }
-        let score = |c: &Candidate| {
-            let mut inside: HashMap<&[usize], usize> = HashMap::new();
-            for &r in &c.rows {
-                *inside.entry(group[r].as_slice()).or_default() += 1;
-            }
-            inside
-                .iter()
-                .map(|(g, &k)| k * (sizes[g] - k))
-                .sum::<usize>()
-        };
-        let next = (0..list.len())
-            .filter(|k| !chosen.contains(k))
-            .map(|k| (score(&list[k]), k))
-            .filter(|&(s, _)| s > 0)
-            .max_by(|a, b| {
-                a.0.cmp(&b.0)
-                    .then(list[b.1].order.cmp(&list[a.1].order))
-                    .then(list[b.1].rows.len().cmp(&list[a.1].rows.len()))
-                    .then(b.1.cmp(&a.1))
-            });
-        let Some((_, k)) = next else { break };
+        // Split each group the residual cuts: its members in it move to a new group.
+        let mut moved: HashMap<usize, usize> = HashMap::new();
         for &r in &list[k].rows {
-            group[r].push(chosen.len());
+            let g = group[r];
+            let new = *moved.entry(g).or_insert_with(|| {
+                sizes.push(0);
+                sizes.len() - 1
+            });
+            sizes[g] -= 1;
+            sizes[new] += 1;
+            group[r] = new;
         }
         chosen.push(k);
     }
@@ -412,6 +583,42 @@ mod tests {
             cancelled: cancelled.to_vec(),
             complete,
             reasons: Vec::new(),
+        }
+    }
+
+    /// On many pseudo-random candidate lists, the greedy choice tells apart every class the
+    /// whole list does, with no more residuals than classes.
+    #[test]
+    fn greedy_reaches_the_classes_of_every_candidate() {
+        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = move |m: u64| {
+            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+            (seed >> 33) % m
+        };
+        for _ in 0..200 {
+            let n = 1 + next(40) as usize;
+            let list: Vec<Candidate> = (0..next(30))
+                .map(|arr| {
+                    let mut rows: Vec<usize> =
+                        (0..1 + next(6)).map(|_| next(n as u64) as usize).collect();
+                    rows.sort_unstable();
+                    rows.dedup();
+                    Candidate {
+                        source: 1,
+                        arr: arr as usize,
+                        rows,
+                        without: Vec::new(),
+                        order: next(5) as u32,
+                    }
+                })
+                .collect();
+            let all: Vec<&Candidate> = list.iter().collect();
+            let picked = greedy(&list, n);
+            let chosen: Vec<&Candidate> = picked.iter().map(|&k| &list[k]).collect();
+            assert_eq!(classes_of(&chosen, n), classes_of(&all, n));
+            // Each pick split something when it was taken: no more picks than classes.
+            let whole = classes_of(&chosen, n);
+            assert!(chosen.len() <= whole.classes.len());
         }
     }
 

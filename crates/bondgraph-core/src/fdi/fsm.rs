@@ -204,16 +204,40 @@ pub fn arr_rows(
     diagnosis: &Diagnosis,
     components: &[Component],
 ) -> Vec<Vec<usize>> {
-    let mut node_row: HashMap<NodeId, usize> = HashMap::new();
-    let mut let_row: HashMap<LetId, usize> = HashMap::new();
-    for (i, c) in components.iter().enumerate() {
-        if let Some(n) = c.node {
-            node_row.insert(n, i);
+    arr_rows_indexed(model, diagnosis, components, &RowIndex::new(components))
+}
+
+/// The row of each component's node and `let`: built once for many derivations.
+pub struct RowIndex {
+    node_row: HashMap<NodeId, usize>,
+    let_row: HashMap<LetId, usize>,
+}
+
+impl RowIndex {
+    /// The index of `components`.
+    pub fn new(components: &[Component]) -> RowIndex {
+        let mut node_row: HashMap<NodeId, usize> = HashMap::new();
+        let mut let_row: HashMap<LetId, usize> = HashMap::new();
+        for (i, c) in components.iter().enumerate() {
+            if let Some(n) = c.node {
+                node_row.insert(n, i);
+            }
+            if let Some(l) = c.modulation {
+                let_row.insert(l, i);
+            }
         }
-        if let Some(l) = c.modulation {
-            let_row.insert(l, i);
-        }
+        RowIndex { node_row, let_row }
     }
+}
+
+/// [`arr_rows`] with the index of `components` built already.
+pub fn arr_rows_indexed(
+    model: &BondGraph,
+    diagnosis: &Diagnosis,
+    components: &[Component],
+    index: &RowIndex,
+) -> Vec<Vec<usize>> {
+    let (node_row, let_row) = (&index.node_row, &index.let_row);
     let pool = &diagnosis.causal.system.pool;
     diagnosis
         .arrs

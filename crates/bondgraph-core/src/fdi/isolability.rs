@@ -53,20 +53,15 @@ impl Classes {
 /// The classes of a set of residuals, from each component's signature (the residuals it
 /// shows in): with single faults, two components are told apart when their signatures differ.
 pub fn of_signatures(marks: &[Vec<usize>]) -> Classes {
-    let mut seen: Vec<&[usize]> = Vec::new();
+    let mut seen: HashMap<&[usize], usize> = HashMap::new();
     let labels: Vec<Option<usize>> = marks
         .iter()
         .map(|m| {
             if m.is_empty() {
                 return None;
             }
-            Some(match seen.iter().position(|s| *s == m.as_slice()) {
-                Some(k) => k,
-                None => {
-                    seen.push(m);
-                    seen.len() - 1
-                }
-            })
+            let next = seen.len();
+            Some(*seen.entry(m.as_slice()).or_insert(next))
         })
         .collect();
     Classes::from_labels(&labels)

@@ -331,7 +331,9 @@ pub struct Isolability {
     /// With every residual the model's equations allow, by a structural analysis: the most
     /// any set of residuals from these detectors can reach.
     pub possible: FaultClasses,
-    /// Whether the model has too many fault classes for bgc to look for candidates.
+    /// Whether the model has too many fault classes for a derivation of the whole model per
+    /// class: its candidates come from the part of the model around each class, and what
+    /// the structure allows beyond them is not analysed.
     pub capped: bool,
     /// The residuals the structure allows that bgc could not write, by the components they
     /// would be derived without.
