@@ -252,3 +252,19 @@ fn a_large_model_derives_its_candidates_around_each_class() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--emit dot --residuals best` fills the components by fault class; the plain drawing
+/// derives no ARR and fills nothing.
+#[test]
+fn the_drawing_shows_the_classes_when_residuals_are_chosen() {
+    let best = bgc(&["models/dc_motor.bg", "--emit", "dot", "--residuals", "best"]);
+    assert_eq!(code(&best), 0, "{}", stderr(&best));
+    let best = stdout(&best);
+    assert_eq!(
+        best.matches("(fault class 5)").count(),
+        1,
+        "the DC motor's 5 classes with best, the fifth one component: {best}"
+    );
+    let plain = stdout(&bgc(&["models/dc_motor.bg", "--emit", "dot"]));
+    assert!(!plain.contains("fillcolor"), "{plain}");
+}

@@ -297,7 +297,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 eprintln!("error: --fsm applies to --emit json only");
                 return Err(Failure::Usage);
             }
+            // A drawing needs the ARRs only to fill components by fault class, which
+            // `--residuals best|all` asks for.
             let derive = match args.emit {
+                Target::Dot if args.residuals.set() != bondgraph_core::ResidualSet::PerSensor => {
+                    Derive::Everything
+                }
                 Target::State | Target::Dot => Derive::StateEquations,
                 _ => Derive::Everything,
             };

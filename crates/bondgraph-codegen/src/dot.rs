@@ -2,7 +2,10 @@
 //!
 //! Signal bonds to detectors are drawn dashed with a full arrow, as activated bonds are in the
 //! literature. Given a causality, each power bond also gets its causal stroke, at the end that
-//! receives the effort. Output depends only on the model, so it is stable from run to run.
+//! receives the effort. With ARRs, each element and detector is filled with the colour of its
+//! fault class (the components the ARRs cannot tell apart share one; a colour scheme of 9,
+//! repeated past 9 classes, the class number in the tooltip), and what no ARR detects is left
+//! unfilled in grey. Output depends only on the model, so it is stable from run to run.
 
 use std::fmt::Write as _;
 
@@ -19,17 +22,29 @@ pub fn emit(c: &Compiled) -> String {
         out,
         "  node [shape=plaintext, fontname=\"Helvetica\"];\n  edge [fontname=\"Helvetica\", fontsize=10];"
     );
+    let classes = class_of(c);
     for (h, node) in g.nodes.iter() {
-        let (label, tooltip) = match node.class {
+        let (label, mut tooltip) = match node.class {
             NodeClass::Junction(symbol) => (symbol.to_string(), node.name.clone()),
             NodeClass::Element(kind) => (format!("{kind}:{}", node.name), node.note.clone()),
             NodeClass::Sensor(kind) => {
                 (format!("{}:{}", kind.name(), node.name), node.note.clone())
             }
         };
+        let fill = match classes.get(node.name.as_str()) {
+            Some(Some(k)) if !matches!(node.class, NodeClass::Junction(_)) => {
+                let _ = write!(tooltip, " (fault class {})", k + 1);
+                format!(", style=filled, fillcolor=\"/pastel19/{}\"", k % 9 + 1)
+            }
+            Some(None) if !matches!(node.class, NodeClass::Junction(_)) => {
+                tooltip.push_str(" (no ARR detects it)");
+                ", fontcolor=gray50".to_string()
+            }
+            _ => String::new(),
+        };
         let _ = writeln!(
             out,
-            "  n{} [label={}, tooltip={}];",
+            "  n{} [label={}, tooltip={}{fill}];",
             h.index(),
             quote(&label),
             quote(&tooltip)
@@ -52,6 +67,25 @@ pub fn emit(c: &Compiled) -> String {
         );
     }
     out.push_str("}\n");
+    out
+}
+
+/// Each component's fault class with the product's ARRs (`None`: undetectable), by name;
+/// empty without ARRs.
+fn class_of(c: &Compiled) -> std::collections::HashMap<&str, Option<usize>> {
+    let mut out = std::collections::HashMap::new();
+    if c.arrs.is_empty() {
+        return out;
+    }
+    let selected = &c.isolability.selected;
+    for (k, class) in selected.classes.iter().enumerate() {
+        for &h in class {
+            out.insert(c.components[h].name.as_str(), Some(k));
+        }
+    }
+    for &h in &selected.undetectable {
+        out.insert(c.components[h].name.as_str(), None);
+    }
     out
 }
 
@@ -128,6 +162,29 @@ mod tests {
             dot.contains("n3 -> n2 [label=\"3\", dir=both, arrowtail=tee, arrowhead=lvee]"),
             "{dot}"
         );
+    }
+
+    /// The DC motor with its current and speed measured: with the ARRs, each component is
+    /// filled with its class's colour and named by class in its tooltip; junctions are not.
+    #[test]
+    fn components_are_filled_by_fault_class() {
+        let text = "model m\nparam R1 = 2\nparam L1 = 0.1\nparam J1 = 0.01\nparam k = 0.5\nparam b = 0.1\ninput U\n\
+                    Se u = U\nR r = R1\nI l = L1\nGY g = k\nI j = J1\nR f = b\nDf i on e\nDf w on s\n\
+                    u -> 1:e -> r, l\ne -> g -> 1:s -> j, f\n";
+        let dot = emit(&compile(text, Derive::Everything));
+        assert!(
+            dot.contains("style=filled, fillcolor=\"/pastel19/"),
+            "{dot}"
+        );
+        assert!(dot.contains("(fault class 1)"), "{dot}");
+        let junction = dot
+            .lines()
+            .find(|l| l.contains("label=\"1\""))
+            .expect("a junction");
+        assert!(!junction.contains("fillcolor"), "{junction}");
+        // Without ARRs, nothing is filled.
+        let plain = emit(&compile(text, Derive::StateEquations));
+        assert!(!plain.contains("fillcolor"), "{plain}");
     }
 
     #[test]
