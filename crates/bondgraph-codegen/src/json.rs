@@ -246,7 +246,7 @@ fn isolability(out: &mut String, c: &Compiled) {
     };
     let _ = writeln!(
         out,
-        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}, \"bound\": {}, \"unrealised\": {}}},",
+        "  \"isolability\": {{\"residuals\": {}, \"selected\": {}, \"candidates\": {}, \"possible\": {}, \"bound\": {}, \"local\": {}, \"unrealised\": {}}},",
         string(set),
         classes(&c.isolability.selected),
         c.isolability
@@ -258,6 +258,7 @@ fn isolability(out: &mut String, c: &Compiled) {
             .bound
             .as_ref()
             .map_or("null".to_string(), classes),
+        c.isolability.capped,
         list(c.isolability.unrealised.iter().map(|u| {
             let names =
                 |hs: &[Handle<Component>]| list(hs.iter().map(|&h| string(&c.components[h].name)));
