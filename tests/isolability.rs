@@ -73,8 +73,9 @@ fn best_reaches_the_structural_classes() {
 }
 
 /// The bench: the load told from the link and the motor by the motor and link alone (the
-/// ARR without the load); the link and its backlash, the gear and the encoders stay
-/// together, because telling them apart needs the link's law `K z + w(z)` solved for `z`.
+/// ARR without the load). The link and its backlash are one class (proved below); the gear
+/// and the encoders stay together, because telling them apart needs the link's law
+/// `K z + w(z)` solved for `z`.
 #[test]
 fn the_bench_separates_the_load_and_says_what_it_cannot() {
     let best = product("models/backlash_bench.bg", "best");
