@@ -20,11 +20,11 @@ use std::collections::{BTreeSet, HashMap};
 use petgraph::Direction;
 
 use super::arr::{diagnose_freeing, diagnose_in, Diagnosis};
-use super::fsm::{arr_rows_indexed, Component, RowIndex};
+use super::fsm::{arr_rows_indexed, Component, ComponentKind, RowIndex};
 use super::isolability::Classes;
 use super::subsets::for_each_subset;
 use crate::causality::equations::Equation;
-use crate::graph::{BondGraph, LetId, NodeId, NodeKind};
+use crate::graph::{BondGraph, ElementKind, LetId, NodeId, NodeKind};
 use crate::symbolic::Leaf;
 
 /// Models with more fault classes derive each class's residuals on the part of the model
@@ -329,7 +329,29 @@ fn shortfall(
             .iter()
             .map(|p| p.message.clone())
             .filter(|m| !m.starts_with("the detector `"))
+            .chain(two_ports(components, left_out))
             .collect(),
+    })
+}
+
+/// Why a residual without a TF or GY is missing when it is: its fault is in both of its
+/// laws, and the structure eliminates it between them, which bgc's derivation does not.
+fn two_ports<'c>(
+    components: &'c [Component],
+    left_out: &'c [usize],
+) -> impl Iterator<Item = String> + 'c {
+    left_out.iter().filter_map(|&i| {
+        let c = &components[i];
+        matches!(
+            c.kind,
+            ComponentKind::Element(ElementKind::TF | ElementKind::MTF | ElementKind::GY | ElementKind::MGY)
+        )
+        .then(|| {
+            format!(
+                "a residual without `{}` uses its two laws with its modulus eliminated between them (the power it passes, e1·f1 = e2·f2), which bgc does not derive",
+                c.name
+            )
+        })
     })
 }
 
