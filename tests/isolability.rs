@@ -34,6 +34,30 @@ fn classes(v: &Value) -> Vec<Vec<String>> {
     out
 }
 
+/// A model written to a directory of its own under the system's temporary one, for the
+/// models a test generates; the directory is removed when it is dropped.
+struct TempModel {
+    dir: std::path::PathBuf,
+    path: String,
+}
+
+impl TempModel {
+    fn new(name: &str, text: &str) -> TempModel {
+        let dir = std::env::temp_dir().join(format!("bgc-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join(format!("{name}.bg"));
+        std::fs::write(&path, text).expect("write");
+        let path = path.to_str().expect("path").to_string();
+        TempModel { dir, path }
+    }
+}
+
+impl Drop for TempModel {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
 /// faultdiagnosistoolbox's figures, found here without enumerating minimal sets, and
 /// reached by the residuals `best` writes: the DC motor 5, the three-tank 8, the quarter-car
 /// 5, the four-mass chain 9, where one ARR per detector gives 3, 6, 3 and 3.
@@ -164,17 +188,16 @@ fn cancellations_bgc_proves_bring_the_bound_down_to_what_it_writes() {
 fn the_bench_with_its_motor_current_measured_tells_the_encoder_apart() {
     let text =
         std::fs::read_to_string(common::root().join("models/backlash_bench.bg")).expect("bench");
-    let dir = std::env::temp_dir().join(format!("bgc-bench-current-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join("bench_current.bg");
-    std::fs::write(&path, format!("{text}\nDf i on elec \"motor current\"\n")).expect("write");
-    let best = product(path.to_str().expect("path"), "best");
+    let model = TempModel::new(
+        "bench_current",
+        &format!("{text}\nDf i on elec \"motor current\"\n"),
+    );
+    let best = product(&model.path, "best");
     let iso = &best["isolability"];
     let selected = classes(&iso["selected"]);
     assert_eq!(selected.len(), 8, "{selected:?}");
     assert!(selected.contains(&vec!["y1".to_string()]), "{selected:?}");
     assert!(selected.contains(&vec!["i".to_string()]), "{selected:?}");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Every residual `all` writes passes `bgc verify` (on the healthy plant at round-off, each
@@ -234,11 +257,8 @@ fn sensors_proposes_the_missing_detector() {
 #[test]
 fn a_chain_measured_closely_reaches_its_structural_classes_from_local_parts() {
     let text = bondgraph_core::generate::mass_spring_chain_varied(20, 2);
-    let dir = std::env::temp_dir().join(format!("bgc-chain20-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join("chain20.bg");
-    std::fs::write(&path, text).expect("write");
-    let path = path.to_str().expect("path");
+    let model = TempModel::new("chain20", &text);
+    let path = model.path.as_str();
     let best = product(path, "best");
     let iso = &best["isolability"];
     assert_eq!(classes(&iso["possible"]).len(), 47);
@@ -246,7 +266,6 @@ fn a_chain_measured_closely_reaches_its_structural_classes_from_local_parts() {
     assert_eq!(classes(&iso["selected"]), classes(&iso["possible"]));
     let out = bgc(&["verify", path, "--residuals", "best"]);
     assert_eq!(code(&out), 0, "{}{}", stdout(&out), stderr(&out));
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// Where detectors are far apart (every 5th mass), the parts find little beyond one ARR per
@@ -255,11 +274,8 @@ fn a_chain_measured_closely_reaches_its_structural_classes_from_local_parts() {
 #[test]
 fn a_large_model_derives_its_candidates_around_each_class() {
     let text = bondgraph_core::generate::mass_spring_chain_varied(40, 5);
-    let dir = std::env::temp_dir().join(format!("bgc-chain40-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let path = dir.join("chain40.bg");
-    std::fs::write(&path, text).expect("write");
-    let path = path.to_str().expect("path");
+    let model = TempModel::new("chain40", &text);
+    let path = model.path.as_str();
     let plain = product(path, "per-sensor");
     let best = product(path, "best");
     let (p, b) = (
@@ -273,7 +289,6 @@ fn a_large_model_derives_its_candidates_around_each_class() {
         text.contains("each class was left out of the part of the model around it"),
         "{text}"
     );
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `--emit dot --residuals best` fills the components by fault class; the plain drawing
