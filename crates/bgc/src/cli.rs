@@ -56,7 +56,7 @@ pub struct Args {
 
 /// `--residuals`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum ResidualsArg {
+pub(crate) enum ResidualsArg {
     /// One ARR per detector.
     PerSensor,
     /// The smallest set found that reaches the most isolability the candidates allow.
@@ -66,7 +66,7 @@ enum ResidualsArg {
 }
 
 impl ResidualsArg {
-    fn set(self) -> ResidualSet {
+    pub(crate) fn set(self) -> ResidualSet {
         match self {
             ResidualsArg::PerSensor => ResidualSet::PerSensor,
             ResidualsArg::Best => ResidualSet::Best,

@@ -58,6 +58,10 @@ pub struct ResidualArgs {
     /// Consecutive samples above (below) a threshold that raise (clear) its alarm.
     #[arg(long, value_name = "N", default_value_t = 1)]
     debounce: u32,
+    /// Which residuals to evaluate, as `bgc MODEL --residuals` derives them: one ARR per
+    /// detector, `best` or `all`.
+    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+    residuals: cli::ResidualsArg,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -69,7 +73,7 @@ pub struct ResidualArgs {
 
 /// Runs `bgc residuals`.
 pub fn run(args: ResidualArgs) -> Result<(), Failure> {
-    let c = cli::compile(&args.model, Derive::Everything, None)?;
+    let c = cli::compile_with(&args.model, Derive::Everything, None, args.residuals.set())?;
     if c.has_errors() || c.arrs.is_empty() {
         eprintln!("error: {}: no ARRs to evaluate", c.file_name);
         return Err(Failure::Invalid);
@@ -579,6 +583,131 @@ enum Leaf {
 
 type Id = ExprId<Leaf>;
 
+/// A leaf of the copy of the model's rates: a state (the model's, then its integrals), an
+/// input by position, or time. Parameters are folded in as numbers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+enum CopyLeaf {
+    State(u32),
+    Input(u32),
+    Time,
+    Missing,
+}
+
+/// The copy of the model simulated residuals run, as the generated code runs it.
+struct CopyRun {
+    replay: bondgraph::Replay,
+    rates: Tape<CopyLeaf>,
+    /// Each `int(..)` node of the rates, with the state that holds it.
+    int_states: Vec<(ExprId<CopyLeaf>, usize)>,
+    /// The raw index of each input the rates read.
+    inputs: Vec<usize>,
+    /// Each simulated quantity's slot and the copy's state it reads.
+    read: Vec<(usize, usize)>,
+    /// Reused between samples.
+    u: Vec<f64>,
+    scratch: Vec<f64>,
+    out: Vec<f64>,
+}
+
+impl CopyRun {
+    /// The copy of `c`'s model, when its simulated residuals need one.
+    fn new(
+        c: &Compiled,
+        readings: &Readings,
+        params: &[f64],
+        slot: &HashMap<Quantity, usize>,
+    ) -> Option<CopyRun> {
+        let copy = readings.copy.as_ref()?;
+        let mut inputs: Vec<Handle<bondgraph_core::Input>> = Vec::new();
+        for &r in &copy.rates {
+            for leaf in c.exprs.leaves(r) {
+                if let Symbol::Input(u, _) = leaf {
+                    if !inputs.contains(&u) {
+                        inputs.push(u);
+                    }
+                }
+            }
+        }
+        inputs.sort();
+        let mut pool: Pool<CopyLeaf> = Pool::default();
+        let import = |pool: &mut Pool<CopyLeaf>, e: Expr| {
+            pool.import_from(&c.exprs, e, |p: &mut Pool<CopyLeaf>, s| match s {
+                Symbol::Parameter(k) => p.num(params.get(k.index()).copied().unwrap_or(f64::NAN)),
+                Symbol::State(k) => p.leaf(CopyLeaf::State(k.index() as u32)),
+                Symbol::Input(u, 0) => p.leaf(
+                    inputs
+                        .iter()
+                        .position(|&i| i == u)
+                        .map_or(CopyLeaf::Missing, |j| CopyLeaf::Input(j as u32)),
+                ),
+                Symbol::Time => p.leaf(CopyLeaf::Time),
+                _ => p.leaf(CopyLeaf::Missing),
+            })
+        };
+        let rates: Vec<ExprId<CopyLeaf>> =
+            copy.rates.iter().map(|&e| import(&mut pool, e)).collect();
+        let int_states = (copy.integrals.iter().enumerate())
+            .map(|(k, &arg)| {
+                let arg = import(&mut pool, arg);
+                (pool.int(arg), c.states.len() + k)
+            })
+            .collect();
+        let read = (readings.quantities.iter())
+            .filter_map(|q| match q {
+                Quantity::Simulated(k) => Some((slot.get(q).copied()?, k.index())),
+                _ => None,
+            })
+            .collect();
+        let raw_index = |u: Handle<bondgraph_core::Input>| {
+            (readings.raw.iter()).position(|&(s, _)| s == Signal::Input(u))
+        };
+        Some(CopyRun {
+            replay: bondgraph::Replay::new(&vec![0.0; copy.rates.len()]),
+            rates: Tape::new(&pool, &rates),
+            int_states,
+            inputs: inputs
+                .iter()
+                .map(|&u| raw_index(u))
+                .collect::<Option<_>>()?,
+            read,
+            u: vec![0.0; inputs.len()],
+            scratch: Vec::new(),
+            out: Vec::new(),
+        })
+    }
+
+    /// Advances the copy to the raw samples at `t`.
+    fn push(&mut self, t: f64, raw: &[f64]) {
+        for (u, &k) in self.u.iter_mut().zip(&self.inputs) {
+            *u = raw.get(k).copied().unwrap_or(f64::NAN);
+        }
+        let CopyRun {
+            replay,
+            rates,
+            int_states,
+            u,
+            scratch,
+            out,
+            ..
+        } = self;
+        replay.push(t, u, |t, x, u, dx| {
+            let leaf = |l: CopyLeaf| match l {
+                CopyLeaf::State(k) => x.get(k as usize).copied().unwrap_or(f64::NAN),
+                CopyLeaf::Input(j) => u.get(j as usize).copied().unwrap_or(f64::NAN),
+                CopyLeaf::Time => t,
+                CopyLeaf::Missing => f64::NAN,
+            };
+            let integral = |id: ExprId<CopyLeaf>| {
+                (int_states.iter().find(|(i, _)| *i == id))
+                    .and_then(|&(_, k)| x.get(k).copied())
+                    .unwrap_or(f64::NAN)
+            };
+            rates.values_into(leaf, integral, scratch, out);
+            dx.copy_from_slice(out);
+        });
+    }
+}
+
 /// The residual generator of a compiled model, read at run time: the same estimators, in the
 /// same order, as the generated `ResidualGenerator`.
 pub struct Generator {
@@ -608,6 +737,8 @@ pub struct Generator {
     buffer: Vec<f64>,
     residuals: Vec<f64>,
     bounds: Vec<f64>,
+    /// The copy of the model simulated residuals run, if any.
+    copy: Option<CopyRun>,
 }
 
 /// The residuals at one instant, as [`Generator::push`] gives them.
@@ -690,7 +821,9 @@ impl Generator {
                         .map_or(Leaf::Missing, |&j| Leaf::Auxiliary(j)),
                 ),
                 Symbol::Time => p.leaf(Leaf::Time),
-                Symbol::State(_) | Symbol::Loop(_) => p.leaf(Leaf::Missing),
+                // A simulated residual reads the states of the copy of the model.
+                Symbol::State(k) => slot_leaf(p, &slot, Quantity::Simulated(k)),
+                Symbol::Loop(_) => p.leaf(Leaf::Missing),
             })
         };
         let integrands: Vec<Id> = readings
@@ -798,6 +931,7 @@ impl Generator {
             buffer: Vec::new(),
             residuals: Vec::new(),
             bounds: Vec::new(),
+            copy: CopyRun::new(c, readings, params, &slot),
         })
     }
 
@@ -805,6 +939,9 @@ impl Generator {
     /// are full, the residuals at the instant of the estimates and, with `bounds`, each
     /// residual's bound from parameter uncertainty, `Σ |∂r/∂θ| Δθ` (else zeros).
     pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<Estimate<'_>> {
+        if let Some(copy) = &mut self.copy {
+            copy.push(t, raw);
+        }
         let mut ready = true;
         for (k, (e, &x)) in self.estimators.iter_mut().zip(raw).enumerate() {
             match e.push(x) {
@@ -826,6 +963,12 @@ impl Generator {
             return None;
         }
         let at = t - self.delay;
+        if let Some(copy) = &mut self.copy {
+            let x = copy.replay.at(at)?;
+            for &(i, k) in &copy.read {
+                self.values[i] = x.get(k).copied().unwrap_or(f64::NAN);
+            }
+        }
         let mut scratch = std::mem::take(&mut self.scratch);
         let mut buffer = std::mem::take(&mut self.buffer);
         if !self.nonlinear.is_empty() {

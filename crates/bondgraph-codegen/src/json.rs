@@ -4,7 +4,9 @@
 use std::fmt::Write as _;
 
 use bondgraph_core::diagnostic::Severity;
-use bondgraph_core::{Compiled, Component, FaultClasses, Handle, Printer, ResidualSet, Signal};
+use bondgraph_core::{
+    Compiled, Component, FaultClasses, Handle, Printer, ResidualForm, ResidualSet, Signal,
+};
 
 use crate::names;
 
@@ -169,10 +171,14 @@ fn arrs(out: &mut String, c: &Compiled) {
                 )
             });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"sensitivities\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"sensitivities\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
+                string(match arr.form {
+                    ResidualForm::Relation => "relation",
+                    ResidualForm::Simulated => "simulated",
+                }),
                 string(&printer.text(arr.expr)),
                 list(auxiliaries),
                 list(components),

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use std::collections::HashMap;
 
-use bondgraph_core::{Compiled, Expr, ExprId, Node, Pool, Printer, Symbol};
+use bondgraph_core::{Compiled, Expr, ExprId, Node, Pool, Printer, ResidualForm, Symbol};
 
 use crate::names;
 
@@ -47,7 +47,13 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
             .iter()
             .map(|arr| {
                 let head = format!("  \\mathrm{{{}}}:\\quad & ", arr.name);
-                let mut lines = vec![writer.equation(&head, arr.expr, " = 0")];
+                let tail = match arr.form {
+                    ResidualForm::Relation => " = 0",
+                    ResidualForm::Simulated => {
+                        " = 0\\quad\\text{(states of the model, simulated from its initial state)}"
+                    }
+                };
+                let mut lines = vec![writer.equation(&head, arr.expr, tail)];
                 for &a in &arr.auxiliaries {
                     let aux = &c.auxiliaries[a];
                     let head = format!(

@@ -12,8 +12,8 @@
 use std::collections::{BTreeMap, HashMap};
 
 use bondgraph_core::{
-    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Node, Printer, Quantity, Readings,
-    Signal, Symbol,
+    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Input, Node, Printer, Quantity,
+    Readings, ResidualForm, Signal, Symbol,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -102,6 +102,13 @@ fn fields(c: &Compiled, readings: &Readings) -> Vec<Field> {
                         printer.text(readings.nonlinear[k])
                     ),
                 ),
+                Quantity::Simulated(k) => {
+                    let name = &c.states[k].name;
+                    (
+                        format!("{name}_hat"),
+                        format!("The state `{name}` of the copy of the model that simulated residuals run."),
+                    )
+                }
             };
             Field {
                 name,
@@ -118,9 +125,20 @@ const PRODUCT: u8 = 2;
 const UNARY: u8 = 3;
 const ATOM: u8 = 5;
 
+/// How the right-hand sides of the copy of the model read its states and inputs:
+/// `x[k]`, `u[j]`, and each `int(..)` as the state after the model's.
+#[derive(Clone)]
+struct CopyLeaves {
+    states: usize,
+    integrals: Vec<Expr>,
+    inputs: Vec<Handle<Input>>,
+}
+
 /// Lowers product expressions to Rust, with shared nodes bound once.
 struct Lowering<'c> {
     c: &'c Compiled,
+    /// Lowering the copy's rates instead of residuals.
+    copy: Option<CopyLeaves>,
     /// Each signal quantity's field.
     field: HashMap<Quantity, Ident>,
     /// Nodes already bound to a `let`.
@@ -212,6 +230,13 @@ impl Lowering<'_> {
                 };
                 (ts, ATOM)
             }
+            Node::Int(a) if self.copy.is_some() => {
+                let copy = self.copy.as_ref().map_or((0, None), |c| {
+                    (c.states, c.integrals.iter().position(|&e| e == a))
+                });
+                let k = count(copy.0 + copy.1.unwrap_or(0));
+                (quote!(x[#k]), ATOM)
+            }
             Node::Int(a) => {
                 let single = self
                     .c
@@ -244,6 +269,20 @@ impl Lowering<'_> {
             // Every quantity an ARR reads has a field (see `fields`).
             None => quote!(f64::NAN),
         };
+        if let Some(copy) = &self.copy {
+            match s {
+                Symbol::State(k) => {
+                    let k = count(k.index());
+                    return quote!(x[#k]);
+                }
+                Symbol::Input(u, 0) => {
+                    let j = count(copy.inputs.iter().position(|&i| i == u).unwrap_or(0));
+                    return quote!(u[#j]);
+                }
+                Symbol::Time => return quote!(t),
+                _ => {}
+            }
+        }
         match s {
             Symbol::Parameter(p) => {
                 let name = ident(&self.c.parameters[p].name);
@@ -255,8 +294,10 @@ impl Lowering<'_> {
                 Some(name) => quote!(#name),
                 None => quote!(f64::NAN),
             },
-            // ARRs read neither states, time nor the loops of the state equations.
-            Symbol::State(_) | Symbol::Time | Symbol::Loop(_) => quote!(f64::NAN),
+            // A simulated residual reads the states of the copy of the model.
+            Symbol::State(k) => field(Quantity::Simulated(k)),
+            // ARRs read neither time nor the loops of the state equations.
+            Symbol::Time | Symbol::Loop(_) => quote!(f64::NAN),
         }
     }
 
@@ -377,6 +418,7 @@ fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
     let mut lower = Lowering {
         c,
         field: template.field.clone(),
+        copy: None,
         bound: HashMap::new(),
         auxiliary: HashMap::new(),
         others: template.others.clone(),
@@ -425,6 +467,80 @@ fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
     }
 }
 
+/// The copy of the model simulated residuals run: how its rates read states and inputs, and
+/// the items `COPY_STATES`, `COPY_INPUTS` and `copy_rates`; `None` when no residual runs one.
+fn copy_items(c: &Compiled, readings: &Readings) -> Option<(CopyLeaves, TokenStream)> {
+    let copy = readings.copy.as_ref()?;
+    let mut inputs: Vec<Handle<Input>> = Vec::new();
+    for &r in &copy.rates {
+        for leaf in c.exprs.leaves(r) {
+            if let Symbol::Input(u, _) = leaf {
+                if !inputs.contains(&u) {
+                    inputs.push(u);
+                }
+            }
+        }
+    }
+    inputs.sort();
+    let leaves = CopyLeaves {
+        states: c.states.len(),
+        integrals: copy.integrals.clone(),
+        inputs: inputs.clone(),
+    };
+    let mut lower = Lowering {
+        c,
+        copy: Some(leaves.clone()),
+        field: HashMap::new(),
+        bound: HashMap::new(),
+        auxiliary: HashMap::new(),
+        others: Vec::new(),
+    };
+    let (order, uses) = uses(c, &copy.rates);
+    let mut lets = Vec::new();
+    for id in order {
+        let shared = uses.get(&id).copied().unwrap_or(0) >= 2
+            && !matches!(
+                c.exprs.node(id),
+                Node::Num(_) | Node::Leaf(_) | Node::Int(_)
+            );
+        if shared {
+            let (value, _) = lower.expr(id);
+            let name = format_ident!("t{}", lets.len() + 1);
+            lets.push(quote!(let #name = #value;));
+            lower.bound.insert(id, name);
+        }
+    }
+    let rates: Vec<TokenStream> = copy.rates.iter().map(|&r| lower.expr(r).0).collect();
+    let slots: Vec<Literal> = (0..rates.len()).map(count).collect();
+    let m = count(rates.len());
+    let names: Vec<String> = (c.states.values().map(|s| s.name.clone()))
+        .chain((1..=copy.integrals.len()).map(|k| format!("int{k}")))
+        .collect();
+    let input_names: Vec<&str> = inputs.iter().map(|&u| c.inputs[u].name.as_str()).collect();
+    let k = count(inputs.len());
+    let items = quote! {
+        /// How many states the copy of the model that simulated residuals run has: the
+        /// model's, then one per `int(..)` its state equations hold; all zero at the start
+        /// (the model at rest).
+        pub const COPY_STATES: usize = #m;
+
+        /// The copy's states, in the order of [`copy_rates`]' `x`.
+        pub const COPY_STATE_NAMES: [&str; COPY_STATES] = [#(#names),*];
+
+        /// The inputs the copy reads, in the order of [`copy_rates`]' `u`.
+        pub const COPY_INPUTS: [&str; #k] = [#(#input_names),*];
+
+        /// The copy's rates at time `t`, states `x` and inputs `u`, written into `dx`: the
+        /// model's state equations, then the argument of each `int(..)` they hold.
+        #[allow(non_snake_case, unused_variables, clippy::all)]
+        pub fn copy_rates(p: &Params, t: f64, x: &[f64], u: &[f64], dx: &mut [f64]) {
+            #(#lets)*
+            #(dx[#slots] = #rates;)*
+        }
+    };
+    Some((leaves, items))
+}
+
 /// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
 /// streaming `ResidualGenerator`.
 pub fn tokens(c: &Compiled) -> TokenStream {
@@ -437,6 +553,7 @@ pub fn tokens(c: &Compiled) -> TokenStream {
             .iter()
             .map(|f| (f.quantity, ident(&f.name)))
             .collect(),
+        copy: None,
         bound: HashMap::new(),
         auxiliary: HashMap::new(),
         others: others.clone(),
@@ -450,20 +567,43 @@ pub fn tokens(c: &Compiled) -> TokenStream {
     let docs: Vec<String> = c
         .arrs
         .iter()
-        .map(|a| format!(" - {}: $${} = 0$$", a.name, printer.latex(a.expr)))
+        .map(|a| {
+            let simulated = match a.form {
+                ResidualForm::Relation => "",
+                ResidualForm::Simulated => {
+                    " (simulated: the states of the copy of the model, see [`copy_rates`])"
+                }
+            };
+            format!(
+                " - {}: $${} = 0$${simulated}",
+                a.name,
+                printer.latex(a.expr)
+            )
+        })
         .collect();
     let arr_names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let simulated: Vec<bool> = (c.arrs.iter())
+        .map(|a| a.form == ResidualForm::Simulated)
+        .collect();
     let fsm = fsm(c);
-    let generator = generator(c, &readings, &fields, &lower);
+    let copy = copy_items(c, &readings);
+    let generator = generator(c, &readings, &fields, &lower, copy.as_ref().map(|x| &x.0));
+    let copy = copy.map(|x| x.1);
     quote! {
         #params
         #signals
+        #copy
 
         /// How many residuals [`residuals`] returns: one per ARR.
         pub const RESIDUAL_COUNT: usize = #n;
 
         /// The ARRs' names, in the order of [`residuals`].
         pub const RESIDUALS: [&str; #n] = [#(#arr_names),*];
+
+        /// Whether each residual is simulated: it compares a measured signal with a copy of
+        /// the model run on the recorded inputs from rest, so it holds on a record that
+        /// starts with the machine at rest.
+        pub const SIMULATED: [bool; #n] = [#(#simulated),*];
 
         /// Every ARR's residual, in the order of [`RESIDUALS`]; each is zero (up to the
         /// estimation of the signals) while the machine is healthy.
@@ -619,6 +759,7 @@ fn generator(
     readings: &Readings,
     fields: &[Field],
     lower: &Lowering<'_>,
+    copy: Option<&CopyLeaves>,
 ) -> TokenStream {
     let raw: BTreeMap<Signal, u32> = readings.raw.iter().copied().collect();
     let integrated = &readings.integrated;
@@ -673,7 +814,7 @@ fn generator(
                     let channel = count(raw.len() + k);
                     quote!(s.#name = e0[#channel];)
                 }
-                Quantity::Nonlinear(_) => quote!(),
+                Quantity::Nonlinear(_) | Quantity::Simulated(_) => quote!(),
             }
         })
         .collect();
@@ -682,6 +823,7 @@ fn generator(
     let fresh = Lowering {
         c,
         field: lower.field.clone(),
+        copy: None,
         bound: HashMap::new(),
         auxiliary: HashMap::new(),
         others: Vec::new(),
@@ -699,6 +841,34 @@ fn generator(
         .into_iter()
         .map(Literal::u32_unsuffixed)
         .collect();
+    let (copy_field, copy_init, copy_push, copy_read) = match copy {
+        None => Default::default(),
+        Some(copy) => {
+            let inputs: Vec<Literal> = (copy.inputs.iter())
+                .map(|&u| count(raw_index.get(&Signal::Input(u)).copied().unwrap_or(0)))
+                .collect();
+            let (hats, slots): (Vec<Ident>, Vec<Literal>) = (fields.iter())
+                .filter_map(|f| match f.quantity {
+                    Quantity::Simulated(k) => Some((ident(&f.name), count(k.index()))),
+                    _ => None,
+                })
+                .unzip();
+            (
+                quote!(copy: ::bondgraph::Replay,),
+                quote!(copy: ::bondgraph::Replay::new(&[0.0; COPY_STATES]),),
+                quote! {
+                    let params = self.params;
+                    self.copy.push(t, &[#(raw[#inputs]),*], |t, x, u, dx| {
+                        copy_rates(&params, t, x, u, dx)
+                    });
+                },
+                quote! {
+                    let xh = self.copy.at(at)?;
+                    #(s.#hats = xh[#slots];)*
+                },
+            )
+        }
+    };
     quote! {
         /// The raw signals [`ResidualGenerator::push`] takes, in order: the inputs and
         /// measured signals the ARRs read.
@@ -728,6 +898,7 @@ fn generator(
             bank: B,
             integrals: [::bondgraph::Trapezoid; #i],
             others: [::bondgraph::Trapezoid; #o],
+            #copy_field
             last: Signals,
         }
 
@@ -746,6 +917,7 @@ fn generator(
                     bank,
                     integrals: [::bondgraph::Trapezoid::new(); #i],
                     others: [::bondgraph::Trapezoid::new(); #o],
+                    #copy_init
                     last: Signals::default(),
                 })
             }
@@ -780,6 +952,7 @@ fn generator(
             /// the residuals at `t - self.delay()`, once the bank's windows are full.
             #[allow(unused_mut, unused_variables, clippy::all)]
             pub fn push(&mut self, t: f64, raw: [f64; #r]) -> Option<[f64; RESIDUAL_COUNT]> {
+                #copy_push
                 let mut x = [0.0; CHANNELS];
                 #(x[#raw_channels] = raw[#raw_slots];)*
                 #(
@@ -792,6 +965,7 @@ fn generator(
                 };
                 let mut s = Signals::default();
                 #(#fill)*
+                #copy_read
                 let p = &self.params;
                 #(
                     s.#other_fields = self.others[#other_index].push(at, { #integrands });

@@ -2,7 +2,9 @@
 
 use std::fmt::Write as _;
 
-use bondgraph_core::{CausalityReport, Compiled, Mode, Printer, Setter, StorageCausality};
+use bondgraph_core::{
+    CausalityReport, Compiled, Mode, Printer, ResidualForm, Setter, StorageCausality,
+};
 
 use crate::names;
 
@@ -299,13 +301,22 @@ fn arrs(out: &mut String, c: &Compiled) {
                 .collect();
             format!(", without {}", names.join(" "))
         };
+        let simulated = arr.form == ResidualForm::Simulated;
         let _ = writeln!(
             out,
-            "  {} (junction {}, sensor {sensor}{without}):\n    {} = 0",
+            "  {} (junction {}, sensor {sensor}{without}{}):\n    {} = 0",
             arr.name,
             arr.junction,
+            if simulated { ", simulated" } else { "" },
             printer.text(arr.expr)
         );
+        if simulated {
+            let _ = writeln!(
+                out,
+                "    where the states are those of a copy of the model: the state equations above, \
+                 driven by the inputs as commanded, from the model's initial state"
+            );
+        }
         for &a in &arr.auxiliaries {
             let aux = &c.auxiliaries[a];
             let _ = writeln!(

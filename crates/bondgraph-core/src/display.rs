@@ -42,8 +42,11 @@ impl Analysis<'_> {
             best
         };
         if let Some(diagnosed) = &mut self.diagnosis {
-            let keep: Vec<(usize, usize)> =
-                diagnosed.chosen.iter().map(|c| (c.source, c.arr)).collect();
+            let keep: Vec<(usize, usize)> = diagnosed
+                .chosen
+                .iter()
+                .filter_map(|c| c.derived())
+                .collect();
             for (source, d) in diagnosed.sources.iter_mut().enumerate() {
                 let mut simplifier = Simplifier::default();
                 for (k, arr) in d.arrs.iter_mut().enumerate() {
@@ -117,8 +120,11 @@ impl Analysis<'_> {
             r.expr
         };
         if let Some(diagnosed) = &mut self.diagnosis {
-            let keep: Vec<(usize, usize)> =
-                diagnosed.chosen.iter().map(|c| (c.source, c.arr)).collect();
+            let keep: Vec<(usize, usize)> = diagnosed
+                .chosen
+                .iter()
+                .filter_map(|c| c.derived())
+                .collect();
             // Named as the product will name them: by their place among those kept.
             let name = |source: usize, k: usize| {
                 let at = keep.iter().position(|&x| x == (source, k)).unwrap_or(0);

@@ -2,8 +2,9 @@
 //! their expressions are shown is `display.rs`, how the product is built `product/`.
 
 use crate::causality::{assign, Causal, Mode};
-use crate::fdi::candidates::{self, Candidate, ResidualSet};
+use crate::fdi::candidates::{self, Candidate, Origin, ResidualSet};
 use crate::fdi::isolability::Classes;
+use crate::fdi::simulated::{self, Simulated};
 use crate::fdi::Component;
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::BondGraph;
@@ -42,6 +43,8 @@ pub(crate) struct Diagnosed {
     pub capped: bool,
     /// The derivations that gave fewer residuals than the structure allows.
     pub unrealised: Vec<candidates::Unrealised>,
+    /// The detectors' simulated residuals that the candidates hold.
+    pub simulated: Vec<Simulated>,
 }
 
 impl Diagnosed {
@@ -73,9 +76,47 @@ pub(crate) fn candidate_list(model: &BondGraph) -> (Vec<Candidate>, usize) {
     (found.list, components.len())
 }
 
+/// Adds to `list` the detectors' simulated residuals, when together they tell apart classes
+/// that the derived residuals do not: a residual that needs a copy of the model run from a
+/// known state is kept for what no relation of measured signals can show. Returns those
+/// added.
+fn add_simulated(
+    model: &BondGraph,
+    (integral, state): (&Causal, &StateSpace),
+    fsm: &Fsm,
+    list: &mut Vec<Candidate>,
+) -> Vec<Simulated> {
+    let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
+    let n = components.len();
+    let index = crate::fdi::RowIndex::new(&components);
+    let found = simulated::simulated(model, integral, state);
+    let rows: Vec<Vec<usize>> = found
+        .iter()
+        .map(|s| simulated::rows(s, &components, &index))
+        .collect();
+    let before = candidates::classes_of(&list.iter().collect::<Vec<_>>(), n);
+    let with: Vec<Candidate> = rows
+        .into_iter()
+        .enumerate()
+        .map(|(k, rows)| Candidate {
+            origin: Origin::Simulated(k),
+            without: Vec::new(),
+            order: 0,
+            rows,
+        })
+        .collect();
+    let all: Vec<&Candidate> = list.iter().chain(&with).collect();
+    if candidates::classes_of(&all, n).classes.len() <= before.classes.len() {
+        return Vec::new();
+    }
+    list.extend(with);
+    found
+}
+
 /// The ARRs of `model`, with candidates beyond one per detector unless `set` asks only for
-/// those.
-fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
+/// those; the detectors' simulated residuals from the state equations of `simulation`
+/// join them where they tell more classes apart.
+fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSpace)) -> Diagnosed {
     let d = diagnose(model);
     let fsm = Fsm::new(model, &d);
     let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
@@ -86,7 +127,12 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
         fsm.possible.clone()
     };
     let rows = shown_by(&fsm, d.arrs.len());
-    let found = candidates::candidates(model, d, rows, &components, &possible);
+    let mut found = candidates::candidates(model, d, rows, &components, &possible);
+    let simulated = if set == ResidualSet::PerSensor {
+        Vec::new()
+    } else {
+        add_simulated(model, simulation, &fsm, &mut found.list)
+    };
     let all: Vec<&Candidate> = found.list.iter().collect();
     let classes = candidates::classes_of(&all, components.len());
     let chosen = candidates::select(&found.list, components.len(), set)
@@ -103,6 +149,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
         set,
         capped: found.capped,
         unrealised: found.unrealised,
+        simulated,
     }
 }
 
@@ -111,7 +158,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet) -> Diagnosed {
 pub(crate) fn analyse(model: &BondGraph, with_arrs: bool, set: ResidualSet) -> Analysis<'_> {
     let integral = assign(model, Mode::Integral);
     let state = state_space_of(model, &integral);
-    let diagnosis = with_arrs.then(|| diagnosed(model, set));
+    let diagnosis = with_arrs.then(|| diagnosed(model, set, (&integral, &state)));
     Analysis {
         model,
         integral,

@@ -19,7 +19,7 @@
 use std::collections::{BTreeSet, HashMap};
 
 use crate::expr::BinOp;
-use crate::product::{Auxiliary, Sensor, Symbol};
+use crate::product::{Auxiliary, ResidualForm, Sensor, Symbol};
 use crate::product::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
 use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
 
@@ -149,6 +149,9 @@ enum V {
     Nominal(Handle<Parameter>),
     Input(Handle<Input>, u32),
     State(Handle<State>),
+    /// A state of the copy of the model that simulated residuals run: nominal parameters,
+    /// inputs as commanded.
+    Estimate(Handle<State>),
     /// The n-th derivative of the additive fault on a sensor.
     SensorFault(Handle<Sensor>, u32),
     /// The n-th derivative of the additive fault on an input as the plant receives it (an
@@ -161,7 +164,11 @@ type VId = ExprId<V>;
 
 /// The plant and the residuals over its states, in one pool.
 struct Plant {
+    /// The plant's right-hand sides, then those of the copy simulated residuals run (none
+    /// when no residual is simulated).
     rhs: Vec<VId>,
+    /// How many states the plant has.
+    states: usize,
     /// Each detector's output, to size the faults put on it.
     outputs: Vec<(Handle<Sensor>, VId)>,
     integrals: Vec<VId>,
@@ -208,7 +215,7 @@ fn verify_with(
     options: &VerifyOptions,
 ) -> Result<Verification, VerifyError> {
     let nominal: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
-    let n = plant.rhs.len();
+    let n = plant.states;
     let initial: Vec<Vec<f64>> = (0..options.runs.max(1))
         .map(|seed| {
             (0..n)
@@ -375,9 +382,24 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         // Refused above.
         Symbol::Loop(_) => p.num(f64::NAN),
     };
-    let mut rhs = vec![pool.num(0.0); c.states.len()];
+    let n = c.states.len();
+    let mut rhs = vec![pool.num(0.0); n];
     for (k, e) in &space.equations {
         rhs[k.index()] = pool.import_from(&c.exprs, *e, plant_leaf);
+    }
+    if c.arrs.iter().any(|a| a.form == ResidualForm::Simulated) {
+        let copy_leaf = |p: &mut Pool<V>, s: Symbol| match s {
+            Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
+            Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
+            Symbol::State(k) => p.leaf(V::Estimate(k)),
+            Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
+            Symbol::Loop(_) => p.num(f64::NAN),
+        };
+        let mut copy = vec![pool.num(0.0); n];
+        for (k, e) in &space.equations {
+            copy[k.index()] = pool.import_from(&c.exprs, *e, copy_leaf);
+        }
+        rhs.extend(copy);
     }
     let mut outputs: HashMap<Handle<Sensor>, VId> = HashMap::new();
     for (s, e) in &space.outputs {
@@ -409,7 +431,8 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
                 .get(&(a, n))
                 .copied()
                 .unwrap_or_else(|| p.num(f64::NAN)),
-            Symbol::State(k) => p.leaf(V::State(k)),
+            // Only a simulated residual reads states: those of its copy of the model.
+            Symbol::State(k) => p.leaf(V::Estimate(k)),
             Symbol::Time => p.leaf(V::Time),
             Symbol::Loop(_) => p.num(f64::NAN),
         };
@@ -452,6 +475,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         residual_tape: Tape::new(&pool, &residual_roots),
         output_tape: Tape::new(&pool, &output_roots),
         rhs,
+        states: n,
         outputs,
         integrals,
         residuals,
@@ -478,7 +502,9 @@ fn output_derivative(
     } else {
         let lower = output_derivative(pool, rhs, outputs, memo, (sensor, n - 1));
         let mut d = Derivatives::new(|p: &mut Pool<V>, leaf: V| match leaf {
+            // Past the plant's states, `rhs` holds the copy's.
             V::State(k) => Some(rhs[k.index()]),
+            V::Estimate(k) => rhs.get(rhs.len() / 2 + k.index()).copied(),
             V::Input(u, m) => Some(p.leaf(V::Input(u, m + 1))),
             V::SensorFault(s, m) => Some(p.leaf(V::SensorFault(s, m + 1))),
             V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
@@ -533,6 +559,7 @@ impl Run<'_> {
         let x = x.to_vec();
         move |leaf| match leaf {
             V::State(k) => x[k.index()],
+            V::Estimate(k) => x[self.plant.states + k.index()],
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
             V::Input(u, n) => input(u.index(), n, t, self.options.input_scale),
@@ -602,6 +629,10 @@ impl Run<'_> {
     ) -> Result<(), VerifyError> {
         let h = self.options.step;
         let mut x: Vec<f64> = x0.to_vec();
+        // The copy of the model simulated residuals run starts where the plant does.
+        if self.plant.rhs.len() > self.plant.states {
+            x.extend_from_slice(x0);
+        }
         x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
         for step in 0..self.options.steps {
             let t = step as f64 * h;

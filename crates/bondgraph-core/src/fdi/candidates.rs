@@ -62,19 +62,60 @@ pub enum ResidualSet {
     All,
 }
 
-/// A residual: an ARR of one of the derivations.
+/// The cost of a simulated residual in the choice of a set: above any derivative order an ARR
+/// reads, because it holds only from a known initial state and drifts with the model's errors.
+pub const SIMULATED_COST: u32 = 1_000;
+
+/// Where a candidate residual comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Origin {
+    /// An ARR of one of the derivations.
+    Derived {
+        /// The derivation (0: the whole model).
+        source: usize,
+        /// Its position among that derivation's ARRs.
+        arr: usize,
+    },
+    /// A detector's simulated residual, by position in the list of them (see
+    /// [`super::simulated`]).
+    Simulated(usize),
+}
+
+/// A residual: an ARR of one of the derivations, or a detector's simulated residual.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Candidate {
-    /// The derivation it comes from (0: the whole model).
-    pub source: usize,
-    /// Its position among that derivation's ARRs.
-    pub arr: usize,
+    /// Where it comes from.
+    pub origin: Origin,
     /// The components (rows) whose fault it shows, increasing.
     pub rows: Vec<usize>,
     /// The components whose equations were left out to derive it.
     pub without: Vec<usize>,
     /// The highest derivative it reads of any signal.
     pub order: u32,
+}
+
+impl Candidate {
+    /// Whether it is one of the whole model's ARRs, one per detector.
+    pub fn is_per_sensor(&self) -> bool {
+        matches!(self.origin, Origin::Derived { source: 0, .. })
+    }
+
+    /// What choosing it costs: its derivative order, and [`SIMULATED_COST`] for a simulated
+    /// residual, so that one is chosen only for what no relation shows.
+    pub fn cost(&self) -> u32 {
+        match self.origin {
+            Origin::Derived { .. } => self.order,
+            Origin::Simulated(_) => SIMULATED_COST,
+        }
+    }
+
+    /// The derivation and ARR it is, unless it is simulated.
+    pub fn derived(&self) -> Option<(usize, usize)> {
+        match self.origin {
+            Origin::Derived { source, arr } => Some((source, arr)),
+            Origin::Simulated(_) => None,
+        }
+    }
 }
 
 /// A derivation without a class that should have given residuals seeing some components,
@@ -142,8 +183,7 @@ pub fn candidates(
         .into_iter()
         .enumerate()
         .map(|(arr, rows)| Candidate {
-            source: 0,
-            arr,
+            origin: Origin::Derived { source: 0, arr },
             order: order(&base, arr),
             without: Vec::new(),
             rows,
@@ -256,8 +296,7 @@ impl Found {
             // A component left out that the residual still shows (a law reading a sensor
             // left out) is not one it is without.
             let c = Candidate {
-                source,
-                arr,
+                origin: Origin::Derived { source, arr },
                 order: order(d, arr),
                 without: left_out
                     .iter()
@@ -268,7 +307,7 @@ impl Found {
             };
             match self.seen.get(&c.rows) {
                 // One per signature: the per-detector one, else the lowest order.
-                Some(&k) if c.order < self.list[k].order && self.list[k].source > 0 => {
+                Some(&k) if c.order < self.list[k].order && !self.list[k].is_per_sensor() => {
                     self.list[k] = c;
                     out.kept = true;
                 }
@@ -489,7 +528,9 @@ pub fn classes_of(list: &[&Candidate], n: usize) -> Classes {
 /// The candidates (by position in `list`) that `set` keeps, over `n` components.
 pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
     match set {
-        ResidualSet::PerSensor => (0..list.len()).filter(|&k| list[k].source == 0).collect(),
+        ResidualSet::PerSensor => (0..list.len())
+            .filter(|&k| list[k].is_per_sensor())
+            .collect(),
         ResidualSet::All => (0..list.len()).collect(),
         ResidualSet::Best => best(list, n),
     }
@@ -504,7 +545,7 @@ pub const MAX_SELECTION_WORK: usize = 20_000_000;
 
 /// The smallest set of candidates whose classes are those of every candidate together: every
 /// set of one, then two… candidates while the budget lasts ([`MAX_SELECTIONS`] sets, at most
-/// [`MAX_SELECTION_WORK`] set-components), the lowest total derivative order among the
+/// [`MAX_SELECTION_WORK`] set-components), the lowest total [`Candidate::cost`] among the
 /// smallest that do; past the budget, [`greedy`].
 fn best(list: &[Candidate], n: usize) -> Vec<usize> {
     let all: Vec<&Candidate> = list.iter().collect();
@@ -517,7 +558,7 @@ fn best(list: &[Candidate], n: usize) -> Vec<usize> {
             if classes_of(&picked, n) != target {
                 return;
             }
-            let order = picked.iter().map(|c| c.order).sum();
+            let order = picked.iter().map(|c| c.cost()).sum();
             if found.as_ref().is_none_or(|(o, _)| order < *o) {
                 found = Some((order, set.to_vec()));
             }
@@ -533,7 +574,7 @@ fn best(list: &[Candidate], n: usize) -> Vec<usize> {
 }
 
 /// Greedy: the residual that splits the most pairs of components still together (detection
-/// counted as splitting from the undetectable), lowest order then fewest components then
+/// counted as splitting from the undetectable), lowest cost then fewest components then
 /// first on ties, until no residual splits a pair: then the classes are those of every
 /// candidate. The pairs a residual splits only fall as the groups refine, so a score
 /// computed earlier bounds the current one: each round takes the best stale score, scores
@@ -556,7 +597,7 @@ fn greedy(list: &[Candidate], n: usize) -> Vec<usize> {
     let key = |s: usize, k: usize| {
         (
             s,
-            std::cmp::Reverse(list[k].order),
+            std::cmp::Reverse(list[k].cost()),
             std::cmp::Reverse(list[k].rows.len()),
             std::cmp::Reverse(k),
         )
@@ -626,8 +667,10 @@ mod tests {
                     rows.sort_unstable();
                     rows.dedup();
                     Candidate {
-                        source: 1,
-                        arr: arr as usize,
+                        origin: Origin::Derived {
+                            source: 1,
+                            arr: arr as usize,
+                        },
                         rows,
                         without: Vec::new(),
                         order: next(5) as u32,

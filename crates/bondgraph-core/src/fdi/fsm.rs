@@ -228,6 +228,16 @@ impl RowIndex {
         }
         RowIndex { node_row, let_row }
     }
+
+    /// The row of an element's or a detector's node.
+    pub fn node(&self, n: NodeId) -> Option<usize> {
+        self.node_row.get(&n).copied()
+    }
+
+    /// The row of a modulation.
+    pub fn modulation(&self, l: LetId) -> Option<usize> {
+        self.let_row.get(&l).copied()
+    }
 }
 
 /// [`arr_rows`] with the index of `components` built already.

@@ -110,7 +110,7 @@ pub fn fault_structure(system: &System, components: &[Component]) -> (Structure,
 }
 
 /// The detectors whose readings an equation's expressions use.
-fn sensors_read(system: &System, eq: &Equation) -> Vec<NodeId> {
+pub(crate) fn sensors_read(system: &System, eq: &Equation) -> Vec<NodeId> {
     let exprs: Vec<ExprId> = match &eq.relation {
         Relation::Assign { value, .. } => vec![*value],
         Relation::Scale { k, .. } => vec![*k],

@@ -11,9 +11,10 @@ pub mod isolability;
 mod operator;
 pub mod placement;
 mod sensitivity;
+pub mod simulated;
 pub mod structure;
 mod subsets;
 
 pub use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;
-pub use fsm::{components, Component, ComponentKind, Fsm};
+pub use fsm::{components, Component, ComponentKind, Fsm, RowIndex};

@@ -7,6 +7,7 @@ use super::*;
 use crate::causality::{self, Causal, Strong};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Severity};
 use crate::fdi;
+use crate::fdi::candidates::{Candidate, Origin};
 use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
 use crate::pipeline::{Analysis, Diagnosed};
 use crate::symbolic::{Leaf, Node, Pool};
@@ -355,15 +356,20 @@ impl<'m> Builder<'m> {
         // The components each ARR written shows.
         let mut shown: Vec<&[usize]> = Vec::new();
         for (source, d) in dd.sources.iter().enumerate() {
-            let picks: Vec<_> = dd.chosen.iter().filter(|k| k.source == source).collect();
+            let picks: Vec<(&Candidate, usize)> = (dd.chosen.iter())
+                .filter_map(|k| match k.derived() {
+                    Some((s, arr)) if s == source => Some((k, arr)),
+                    _ => None,
+                })
+                .collect();
             if picks.is_empty() {
                 continue;
             }
-            let indices: Vec<usize> = picks.iter().map(|k| k.arr).collect();
+            let indices: Vec<usize> = picks.iter().map(|k| k.1).collect();
             self.auxiliaries(c, d, &indices);
             let pool = &d.causal.system.pool;
-            for pick in picks {
-                let arr = &d.arrs[pick.arr];
+            for (pick, k) in picks {
+                let arr = &d.arrs[k];
                 match self.import(&mut c.exprs, pool, arr.residual, false) {
                     Ok(e) => {
                         shown.push(&pick.rows);
@@ -373,6 +379,7 @@ impl<'m> Builder<'m> {
                             junction: m.node(arr.junction).name.clone(),
                             sensor: arr.sensor.map(|s| self.sensor_of[&s]),
                             expr: e,
+                            form: ResidualForm::Relation,
                             components: Vec::new(),
                             without: pick.without.iter().map(|&r| Handle::new(r)).collect(),
                             reads,
@@ -382,6 +389,14 @@ impl<'m> Builder<'m> {
                         });
                     }
                     Err(why) => stage.push(refusal(m, &arr.name, arr.junction, why)),
+                }
+            }
+        }
+        for pick in &dd.chosen {
+            if let Origin::Simulated(k) = pick.origin {
+                if let Some(arr) = self.simulated(c, &dd.simulated[k]) {
+                    shown.push(&pick.rows);
+                    c.arrs.push(arr);
                 }
             }
         }
@@ -438,6 +453,37 @@ impl<'m> Builder<'m> {
                 })
                 .collect(),
         };
+    }
+}
+
+impl Builder<'_> {
+    /// A detector's simulated residual, `y − ŷ`, from the product's state equations; `None`
+    /// when they were not written (then no copy of the model can be run).
+    fn simulated(&self, c: &mut Compiled, s: &fdi::simulated::Simulated) -> Option<Arr> {
+        let space = c.state_space.as_ref()?;
+        let sensor = self.sensor_of[&s.sensor];
+        let output = space.outputs.iter().find(|o| o.0 == sensor)?.1;
+        let y = c.exprs.leaf(Symbol::Sensor(sensor, 0));
+        let expr = c.exprs.sub(y, output);
+        let (_, integrals) = reads(&c.exprs, &c.auxiliaries, expr);
+        // What it reads: its detector, and the inputs that drive the copy.
+        let rates: Vec<Expr> = space.equations.iter().map(|e| e.1).collect();
+        let driven = rates.into_iter().fold(expr, |a, r| c.exprs.add(a, r));
+        let (reads, _) = reads(&c.exprs, &c.auxiliaries, driven);
+        let junction = self.model.detector_junction(s.sensor)?;
+        Some(Arr {
+            name: String::new(),
+            junction: self.model.node(junction).name.clone(),
+            sensor: Some(sensor),
+            expr,
+            form: ResidualForm::Simulated,
+            components: Vec::new(),
+            without: Vec::new(),
+            reads,
+            integrals,
+            auxiliaries: Vec::new(),
+            sensitivities: None,
+        })
     }
 }
 

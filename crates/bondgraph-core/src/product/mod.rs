@@ -13,7 +13,7 @@ mod uncertainty;
 
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
-pub use readings::{LinearTerm, Quantity, Readings};
+pub use readings::{LinearTerm, ModelCopy, Quantity, Readings};
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
 use crate::symbolic::{ExprId, Pool};
@@ -27,7 +27,8 @@ pub enum Symbol {
     Input(Handle<Input>, u32),
     /// The n-th time derivative of a measured signal (0: the signal itself).
     Sensor(Handle<Sensor>, u32),
-    /// A state variable (in state equations and outputs only).
+    /// A state variable (in state equations and outputs, and in simulated residuals: the
+    /// state of their copy of the model).
     State(Handle<State>),
     /// The n-th time derivative of an auxiliary signal (in ARRs only).
     Auxiliary(Handle<Auxiliary>, u32),
@@ -209,8 +210,10 @@ pub struct Arr {
     /// The detector it is attributed to.
     pub sensor: Option<Handle<Sensor>>,
     /// The residual, over parameters, inputs and measured signals (with derivatives and
-    /// integrals).
+    /// integrals); a simulated one over one measured signal and states too.
     pub expr: Expr,
+    /// Whether it is a relation of measured signals or a detector against a copy of the model.
+    pub form: ResidualForm,
     /// The FSM rows it is sensitive to.
     pub components: Vec<Handle<Component>>,
     /// The components whose equations were left out to derive it: their faults cannot reach
@@ -227,6 +230,21 @@ pub struct Arr {
     /// adaptive threshold is `Σ |∂r/∂θ| Δθ`. `None` when they could not be derived (an ARR
     /// that reads auxiliary signals): such an ARR has no adaptive threshold.
     pub sensitivities: Option<Vec<(Handle<Parameter>, Expr)>>,
+}
+
+/// How a residual is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResidualForm {
+    /// An analytical redundancy relation: parameters, inputs and measured signals with their
+    /// derivatives and integrals, evaluated sample by sample.
+    Relation,
+    /// A detector's reading less the output of a copy of the model: [`Arr::expr`] reads
+    /// states ([`Symbol::State`]) of that copy, integrated with [`Compiled::state_space`]'s
+    /// equations and the inputs as commanded, from the model's initial state (at rest). It
+    /// reads no other detector, even where the model's modulations do (the copy reads the
+    /// outputs they measure); it holds while the copy starts where the plant does and its
+    /// unmeasured motion settles.
+    Simulated,
 }
 
 /// What kind of component an FSM row is.

@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{Compiled, Expr, Signal, Symbol};
+use super::{Compiled, Expr, Handle, ResidualForm, Signal, State, Symbol};
 use crate::expr::BinOp;
 use crate::symbolic::Node;
 
@@ -18,6 +18,21 @@ pub enum Quantity {
     Integral(Signal),
     /// The integral from the start of the record of [`Readings::nonlinear`]'s k-th expression.
     Nonlinear(usize),
+    /// A state of the copy of the model that simulated residuals run ([`Readings::copy`]).
+    Simulated(Handle<State>),
+}
+
+/// The copy of the model that simulated residuals run: the model's states, then one per
+/// `int(..)` its state equations hold, integrated from zero (the model at rest) with the
+/// inputs as recorded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelCopy {
+    /// Each state's rate, over parameters, input values, time, the model's states
+    /// ([`Symbol::State`]) and the integrals of [`ModelCopy::integrals`] (as `int(..)` nodes):
+    /// the state equations, then each integral's argument.
+    pub rates: Vec<Expr>,
+    /// The arguments of the `int(..)` the state equations hold, in the order of their states.
+    pub integrals: Vec<Expr>,
 }
 
 /// Everything the ARRs read from a bench, in a fixed order.
@@ -32,6 +47,8 @@ pub struct Readings {
     pub integrated: Vec<Signal>,
     /// The arguments of `int(..)` that are not linear combinations of signals.
     pub nonlinear: Vec<Expr>,
+    /// The copy of the model, when a simulated residual reads it.
+    pub copy: Option<ModelCopy>,
 }
 
 /// One term `± coefficient · signal` of a linear combination (no coefficient: 1).
@@ -68,12 +85,52 @@ impl Compiled {
             }
         }
         quantities.extend((0..nonlinear.len()).map(Quantity::Nonlinear));
+        let copy = self.copy();
+        if copy.is_some() {
+            let roots: Vec<Expr> = (self.arrs.iter())
+                .filter(|a| a.form == ResidualForm::Simulated)
+                .map(|a| a.expr)
+                .collect();
+            let mut states: BTreeSet<Handle<State>> = BTreeSet::new();
+            for &r in &roots {
+                states.extend(self.exprs.leaves(r).into_iter().filter_map(|l| match l {
+                    Symbol::State(k) => Some(k),
+                    _ => None,
+                }));
+            }
+            quantities.extend(states.into_iter().map(Quantity::Simulated));
+        }
         Readings {
             quantities,
             raw,
             integrated,
             nonlinear,
+            copy,
         }
+    }
+
+    /// The copy of the model simulated residuals run, if one does and the state equations
+    /// were written.
+    fn copy(&self) -> Option<ModelCopy> {
+        if !self.arrs.iter().any(|a| a.form == ResidualForm::Simulated) {
+            return None;
+        }
+        let space = self.state_space.as_ref()?;
+        let mut rates = vec![None; self.states.len()];
+        for &(k, e) in &space.equations {
+            rates[k.index()] = Some(e);
+        }
+        let mut rates: Vec<Expr> = rates.into_iter().collect::<Option<_>>()?;
+        let mut integrals: Vec<Expr> = Vec::new();
+        self.exprs.visit_reachable(&rates, |_, node| {
+            if let Node::Int(arg) = node {
+                if !integrals.contains(&arg) {
+                    integrals.push(arg);
+                }
+            }
+        });
+        rates.extend(integrals.iter().copied());
+        Some(ModelCopy { rates, integrals })
     }
 
     /// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then

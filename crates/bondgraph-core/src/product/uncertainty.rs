@@ -15,8 +15,9 @@ pub(crate) fn sensitivities(c: &mut Compiled) {
         .collect();
     for k in 0..c.arrs.len() {
         let arr = &c.arrs[k];
-        // An auxiliary signal carries parameters of its own that the ARR's leaves hide.
-        if !arr.auxiliaries.is_empty() {
+        // An auxiliary signal carries parameters of its own that the ARR's leaves hide, and a
+        // simulated residual's states depend on parameters through their whole history.
+        if !arr.auxiliaries.is_empty() || arr.form == super::ResidualForm::Simulated {
             c.arrs[k].sensitivities = None;
             continue;
         }

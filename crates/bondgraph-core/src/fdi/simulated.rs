@@ -1,0 +1,228 @@
+//! Simulated residuals: a detector's reading against the output of a copy of the model that
+//! the inputs drive, `r = y − ŷ(x̂)` with `dx̂/dt = f(x̂, u)` the state equations.
+//!
+//! Such a residual reads one detector and no other: where a modulation reads another
+//! detector (the bench's backlash `w`, computed from both encoders), the copy reads the
+//! output that detector measures. So on the bench the residual of `y1` does not show `y2`,
+//! which no ARR can do without solving the link's law `K z + w(z)` for the twist: the copy
+//! integrates the twist instead. It holds from a known initial state (the model's, at rest)
+//! and on a plant whose unmeasured motion settles, as every `int(..)` an ARR reads does; the
+//! derivation follows the integral causality's equations, so it is linear in their size.
+
+use std::collections::{BTreeSet, HashMap};
+
+use super::fsm::{Component, ComponentKind, RowIndex};
+use crate::causality::equations::Var;
+use crate::causality::Causal;
+use crate::graph::{BondGraph, LetId, NodeId, ParamId};
+use crate::sim::StateSpace;
+use crate::symbolic::{ExprId, Leaf};
+
+/// One detector's simulated residual.
+#[derive(Clone, Debug)]
+pub struct Simulated {
+    /// The detector.
+    pub sensor: NodeId,
+    /// Every node whose equation the output was computed from, through the states it reads.
+    pub nodes: BTreeSet<NodeId>,
+    /// Every `let` those equations use.
+    pub lets: BTreeSet<LetId>,
+    /// The parameters the output and the right-hand sides of the states it reads hold.
+    pub parameters: BTreeSet<ParamId>,
+}
+
+/// The simulated residual of each detector, when the state equations are explicit, complete
+/// and read the inputs' values only (none otherwise: a copy of the model could not be run on
+/// recorded samples).
+pub fn simulated(model: &BondGraph, integral: &Causal, space: &StateSpace) -> Vec<Simulated> {
+    // A copy that needs an input's derivatives would differentiate recorded samples: the
+    // residuals that do so are the ARRs' business.
+    let differentiates = space.states.iter().any(|s| {
+        (space.pool.leaves(s.rhs).iter()).any(|l| matches!(l, Leaf::Input(_, n) if *n > 0))
+    });
+    if !space.problems.is_empty() || !space.implicit.is_empty() || differentiates {
+        return Vec::new();
+    }
+    let rate: HashMap<NodeId, usize> = integral
+        .system
+        .states
+        .iter()
+        .filter_map(|s| Some((s.element, integral.solved.solved_by[s.rate.0 as usize]?)))
+        .collect();
+    space
+        .outputs
+        .iter()
+        .filter_map(|&(sensor, output)| {
+            let start = computed_at(model, integral, sensor)?;
+            let (nodes, lets) = cone(model, integral, &rate, start);
+            Some(Simulated {
+                sensor,
+                nodes,
+                lets,
+                parameters: parameters(space, output),
+            })
+        })
+        .collect()
+}
+
+/// The equation that computes what `sensor` measures (its junction's common variable).
+fn computed_at(model: &BondGraph, integral: &Causal, sensor: NodeId) -> Option<usize> {
+    let junction = model.detector_junction(sensor)?;
+    let v = integral.system.var(Var::Common(junction))?;
+    integral.solved.solved_by[v.0 as usize]
+}
+
+/// The nodes and `let`s of every equation `start` depends on: through the unknowns it reads,
+/// the rate of each state it reads, and the output of each detector a `let` of it reads.
+fn cone(
+    model: &BondGraph,
+    integral: &Causal,
+    rate: &HashMap<NodeId, usize>,
+    start: usize,
+) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
+    let eqs = &integral.system.equations;
+    let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
+    let mut seen = BTreeSet::new();
+    let mut stack = vec![start];
+    while let Some(i) = stack.pop() {
+        if !seen.insert(i) {
+            continue;
+        }
+        let eq = &eqs[i];
+        nodes.insert(eq.owner);
+        lets.extend(eq.lets.iter().copied());
+        stack.extend(
+            eq.vars
+                .iter()
+                .filter_map(|v| integral.solved.solved_by[v.0 as usize]),
+        );
+        stack.extend(rate.get(&eq.owner).copied());
+        for s in super::isolability::sensors_read(&integral.system, eq) {
+            stack.extend(computed_at(model, integral, s));
+        }
+    }
+    (nodes, lets)
+}
+
+/// The parameters `output` holds, with those of the right-hand sides of the states it reads,
+/// directly or through other states.
+fn parameters(space: &StateSpace, output: ExprId) -> BTreeSet<ParamId> {
+    let mut out = BTreeSet::new();
+    let mut states = BTreeSet::new();
+    let mut stack = vec![output];
+    while let Some(e) = stack.pop() {
+        for leaf in space.pool.leaves(e) {
+            match leaf {
+                Leaf::Param(p) => {
+                    out.insert(p);
+                }
+                Leaf::State(k) if states.insert(k) => {
+                    stack.extend(space.states.get(k as usize).map(|s| s.rhs));
+                }
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
+/// The rows of `components` a simulated residual shows, increasing: the elements and `let`s
+/// its output was computed from whose parameters it still holds, and its own detector.
+pub fn rows(s: &Simulated, components: &[Component], index: &RowIndex) -> Vec<usize> {
+    let survives = |c: &Component| {
+        c.parameters.is_empty() || c.parameters.iter().any(|p| s.parameters.contains(p))
+    };
+    let mut rows: BTreeSet<usize> = BTreeSet::new();
+    for n in &s.nodes {
+        if let Some(r) = index.node(*n) {
+            if matches!(components[r].kind, ComponentKind::Element(_)) {
+                rows.insert(r);
+            }
+        }
+    }
+    rows.extend(s.lets.iter().filter_map(|l| index.modulation(*l)));
+    rows.extend(index.node(s.sensor));
+    rows.into_iter()
+        .filter(|&r| survives(&components[r]))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::causality::{assign, Mode};
+    use crate::fdi::components;
+    use crate::sim::state_space_of;
+
+    /// The rows each detector's simulated residual shows, by component name.
+    fn shown(text: &str) -> Vec<(String, Vec<String>)> {
+        let (model, diagnostics) = crate::load(text);
+        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
+        let integral = assign(&model, Mode::Integral);
+        let space = state_space_of(&model, &integral);
+        let components = components(&model);
+        let index = RowIndex::new(&components);
+        simulated(&model, &integral, &space)
+            .iter()
+            .map(|s| {
+                let names = rows(s, &components, &index)
+                    .into_iter()
+                    .map(|r| components[r].name.clone())
+                    .collect();
+                (model.node(s.sensor).name.clone(), names)
+            })
+            .collect()
+    }
+
+    /// On the bench, each encoder's simulated residual shows every element, the backlash and
+    /// that encoder, and not the other encoder, which the backlash reads.
+    #[test]
+    fn each_encoder_of_the_bench_is_simulated_without_the_other() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/backlash_bench.bg"
+        ))
+        .expect("the bench model");
+        let every = [
+            "U", "Rm", "Lm", "motor", "Jm", "fm", "Wm", "link", "gear", "Jl", "fl", "Wl", "w",
+        ];
+        let expect = |own: &str| -> Vec<String> {
+            every
+                .iter()
+                .copied()
+                .chain([own])
+                .map(String::from)
+                .collect()
+        };
+        assert_eq!(
+            shown(&text),
+            vec![
+                ("y1".to_string(), expect("y1")),
+                ("y2".to_string(), expect("y2"))
+            ]
+        );
+    }
+
+    /// Two tanks in series, both levels measured: the first level depends on the second
+    /// tank through the valve between them, so each simulated residual shows the whole chain,
+    /// with its own detector and not the other.
+    #[test]
+    fn a_simulated_output_shows_every_element_that_drives_it_and_one_detector() {
+        let text = "model t\nparam A1 = 1\nparam A2 = 2\nparam R1 = 3\nparam R2 = 4\ninput q\n\
+                    Sf in = q\nC tank1 = A1\nR out1 = R1\nC tank2 = A2\nR out2 = R2\n\
+                    De h1 on a\nDe h2 on b\nin -> 0:a -> tank1\na -> 1:p -> out1\n\
+                    p -> 0:b -> tank2, out2\n";
+        let chain = |own: &str| -> Vec<String> {
+            ["in", "tank1", "out1", "tank2", "out2", own]
+                .map(String::from)
+                .to_vec()
+        };
+        assert_eq!(
+            shown(text),
+            vec![
+                ("h1".to_string(), chain("h1")),
+                ("h2".to_string(), chain("h2"))
+            ]
+        );
+    }
+}
