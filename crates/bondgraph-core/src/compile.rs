@@ -100,12 +100,12 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
     if let Some(limits) = options.simplify {
         let s = analysis.simplify(limits);
         unsimplified = s.skipped;
-        if let Some(what) = s.timed_out {
+        if s.timed_out {
             diagnostics.push(
                 Diagnostic::error(
                     Code::TooLarge,
                     Span::default(),
-                    format!("writing {what} in its simplest form took longer than the time limit"),
+                    "writing the equations in their simplest form took longer than the time limit",
                 )
                 .with_help(
                     "raise the limit (`--egg-seconds`), lower `--egg-nodes`, or use `--canonical`; \
