@@ -12,7 +12,11 @@
 //!   at +20 % (a sensor: a smooth additive fault of a fifth of its peak on its measurement; a
 //!   source applying an input of its own: the same on the input as the plant receives it);
 //!   the residuals the FSM marks must move, the others must not. A component that none of
-//!   these can fault (a source driven by a modulation) is listed as not checked.
+//!   these can fault (a source driven by a modulation) is listed as not checked. A residual
+//!   has moved when it passes 1e-6 of its terms, or 10⁴ times what the healthy plant left of
+//!   it (and 1e-12 of its terms): a relation of high order moves by a small share of its
+//!   large terms, far above its round-off, and a dependence the equations do not have
+//!   leaves it at round-off.
 //!
 //! What is checked is exactly what the emitters print: the product's expressions.
 
@@ -40,6 +44,13 @@ pub struct VerifyOptions {
     pub healthy: f64,
     /// Smallest relative |residual| that counts as "moved" under a fault.
     pub moved: f64,
+    /// A fault also moves a residual when it takes it this many times above the largest
+    /// relative |residual| of the healthy plant, and above [`VerifyOptions::floor`]: a
+    /// relation of high order, whose terms are large, moves by a small share of them, yet
+    /// far above its own round-off.
+    pub above_healthy: f64,
+    /// The relative |residual| below which nothing counts as moved.
+    pub floor: f64,
 }
 
 impl Default for VerifyOptions {
@@ -52,6 +63,8 @@ impl Default for VerifyOptions {
             step: 1e-3,
             healthy: 1e-8,
             moved: 1e-6,
+            above_healthy: 1e4,
+            floor: 1e-12,
         }
     }
 }
@@ -241,6 +254,7 @@ fn verify_with(
             *w = w.max(r);
         }
     }
+    let healthy_worst = worst.clone();
     let arrs = c
         .arrs
         .iter()
@@ -321,7 +335,9 @@ fn verify_with(
         for k in 0..c.arrs.len() {
             let marked = marks.contains(&k);
             let (worst, pass) = if marked {
-                (moved[k], moved[k] > options.moved)
+                let clear =
+                    moved[k] > options.floor && moved[k] > options.above_healthy * healthy_worst[k];
+                (moved[k], moved[k] > options.moved || clear)
             } else {
                 (stray[k], stray[k] < options.healthy)
             };

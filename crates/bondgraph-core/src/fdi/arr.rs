@@ -76,7 +76,9 @@ pub fn diagnose_in(
 fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Diagnosis {
     let redundant = causal.redundant();
     let mut eliminated = eliminate(&mut causal.system.pool, &causal.solved.torn, &redundant);
-    super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);
+    if with_problems {
+        super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);
+    }
     let roots: Vec<ExprId> = eliminated.relations.iter().map(|r| r.expr).collect();
     let mut auxiliaries = eliminated.auxiliaries;
     let expanded = match auxiliary::differentiate(&mut causal.system.pool, &mut auxiliaries, &roots)

@@ -24,7 +24,7 @@ use super::fsm::{arr_rows_indexed, Component, ComponentKind, RowIndex};
 use super::isolability::Classes;
 use super::subsets::for_each_subset;
 use crate::causality::equations::Equation;
-use crate::graph::{BondGraph, ElementKind, LetId, NodeId, NodeKind};
+use crate::graph::{BondGraph, ElementKind, LetId, NodeId, NodeKind, ParamId};
 use crate::symbolic::Leaf;
 
 /// Models with more fault classes derive each class's residuals on the part of the model
@@ -397,15 +397,26 @@ fn two_ports<'c>(
 /// Detectors of other classes a part grows to hold: two on each side of a class on a line.
 pub const WINDOW_DETECTORS: usize = 4;
 
-/// The most nodes a part may hold (then it stops at the end of a layer): about eight stages
-/// of a mass–spring chain. A larger part finds residuals over longer unmeasured stretches,
-/// whose derivative order and size grow with the stretch: on a chain measured every 5th mass,
-/// parts of 80 nodes add 7 classes of 42 at 30 stages for 200 times the time.
-pub const MAX_WINDOW: usize = 40;
+/// The most nodes a part may hold (then it stops at the end of a layer): twenty stages of a
+/// mass–spring chain, enough for the residuals that span three stretches between detectors
+/// five masses apart (on such a chain they tell every stage apart).
+pub const MAX_WINDOW: usize = 100;
+
+/// A part that holds this many nodes stops growing (at the end of a layer) once its laws hold
+/// more than [`MAX_WINDOW_PARAMETERS`] parameters: about eight stages of a chain.
+pub const SMALL_WINDOW: usize = 40;
+
+/// The parameters a part may hold past [`SMALL_WINDOW`] nodes. The residuals of a part grow
+/// with the product of its stretches' operators, whose coefficients are polynomials in the
+/// parameters: with a parameter per element, a part of 100 nodes takes minutes and gigabytes
+/// where one of 40 takes milliseconds; with parameters shared along the chain, 100 nodes
+/// take milliseconds.
+pub const MAX_WINDOW_PARAMETERS: usize = 16;
 
 /// Candidates of a model with more than [`MAX_DERIVATIONS`] classes: each class left out of
 /// the part of the model around it, grown layer by layer from its nodes until it holds
-/// [`WINDOW_DETECTORS`] detectors of other classes (at most [`MAX_WINDOW`] nodes). On a
+/// [`WINDOW_DETECTORS`] detectors of other classes (at most [`MAX_WINDOW`] nodes, and
+/// [`SMALL_WINDOW`] when its laws hold many parameters). On a
 /// model whose detectors are spread, each part is bounded, so the whole is linear in the
 /// classes. Only the derivations that gave a candidate are kept.
 fn local(
@@ -443,13 +454,34 @@ fn local(
     sources
 }
 
+/// The parameters an element's law names directly.
+fn parameters_of(model: &BondGraph, n: NodeId) -> Vec<ParamId> {
+    let mut out = Vec::new();
+    if let NodeKind::Element(_, law) = &model.node(n).kind {
+        law.expr().for_each_leaf(&mut |s| {
+            if let crate::graph::Signal::Param(p) = s {
+                out.push(*p);
+            }
+        });
+    }
+    out
+}
+
 /// The nodes around `seeds`, in increasing order (see [`local`]).
 fn window(model: &BondGraph, seeds: &[NodeId]) -> Vec<NodeId> {
     let is_detector = |n: NodeId| matches!(model.node(n).kind, NodeKind::Detector(_));
     let mut inside: BTreeSet<NodeId> = seeds.iter().copied().collect();
     let mut layer: Vec<NodeId> = inside.iter().copied().collect();
     let mut detectors = 0;
-    while !layer.is_empty() && detectors < WINDOW_DETECTORS && inside.len() < MAX_WINDOW {
+    let mut parameters: BTreeSet<ParamId> = BTreeSet::new();
+    for &n in &inside {
+        parameters.extend(parameters_of(model, n));
+    }
+    let large = |inside: &BTreeSet<NodeId>, parameters: &BTreeSet<ParamId>| {
+        inside.len() >= MAX_WINDOW
+            || (inside.len() >= SMALL_WINDOW && parameters.len() > MAX_WINDOW_PARAMETERS)
+    };
+    while !layer.is_empty() && detectors < WINDOW_DETECTORS && !large(&inside, &parameters) {
         let mut next = Vec::new();
         for &n in &layer {
             let mut bonds = model.bonds_at(n, Direction::Incoming);
@@ -459,6 +491,7 @@ fn window(model: &BondGraph, seeds: &[NodeId]) -> Vec<NodeId> {
                 let other = if tail == n { head } else { tail };
                 if inside.insert(other) {
                     detectors += usize::from(is_detector(other));
+                    parameters.extend(parameters_of(model, other));
                     next.push(other);
                 }
             }
