@@ -76,10 +76,16 @@ pub(crate) fn candidate_list(model: &BondGraph) -> (Vec<Candidate>, usize) {
     (found.list, components.len())
 }
 
+/// The most work (detectors times equations) spent on the detectors' simulated residuals:
+/// each one's output depends on most of a connected model, so their dependences cost that
+/// product (about a second at this bound).
+const MAX_SIMULATED_WORK: usize = 20_000_000;
+
 /// Adds to `list` the detectors' simulated residuals, when together they tell apart classes
 /// that the derived residuals do not: a residual that needs a copy of the model run from a
 /// known state is kept for what no relation of measured signals can show. Returns those
-/// added.
+/// added. Not tried when the derived residuals reach the structural classes already, nor
+/// past [`MAX_SIMULATED_WORK`].
 fn add_simulated(
     model: &BondGraph,
     (integral, state): (&Causal, &StateSpace),
@@ -88,13 +94,17 @@ fn add_simulated(
 ) -> Vec<Simulated> {
     let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
     let n = components.len();
+    let before = candidates::classes_of(&list.iter().collect::<Vec<_>>(), n);
+    let work = state.outputs.len() * integral.system.equations.len();
+    if before.classes.len() >= fsm.possible.classes.len() || work > MAX_SIMULATED_WORK {
+        return Vec::new();
+    }
     let index = crate::fdi::RowIndex::new(&components);
     let found = simulated::simulated(model, integral, state);
     let rows: Vec<Vec<usize>> = found
         .iter()
         .map(|s| simulated::rows(s, &components, &index))
         .collect();
-    let before = candidates::classes_of(&list.iter().collect::<Vec<_>>(), n);
     let with: Vec<Candidate> = rows
         .into_iter()
         .enumerate()

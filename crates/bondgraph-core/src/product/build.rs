@@ -116,6 +116,10 @@ struct Builder<'m> {
     auxiliary_of: HashMap<u32, Result<Handle<Auxiliary>, Refusal>>,
     /// The unknowns of nonlinear algebraic loops, by their symbol in the state equations.
     loop_of: HashMap<u32, Handle<LoopUnknown>>,
+    /// Every name the model gives, once an auxiliary signal needs a name apart from them.
+    taken: Option<BTreeSet<String>>,
+    /// The number of the last auxiliary signal named (`z1`, `z2`…).
+    numbered: usize,
 }
 
 impl<'m> Builder<'m> {
@@ -125,6 +129,8 @@ impl<'m> Builder<'m> {
             sensor_of: HashMap::new(),
             auxiliary_of: HashMap::new(),
             loop_of: HashMap::new(),
+            taken: None,
+            numbered: 0,
         }
     }
 
@@ -326,9 +332,13 @@ impl<'m> Builder<'m> {
                 }
             }
         }
-        let mut taken = model_names(self.model);
-        taken.extend(c.auxiliaries.values().map(|a| a.name.clone()));
-        let mut number = 0usize;
+        if used.is_empty() {
+            return;
+        }
+        // The model's names, once: derivation after derivation, a large model's parts each
+        // name a few auxiliary signals.
+        let model = self.model;
+        let taken = self.taken.take().unwrap_or_else(|| model_names(model));
         for k in used {
             let aux = &d.auxiliaries[k as usize];
             let derivatives: Result<Vec<Expr>, Refusal> = aux
@@ -338,8 +348,8 @@ impl<'m> Builder<'m> {
                 .collect();
             let result = derivatives.map(|derivatives| {
                 let name = loop {
-                    number += 1;
-                    let name = format!("z{number}");
+                    self.numbered += 1;
+                    let name = format!("z{}", self.numbered);
                     if !taken.contains(&name) {
                         break name;
                     }
@@ -348,6 +358,7 @@ impl<'m> Builder<'m> {
             });
             self.auxiliary_of.insert(k, result);
         }
+        self.taken = Some(taken);
     }
 
     /// The ARRs kept that could be written, and the FSM over them.
