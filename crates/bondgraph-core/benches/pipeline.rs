@@ -138,13 +138,13 @@ fn classes(c: &mut Criterion) {
     group.finish();
 }
 
-/// The candidate residuals of the chain: parsing, the whole model's ARRs and FSM, the
+/// The candidate residuals of `chain`: parsing, the whole model's ARRs and FSM, the
 /// structural classes, and one derivation of the part around each class (above 32 classes).
-fn candidates(c: &mut Criterion) {
-    let mut group = c.benchmark_group("candidates");
+fn candidates_of(c: &mut Criterion, name: &str, chain: fn(usize, usize) -> String) {
+    let mut group = c.benchmark_group(name);
     group.sample_size(10);
     for stages in [100, 1_000, 10_000] {
-        let text = mass_spring_chain_varied(stages, 5);
+        let text = chain(stages, 5);
         group.throughput(Throughput::Elements(stages as u64));
         group.bench_with_input(BenchmarkId::from_parameter(stages), &text, |b, text| {
             b.iter(|| black_box(bondgraph_core::candidate_residuals(black_box(text))))
@@ -153,29 +153,50 @@ fn candidates(c: &mut Criterion) {
     group.finish();
 }
 
-/// The choice of `--residuals best` among the chain's candidates, found once beforehand.
-fn selection(c: &mut Criterion) {
-    let mut group = c.benchmark_group("selection");
+/// The choice of `--residuals best` among `chain`'s candidates, found once beforehand.
+fn selection_of(c: &mut Criterion, name: &str, chain: fn(usize, usize) -> String) {
+    let mut group = c.benchmark_group(name);
     group.sample_size(10);
     for stages in [100, 1_000, 10_000] {
         // Found when the size is measured, not when another one is.
         let set = std::cell::OnceCell::new();
         group.throughput(Throughput::Elements(stages as u64));
         group.bench_function(BenchmarkId::from_parameter(stages), |b| {
-            let set = set.get_or_init(|| {
-                bondgraph_core::candidate_residuals(&mass_spring_chain_varied(stages, 5))
-            });
+            let set = set.get_or_init(|| bondgraph_core::candidate_residuals(&chain(stages, 5)));
             b.iter(|| black_box(set.as_ref().map(|s| s.best())))
         });
     }
     group.finish();
 }
 
+/// Candidates on the chain with parameters of its own per stage: parts of 40 nodes.
+fn candidates(c: &mut Criterion) {
+    candidates_of(c, "candidates", mass_spring_chain_varied);
+}
+
+/// Candidates on the chain whose stages share their parameters: parts of up to 100 nodes,
+/// which reach every structural class.
+fn candidates_shared(c: &mut Criterion) {
+    candidates_of(c, "candidates_shared", mass_spring_chain);
+}
+
+/// The choice of `best` on the chain with parameters of its own per stage.
+fn selection(c: &mut Criterion) {
+    selection_of(c, "selection", mass_spring_chain_varied);
+}
+
+/// The choice of `best` on the chain whose stages share their parameters.
+fn selection_shared(c: &mut Criterion) {
+    selection_of(c, "selection_shared", mass_spring_chain);
+}
+
 criterion_group!(
     benches,
     classes,
     candidates,
+    candidates_shared,
     selection,
+    selection_shared,
     state_equations,
     full_pipeline,
     simplify,

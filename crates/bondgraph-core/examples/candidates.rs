@@ -1,6 +1,7 @@
 //! Times the candidate residuals and the choice of `--residuals best` on a generated chain:
-//! `cargo run --release -p bondgraph-core --example candidates -- STAGES [EVERY]` (a velocity
-//! detector every EVERY-th mass, 5 by default).
+//! `cargo run --release -p bondgraph-core --example candidates -- STAGES [EVERY] [shared]` (a
+//! velocity detector every EVERY-th mass, 5 by default; parameters of its own per stage, or
+//! shared along the chain).
 
 use std::time::Instant;
 
@@ -10,7 +11,11 @@ fn main() {
         |a: Option<String>, default: usize| a.and_then(|v| v.parse().ok()).unwrap_or(default);
     let stages = number(args.next(), 100);
     let every = number(args.next(), 5).max(1);
-    let text = bondgraph_core::generate::mass_spring_chain_varied(stages, every);
+    let text = if args.next().as_deref() == Some("shared") {
+        bondgraph_core::generate::mass_spring_chain(stages, every)
+    } else {
+        bondgraph_core::generate::mass_spring_chain_varied(stages, every)
+    };
     let start = Instant::now();
     let Some(set) = bondgraph_core::candidate_residuals(&text) else {
         eprintln!("the generated chain did not compile");
