@@ -5,7 +5,9 @@
 //! measured signal and every time derivative an ARR reads is computed exactly, by
 //! differentiating the outputs symbolically along the state equations; every `int(..)` is
 //! integrated with the plant (so ARRs assume zero initial values of their integrals, as the
-//! plant starts them). Then:
+//! plant starts them). The unknown of a nonlinear algebraic loop is solved by Newton's method
+//! wherever the plant is evaluated, and differentiated implicitly from its equation
+//! `R(x, u, v) = 0`: `dv/dt = −(dR/dt, v held) / (∂R/∂v)`. Then:
 //! - every residual must stay at round-off level on the healthy plant, relative to the size
 //!   of its terms along the run;
 //! - every FSM entry is checked by a fault in the plant only: each parameter of a component
@@ -76,9 +78,9 @@ pub enum VerifyError {
     NoStateEquations,
     /// There is nothing to check.
     NoArrs,
-    /// The state equations hold nonlinear algebraic loops (the unknowns named): verification
-    /// differentiates the outputs symbolically along the state equations, which an implicit
-    /// unknown does not allow.
+    /// The state equations hold nonlinear algebraic loops whose unknowns set each other (the
+    /// unknowns named): verification differentiates the outputs along the state equations,
+    /// and each loop's unknown implicitly from its own equation only.
     ImplicitLoops(Vec<String>),
     /// The simulation left the finite numbers (at this time, in seconds).
     Diverged(String),
@@ -93,8 +95,8 @@ impl std::fmt::Display for VerifyError {
             VerifyError::NoArrs => f.write_str("the model has no ARRs to verify"),
             VerifyError::ImplicitLoops(names) => write!(
                 f,
-                "the state equations hold the nonlinear algebraic loop unknown(s) {}, solved numerically: \
-                 verify differentiates the outputs symbolically and cannot go through them; \
+                "the state equations hold nonlinear algebraic loops whose unknowns {} set each other: \
+                 verify differentiates each unknown implicitly from its own equation only; \
                  check the ARRs on simulated data with `bgc simulate` and `bgc residuals` instead",
                 names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
             ),
@@ -171,6 +173,9 @@ enum V {
     /// actuator fault): the ARRs read the input as commanded.
     InputFault(Handle<Input>, u32),
     Time,
+    /// An unknown of a nonlinear algebraic loop of the plant, solved by Newton's method
+    /// wherever the plant is evaluated.
+    Loop(Handle<crate::product::LoopUnknown>),
 }
 
 type VId = ExprId<V>;
@@ -193,6 +198,10 @@ struct Plant {
     residual_tape: Tape<V>,
     /// The detectors' outputs.
     output_tape: Tape<V>,
+    /// The equations `residual = 0` that set the loops' unknowns, one each.
+    loop_tape: Tape<V>,
+    /// How many loop unknowns there are.
+    loops: usize,
 }
 
 /// Most times the step is divided by ten for a stiff model.
@@ -207,11 +216,9 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
     if c.arrs.is_empty() {
         return Err(VerifyError::NoArrs);
     }
-    if !space.loops.is_empty() {
-        let names = space.loops.iter().map(|l| l.name.clone()).collect();
-        return Err(VerifyError::ImplicitLoops(names));
-    }
-    let plant = plant(c, space);
+    let plant = plant(c, space).ok_or_else(|| {
+        VerifyError::ImplicitLoops(space.loops.iter().map(|l| l.name.clone()).collect())
+    })?;
     let mut options = *options;
     for _ in 0..MAX_REFINEMENTS {
         match verify_with(c, &plant, &options) {
@@ -244,6 +251,7 @@ fn verify_with(
         faulty_input: None,
         fault_size: 0.0,
         options,
+        guess: std::cell::RefCell::new(vec![0.0; plant.loops]),
     };
     // A sensor fault is a fifth of the signal's peak on the healthy plant: a fixed size would
     // be lost in a pressure of megapascals and swamp a temperature of a few kelvin.
@@ -383,7 +391,10 @@ fn shared_marks(c: &Compiled, own: Handle<Component>, p: Handle<Parameter>) -> B
         .collect()
 }
 
-fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
+/// The plant and the residuals in one pool; `None` when the state equations hold loops whose
+/// unknowns set each other (each loop's equation must hold its own unknown only, for its
+/// derivative along the state equations).
+fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
     let mut pool: Pool<V> = Pool::default();
     let plant_leaf = |p: &mut Pool<V>, s: Symbol| match s {
         Symbol::Parameter(k) => p.leaf(V::Plant(k)),
@@ -395,8 +406,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
         Symbol::State(k) => p.leaf(V::State(k)),
         // State equations and outputs read no measured signal.
         Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
-        // Refused above.
-        Symbol::Loop(_) => p.num(f64::NAN),
+        Symbol::Loop(k) => p.leaf(V::Loop(k)),
     };
     let n = c.states.len();
     let mut rhs = vec![pool.num(0.0); n];
@@ -421,6 +431,10 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
     for (s, e) in &space.outputs {
         outputs.insert(*s, pool.import_from(&c.exprs, *e, plant_leaf));
     }
+    let loops: Vec<VId> = (space.loops.iter())
+        .map(|l| pool.import_from(&c.exprs, l.residual, plant_leaf))
+        .collect();
+    let loop_rates = loop_rates(&mut pool, &rhs, &loops)?;
     let mut measured: HashMap<(Handle<Sensor>, u32), VId> = HashMap::new();
     // Auxiliary signals in definition order: each reads earlier ones only.
     let mut auxiliary: HashMap<(Handle<Auxiliary>, u32), VId> = HashMap::new();
@@ -439,7 +453,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
             Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
             Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
             Symbol::Sensor(s, n) => {
-                let y = output_derivative(p, &rhs, &outputs, &mut measured, (s, n));
+                let y = output_derivative(p, (&rhs, &loop_rates), &outputs, &mut measured, (s, n));
                 let fault = p.leaf(V::SensorFault(s, n));
                 p.add(y, fault)
             }
@@ -462,6 +476,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
     }
     let mut roots = rhs.clone();
     roots.extend(&residuals);
+    roots.extend(&loops);
     let mut integrals = Vec::new();
     pool.visit_reachable(&roots, |id, node| {
         if let Node::Int(_) = node {
@@ -486,23 +501,67 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Plant {
     let mut residual_roots = residuals.clone();
     residual_roots.extend(terms.iter().flatten());
     let output_roots: Vec<VId> = outputs.iter().map(|&(_, e)| e).collect();
-    Plant {
+    Some(Plant {
         derivative_tape: Tape::new(&pool, &derivative_roots),
         residual_tape: Tape::new(&pool, &residual_roots),
         output_tape: Tape::new(&pool, &output_roots),
+        loop_tape: Tape::new(&pool, &loops),
+        loops: loops.len(),
         rhs,
         states: n,
         outputs,
         integrals,
         residuals,
         terms,
+    })
+}
+
+/// Each loop unknown's time derivative along the state equations, from its equation
+/// `R(x, u, v) = 0`: `dv/dt = −(∂R/∂t along the plant, v held) / (∂R/∂v)`. `None` when an
+/// equation holds another loop's unknown (the loops set each other) or cannot be
+/// differentiated.
+fn loop_rates(pool: &mut Pool<V>, rhs: &[VId], loops: &[VId]) -> Option<Vec<VId>> {
+    let mut rates = Vec::with_capacity(loops.len());
+    for (k, &r) in loops.iter().enumerate() {
+        let own = |l: &V| matches!(l, V::Loop(j) if j.index() == k);
+        if (pool.leaves(r).iter()).any(|l| matches!(l, V::Loop(_)) && !own(l)) {
+            return None;
+        }
+        let mut along = Derivatives::new(|p: &mut Pool<V>, leaf: V| match leaf {
+            V::Loop(_) => Some(p.num(0.0)),
+            other => plant_rate(p, rhs, other),
+        });
+        let held = along.of(pool, r)?;
+        let mut by_v = Derivatives::partial(|p: &mut Pool<V>, leaf: V| {
+            Some(p.num(f64::from(u8::from(own(&leaf)))))
+        });
+        let slope = by_v.of(pool, r)?;
+        let minus = pool.neg(held);
+        rates.push(pool.div(minus, slope));
+    }
+    Some(rates)
+}
+
+/// A leaf's time derivative along the plant, loops and the copy's states aside.
+fn plant_rate(p: &mut Pool<V>, rhs: &[VId], leaf: V) -> Option<VId> {
+    match leaf {
+        V::State(k) => Some(rhs[k.index()]),
+        V::Input(u, m) => Some(p.leaf(V::Input(u, m + 1))),
+        V::SensorFault(s, m) => Some(p.leaf(V::SensorFault(s, m + 1))),
+        V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
+        V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
+        V::Time => Some(p.num(1.0)),
+        // Past the plant's states, `rhs` holds the copy's.
+        V::Estimate(k) => rhs.get(rhs.len() / 2 + k.index()).copied(),
+        V::Loop(_) => None,
     }
 }
 
-/// The n-th derivative of a detector's output along the state equations, memoised.
+/// The n-th derivative of a detector's output along the state equations (and the loops'
+/// unknowns' rates), memoised.
 fn output_derivative(
     pool: &mut Pool<V>,
-    rhs: &[VId],
+    (rhs, loop_rates): (&[VId], &[VId]),
     outputs: &HashMap<Handle<Sensor>, VId>,
     memo: &mut HashMap<(Handle<Sensor>, u32), VId>,
     (sensor, n): (Handle<Sensor>, u32),
@@ -516,16 +575,10 @@ fn output_derivative(
             .copied()
             .unwrap_or_else(|| pool.num(0.0))
     } else {
-        let lower = output_derivative(pool, rhs, outputs, memo, (sensor, n - 1));
+        let lower = output_derivative(pool, (rhs, loop_rates), outputs, memo, (sensor, n - 1));
         let mut d = Derivatives::new(|p: &mut Pool<V>, leaf: V| match leaf {
-            // Past the plant's states, `rhs` holds the copy's.
-            V::State(k) => Some(rhs[k.index()]),
-            V::Estimate(k) => rhs.get(rhs.len() / 2 + k.index()).copied(),
-            V::Input(u, m) => Some(p.leaf(V::Input(u, m + 1))),
-            V::SensorFault(s, m) => Some(p.leaf(V::SensorFault(s, m + 1))),
-            V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
-            V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
-            V::Time => Some(p.num(1.0)),
+            V::Loop(k) => loop_rates.get(k.index()).copied(),
+            other => plant_rate(p, rhs, other),
         });
         d.of(pool, lower).unwrap_or_else(|| pool.num(0.0))
     };
@@ -568,13 +621,15 @@ struct Run<'a> {
     faulty_input: Option<Handle<Input>>,
     fault_size: f64,
     options: &'a VerifyOptions,
+    /// The loops' unknowns last solved: Newton's next guess.
+    guess: std::cell::RefCell<Vec<f64>>,
 }
 
 impl Run<'_> {
-    fn leaf(&self, x: &[f64], t: f64) -> impl Fn(V) -> f64 + '_ {
-        let x = x.to_vec();
+    fn leaf<'r>(&'r self, x: &'r [f64], t: f64, z: &'r [f64]) -> impl Fn(V) -> f64 + 'r {
         move |leaf| match leaf {
             V::State(k) => x[k.index()],
+            V::Loop(k) => z.get(k.index()).copied().unwrap_or(f64::NAN),
             V::Estimate(k) => x[self.plant.states + k.index()],
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
@@ -601,11 +656,32 @@ impl Run<'_> {
             .collect()
     }
 
-    /// The values of `tape`'s roots in state `x` at time `t`.
+    /// The values of `tape`'s roots in state `x` at time `t`, the loops' unknowns solved
+    /// first.
     fn values(&self, tape: &Tape<V>, x: &[f64], t: f64) -> Vec<f64> {
         let integrals = self.integrals(x);
         let integral = |id: VId| integrals.get(&id).copied().unwrap_or(f64::NAN);
-        tape.values(self.leaf(x, t), integral, &mut Vec::new())
+        let z = self.loops(x, t, &integral);
+        tape.values(self.leaf(x, t, &z), integral, &mut Vec::new())
+    }
+
+    /// The loops' unknowns in state `x` at time `t`, by Newton's method from the last
+    /// solution (NaN where it finds no root: the residuals then fail, never pass).
+    fn loops(&self, x: &[f64], t: f64, integral: &dyn Fn(VId) -> f64) -> Vec<f64> {
+        if self.plant.loops == 0 {
+            return Vec::new();
+        }
+        let mut z = self.guess.borrow().clone();
+        let solved = crate::sim::newton::solve(&mut z, |z, out| {
+            *out = (self.plant.loop_tape).values(self.leaf(x, t, z), integral, &mut Vec::new());
+        });
+        match solved {
+            Ok(()) => {
+                self.guess.borrow_mut().clone_from(&z);
+                z
+            }
+            Err(_) => vec![f64::NAN; self.plant.loops],
+        }
     }
 
     fn derivative(&self, x: &[f64], t: f64) -> Vec<f64> {

@@ -1,8 +1,8 @@
 //! Simulation: the model in integral causality as state equations, and their integration
 //! under a scenario (inputs, closed loops, faults, noise) into sampled signals.
 
-#[cfg(feature = "simulate")]
-mod newton;
+// Plain Rust: `bgc verify` solves algebraic loops with it too, with or without `simulate`.
+pub(crate) mod newton;
 #[cfg(feature = "simulate")]
 mod noise;
 #[cfg(feature = "simulate")]
