@@ -618,17 +618,7 @@ impl CopyRun {
         slot: &HashMap<Quantity, usize>,
     ) -> Option<CopyRun> {
         let copy = readings.copy.as_ref()?;
-        let mut inputs: Vec<Handle<bondgraph_core::Input>> = Vec::new();
-        for &r in &copy.rates {
-            for leaf in c.exprs.leaves(r) {
-                if let Symbol::Input(u, _) = leaf {
-                    if !inputs.contains(&u) {
-                        inputs.push(u);
-                    }
-                }
-            }
-        }
-        inputs.sort();
+        let inputs = &copy.inputs;
         let mut pool: Pool<CopyLeaf> = Pool::default();
         let import = |pool: &mut Pool<CopyLeaf>, e: Expr| {
             pool.import_from(&c.exprs, e, |p: &mut Pool<CopyLeaf>, s| match s {

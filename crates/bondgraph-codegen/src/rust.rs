@@ -471,17 +471,7 @@ fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
 /// the items `COPY_STATES`, `COPY_INPUTS` and `copy_rates`; `None` when no residual runs one.
 fn copy_items(c: &Compiled, readings: &Readings) -> Option<(CopyLeaves, TokenStream)> {
     let copy = readings.copy.as_ref()?;
-    let mut inputs: Vec<Handle<Input>> = Vec::new();
-    for &r in &copy.rates {
-        for leaf in c.exprs.leaves(r) {
-            if let Symbol::Input(u, _) = leaf {
-                if !inputs.contains(&u) {
-                    inputs.push(u);
-                }
-            }
-        }
-    }
-    inputs.sort();
+    let inputs = &copy.inputs;
     let leaves = CopyLeaves {
         states: c.states.len(),
         integrals: copy.integrals.clone(),

@@ -551,9 +551,9 @@ fn plant_rate(p: &mut Pool<V>, rhs: &[VId], leaf: V) -> Option<VId> {
         V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
         V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
         V::Time => Some(p.num(1.0)),
-        // Past the plant's states, `rhs` holds the copy's.
-        V::Estimate(k) => rhs.get(rhs.len() / 2 + k.index()).copied(),
-        V::Loop(_) => None,
+        // Simulated residuals read the copy's states undifferentiated, and loops are the
+        // caller's: neither is differentiated here.
+        V::Estimate(_) | V::Loop(_) => None,
     }
 }
 

@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{Compiled, Expr, Handle, ResidualForm, Signal, State, Symbol};
+use super::{Compiled, Expr, Handle, Input, ResidualForm, Signal, State, Symbol};
 use crate::expr::BinOp;
 use crate::symbolic::Node;
 
@@ -33,6 +33,8 @@ pub struct ModelCopy {
     pub rates: Vec<Expr>,
     /// The arguments of the `int(..)` the state equations hold, in the order of their states.
     pub integrals: Vec<Expr>,
+    /// The inputs the rates read, in declaration order.
+    pub inputs: Vec<Handle<Input>>,
 }
 
 /// Everything the ARRs read from a bench, in a fixed order.
@@ -130,7 +132,18 @@ impl Compiled {
             }
         });
         rates.extend(integrals.iter().copied());
-        Some(ModelCopy { rates, integrals })
+        let mut inputs: BTreeSet<Handle<Input>> = BTreeSet::new();
+        for &r in &rates {
+            inputs.extend(self.exprs.leaves(r).into_iter().filter_map(|l| match l {
+                Symbol::Input(u, _) => Some(u),
+                _ => None,
+            }));
+        }
+        Some(ModelCopy {
+            rates,
+            integrals,
+            inputs: inputs.into_iter().collect(),
+        })
     }
 
     /// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then
