@@ -6,7 +6,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use bondgraph_core::{
-    Compiled, Derive, Limits, Options, ResidualSet, Stop, Unsimplified, VerifyOptions,
+    Compiled, Derive, Limits, Options, Realise, ResidualSet, Stop, Unsimplified, VerifyOptions,
 };
 use clap::{Parser, Subcommand, ValueEnum};
 
@@ -50,8 +50,32 @@ pub struct Args {
     #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
     residuals: ResidualsArg,
 
+    /// How residual generators evaluate each ARR: integrated once where that lowers the
+    /// derivatives it reads (`lowest`), or as written (`direct`).
+    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+    realise: RealiseArg,
+
     #[command(flatten)]
     simplify: SimplifyArgs,
+}
+
+/// `--realise`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum RealiseArg {
+    /// Each ARR whose derivatives enter linearly with constant coefficients as the change of
+    /// its integral, reading one order of derivative fewer; the others as written.
+    Lowest,
+    /// Every ARR as written.
+    Direct,
+}
+
+impl RealiseArg {
+    pub(crate) fn realise(self) -> Realise {
+        match self {
+            RealiseArg::Lowest => Realise::Lowest,
+            RealiseArg::Direct => Realise::Direct,
+        }
+    }
 }
 
 /// `--residuals`.
@@ -164,6 +188,10 @@ enum Command {
         /// Which residuals to derive and check (see `bgc --help`).
         #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
         residuals: ResidualsArg,
+        /// How the residuals are realised (see `bgc --help`); an integrated one is checked
+        /// as its rate plus its level's derivative.
+        #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+        realise: RealiseArg,
         /// Write the table to FILE instead of standard output.
         #[arg(short, long, value_name = "FILE")]
         output: Option<PathBuf>,
@@ -258,6 +286,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 steps,
                 step,
                 residuals,
+                realise,
                 output,
             }),
             _,
@@ -266,7 +295,7 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 &model,
                 Derive::Everything,
                 args.simplify.limits()?,
-                residuals.set(),
+                (residuals.set(), realise.realise()),
             )?;
             succeeded(&c)?;
             let options = VerifyOptions {
@@ -310,7 +339,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Target::Dot => None,
                 _ => args.simplify.limits()?,
             };
-            let c = compile_with(&model, derive, limits, args.residuals.set())?;
+            let c = compile_with(
+                &model,
+                derive,
+                limits,
+                (args.residuals.set(), args.realise.realise()),
+            )?;
             let text = match args.emit {
                 Target::Text => bondgraph_codegen::text::emit(&c),
                 Target::Json => bondgraph_codegen::json::emit_with(
@@ -373,21 +407,27 @@ pub(crate) fn compile(
     derive: Derive,
     simplify: Option<Limits>,
 ) -> Result<Compiled, Failure> {
-    compile_with(path, derive, simplify, ResidualSet::PerSensor)
+    compile_with(
+        path,
+        derive,
+        simplify,
+        (ResidualSet::PerSensor, Realise::default()),
+    )
 }
 
-/// [`compile`] with the residual set asked for.
+/// [`compile`] with the residual set asked for and how to realise them.
 pub(crate) fn compile_with(
     path: &Path,
     derive: Derive,
     simplify: Option<Limits>,
-    residuals: ResidualSet,
+    (residuals, realise): (ResidualSet, Realise),
 ) -> Result<Compiled, Failure> {
     let (name, bytes) = read(path)?;
     let options = Options {
         derive,
         simplify,
         residuals,
+        realise,
     };
     let out = report::compile(&name, bytes, &options).ok_or(Failure::Invalid)?;
     warn_unsimplified(&out.unsimplified);

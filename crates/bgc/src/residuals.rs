@@ -11,9 +11,10 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph::{Differentiator, SavitzkyGolay, Threshold, Trapezoid};
+use bondgraph::{Differentiator, Reference, SavitzkyGolay, Threshold, Trapezoid};
 use bondgraph_core::{
-    Compiled, Derive, Expr, ExprId, Handle, Node, Pool, Quantity, Readings, Signal, Symbol, Tape,
+    Arr, Compiled, Derive, Expr, ExprId, Handle, Node, Pool, Quantity, Readings, Realisation,
+    Realise, Signal, Symbol, Tape,
 };
 
 use crate::cli::{self, Failure};
@@ -31,6 +32,12 @@ pub struct ResidualArgs {
     /// Samples in the Savitzky–Golay window (odd).
     #[arg(long, value_name = "N", default_value_t = 11)]
     window: usize,
+    /// Residuals realised by integration (`integrated` in the model's output) are the
+    /// relation's integral over the last N samples, or from the record's first estimate
+    /// (`start`): a fault that shows only while a signal moves then leaves them offset for
+    /// good, but the noise they integrate grows with the record.
+    #[arg(long, value_name = "N|start", default_value_t = Integration::Window(Reference::DEFAULT_WINDOW))]
+    integration_window: Integration,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
     /// ARRs read if higher].
     #[arg(long, value_name = "D")]
@@ -53,6 +60,8 @@ pub struct ResidualArgs {
     /// Adaptive thresholds: add to each residual's threshold the bound the model's parameter
     /// uncertainties (`+- 5%`) put on it at each sample, `Σ |∂r/∂θ| Δθ`. The fixed or
     /// calibrated level is then the margin for noise on top of it (0 if neither is given).
+    /// The bound is derived for the ARRs as written: with it, they are realised directly
+    /// (`--realise direct`).
     #[arg(long)]
     adaptive: bool,
     /// Consecutive samples above (below) a threshold that raise (clear) its alarm.
@@ -62,6 +71,10 @@ pub struct ResidualArgs {
     /// detector, `best` or `all`.
     #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
     residuals: cli::ResidualsArg,
+    /// How the residuals are realised, as `bgc MODEL --realise`: integrated once where that
+    /// lowers the derivatives they read, or as written.
+    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+    realise: cli::RealiseArg,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -73,7 +86,18 @@ pub struct ResidualArgs {
 
 /// Runs `bgc residuals`.
 pub fn run(args: ResidualArgs) -> Result<(), Failure> {
-    let c = cli::compile_with(&args.model, Derive::Everything, None, args.residuals.set())?;
+    // The bound from parameter uncertainty is that of the relation as written.
+    let realise = if args.adaptive {
+        Realise::Direct
+    } else {
+        args.realise.realise()
+    };
+    let c = cli::compile_with(
+        &args.model,
+        Derive::Everything,
+        None,
+        (args.residuals.set(), realise),
+    )?;
     if c.has_errors() || c.arrs.is_empty() {
         eprintln!("error: {}: no ARRs to evaluate", c.file_name);
         return Err(Failure::Invalid);
@@ -95,7 +119,13 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
     let build = || {
-        Generator::new(&c, &readings, &params, data.step, args.window, degree).map_err(|e| {
+        let fit = Fit {
+            step: data.step,
+            window: args.window,
+            degree,
+            integration: args.integration_window,
+        };
+        Generator::new(&c, &readings, &params, &fit).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
         })
@@ -579,6 +609,8 @@ enum Leaf {
     Time,
     /// What a generator cannot read (a state): never in an ARR.
     Missing,
+    /// A signal's value the residuals read only under an integral: never evaluated.
+    Unestimated(Quantity),
 }
 
 type Id = ExprId<Leaf>;
@@ -729,6 +761,64 @@ pub struct Generator {
     bounds: Vec<f64>,
     /// The copy of the model simulated residuals run, if any.
     copy: Option<CopyRun>,
+    /// Each residual realised by integration, with its reference.
+    references: Vec<(usize, Reference)>,
+}
+
+/// Over what residuals realised by integration are integrated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Integration {
+    /// The last N samples.
+    Window(usize),
+    /// From the first estimate.
+    Start,
+}
+
+impl Integration {
+    fn reference(self) -> Reference {
+        match self {
+            Integration::Window(n) => Reference::window(n),
+            Integration::Start => Reference::from_start(),
+        }
+    }
+}
+
+impl std::fmt::Display for Integration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Integration::Window(n) => write!(f, "{n}"),
+            Integration::Start => f.write_str("start"),
+        }
+    }
+}
+
+impl std::str::FromStr for Integration {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "start" => Ok(Integration::Start),
+            _ => match s.parse::<usize>() {
+                Ok(n) if n > 0 => Ok(Integration::Window(n)),
+                _ => Err(format!(
+                    "expected a number of samples (at least 1) or `start`, not `{s}`"
+                )),
+            },
+        }
+    }
+}
+
+/// How a [`Generator`] estimates: Savitzky–Golay fits of `degree` over `window` samples every
+/// `step` seconds, and over what residuals realised by integration are integrated.
+pub struct Fit {
+    /// The record's step, in seconds.
+    pub step: f64,
+    /// Samples in each fit (odd).
+    pub window: usize,
+    /// The fits' polynomial degree.
+    pub degree: u32,
+    /// Over what integrated residuals are taken.
+    pub integration: Integration,
 }
 
 /// The residuals at one instant, as [`Generator::push`] gives them.
@@ -742,16 +832,15 @@ pub struct Estimate<'g> {
 }
 
 impl Generator {
-    /// Centred Savitzky–Golay fits of `degree` over `window` samples every `step` seconds.
+    /// The generator of `c`'s residuals with the parameters `params`, estimating as `how`
+    /// says.
     pub fn new(
         c: &Compiled,
         readings: &Readings,
         params: &[f64],
-        step: f64,
-        window: usize,
-        degree: u32,
+        how: &Fit,
     ) -> Result<Generator, bondgraph::EstimatorError> {
-        let fit = |order: u32| SavitzkyGolay::new(order, degree, window, step, true);
+        let fit = |order: u32| SavitzkyGolay::new(order, how.degree, how.window, how.step, true);
         let estimators = readings
             .raw
             .iter()
@@ -827,7 +916,9 @@ impl Generator {
             .flat_map(|(_, a)| a.derivatives.iter().copied())
             .map(|e| import(&mut pool, e))
             .collect();
-        let arrs: Vec<Id> = c.arrs.iter().map(|a| import(&mut pool, a.expr)).collect();
+        let arrs: Vec<Id> = (c.arrs.iter())
+            .map(|a| import(&mut pool, a.evaluated()))
+            .collect();
         let mut weights = Vec::new();
         let mut sensitivities = Vec::new();
         for (k, arr) in c.arrs.iter().enumerate() {
@@ -838,7 +929,7 @@ impl Generator {
         }
         // Each `int(..)` of the product, found where the import put it.
         let mut original = Vec::new();
-        let mut roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+        let mut roots: Vec<Expr> = c.arrs.iter().map(Arr::evaluated).collect();
         roots.extend(
             c.arrs
                 .iter()
@@ -922,6 +1013,10 @@ impl Generator {
             residuals: Vec::new(),
             bounds: Vec::new(),
             copy: CopyRun::new(c, readings, params, &slot),
+            references: (c.arrs.iter().enumerate())
+                .filter(|(_, a)| matches!(a.realisation, Realisation::Integrated(_)))
+                .map(|(k, _)| (k, how.integration.reference()))
+                .collect(),
         })
     }
 
@@ -975,6 +1070,11 @@ impl Generator {
         }
         let mut residuals = std::mem::take(&mut self.residuals);
         self.evaluate(&self.arrs, at, &mut scratch, &mut residuals);
+        for (k, reference) in &mut self.references {
+            if let Some(r) = residuals.get_mut(*k) {
+                *r = reference.push(*r);
+            }
+        }
         self.bounds.clear();
         self.bounds.resize(residuals.len(), 0.0);
         if bounds && !self.weights.is_empty() {
@@ -1009,7 +1109,7 @@ impl Generator {
             Leaf::Slot(i) => self.values[i as usize],
             Leaf::Auxiliary(j) => self.auxiliary[j as usize],
             Leaf::Time => t,
-            Leaf::Missing => f64::NAN,
+            Leaf::Missing | Leaf::Unestimated(_) => f64::NAN,
         }
     }
 
@@ -1021,9 +1121,11 @@ impl Generator {
     }
 }
 
+/// The slot of `q`; a quantity without one (a signal read only under an integral) is a
+/// leaf of its own, so that the integrals of two such signals stay two nodes.
 fn slot_leaf(p: &mut Pool<Leaf>, slot: &HashMap<Quantity, usize>, q: Quantity) -> Id {
     p.leaf(
         slot.get(&q)
-            .map_or(Leaf::Missing, |&i| Leaf::Slot(i as u32)),
+            .map_or(Leaf::Unestimated(q), |&i| Leaf::Slot(i as u32)),
     )
 }

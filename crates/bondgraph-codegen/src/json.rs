@@ -5,7 +5,8 @@ use std::fmt::Write as _;
 
 use bondgraph_core::diagnostic::Severity;
 use bondgraph_core::{
-    Compiled, Component, FaultClasses, Handle, Printer, ResidualForm, ResidualSet, Signal,
+    Compiled, Component, FaultClasses, Handle, Printer, Realisation, ResidualForm, ResidualSet,
+    Signal, SignalUse,
 };
 
 use crate::names;
@@ -143,6 +144,22 @@ fn state_space(out: &mut String, c: &Compiled) {
     let _ = writeln!(out, "  \"algebraic_loops\": [{}\n  ],", loops.join(","));
 }
 
+/// What an expression reads, as JSON: each signal's derivative orders and integral.
+fn reads_list(c: &Compiled, reads: &[SignalUse]) -> String {
+    list(reads.iter().map(|r| {
+        let name = match r.signal {
+            Signal::Input(u) => &c.inputs[u].name,
+            Signal::Sensor(s) => &c.sensors[s].name,
+        };
+        format!(
+            "{{\"signal\": {}, \"orders\": {}, \"integral\": {}}}",
+            string(name),
+            list(r.orders.iter().map(u32::to_string)),
+            r.integral
+        )
+    }))
+}
+
 fn arrs(out: &mut String, c: &Compiled) {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let arrs: Vec<String> = c
@@ -150,18 +167,20 @@ fn arrs(out: &mut String, c: &Compiled) {
         .iter()
         .map(|arr| {
             let components = arr.components.iter().map(|h| string(&c.components[*h].name));
-            let reads = arr.reads.iter().map(|r| {
-                let name = match r.signal {
-                    Signal::Input(u) => &c.inputs[u].name,
-                    Signal::Sensor(s) => &c.sensors[s].name,
-                };
-                format!(
-                    "{{\"signal\": {}, \"orders\": {}, \"integral\": {}}}",
-                    string(name),
-                    list(r.orders.iter().map(u32::to_string)),
-                    r.integral
-                )
-            });
+            let reads = reads_list(c, &arr.reads);
+            let realisation = match &arr.realisation {
+                Realisation::Direct => format!(
+                    "{{\"kind\": \"direct\", \"order\": {}}}",
+                    arr.realised_order()
+                ),
+                Realisation::Integrated(i) => format!(
+                    "{{\"kind\": \"integrated\", \"order\": {}, \"level\": {}, \"rate\": {}, \"reads\": {}}}",
+                    arr.realised_order(),
+                    string(&printer.text(i.level)),
+                    string(&printer.text(i.rate)),
+                    reads_list(c, &i.reads)
+                ),
+            };
             let auxiliaries = arr.auxiliaries.iter().map(|&a| {
                 let aux = &c.auxiliaries[a];
                 format!(
@@ -171,7 +190,7 @@ fn arrs(out: &mut String, c: &Compiled) {
                 )
             });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"sensitivities\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"realisation\": {}, \"sensitivities\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
@@ -183,7 +202,8 @@ fn arrs(out: &mut String, c: &Compiled) {
                 list(auxiliaries),
                 list(components),
                 list(arr.without.iter().map(|h| string(&c.components[*h].name))),
-                list(reads),
+                reads,
+                realisation,
                 arr.sensitivities.as_ref().map_or("null".to_string(), |s| {
                     let entries: Vec<String> = s
                         .iter()

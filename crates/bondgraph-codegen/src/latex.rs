@@ -5,7 +5,9 @@ use std::fmt::Write as _;
 
 use std::collections::HashMap;
 
-use bondgraph_core::{Compiled, Expr, ExprId, Node, Pool, Printer, ResidualForm, Symbol};
+use bondgraph_core::{
+    Compiled, Expr, ExprId, Node, Pool, Printer, Realisation, ResidualForm, Symbol,
+};
 
 use crate::names;
 
@@ -54,6 +56,21 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
                     }
                 };
                 let mut lines = vec![writer.equation(&head, arr.expr, tail)];
+                if let Realisation::Integrated(i) = &arr.realisation {
+                    // The residual is `F(t) - F(t0) + int A`: printed as the two parts.
+                    let head = format!(
+                        "  \\text{{integrated}}\\quad & \\mathrm{{{}}} = \\dot F + A,\\ F = ",
+                        arr.name
+                    );
+                    lines.push(format!(
+                        "{} \\nonumber",
+                        writer.equation(&head, i.level, "")
+                    ));
+                    lines.push(format!(
+                        "{} \\nonumber",
+                        writer.equation("  & A = ", i.rate, "")
+                    ));
+                }
                 for &a in &arr.auxiliaries {
                     let aux = &c.auxiliaries[a];
                     let head = format!(

@@ -12,8 +12,8 @@
 use std::collections::{BTreeMap, HashMap};
 
 use bondgraph_core::{
-    children, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Input, Node, Printer, Quantity,
-    Readings, ResidualForm, Signal, Symbol,
+    children, Arr, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Input, Node, Printer, Quantity,
+    Readings, Realisation, ResidualForm, Signal, Symbol,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -363,7 +363,7 @@ fn uses(c: &Compiled, roots: &[Expr]) -> (Vec<Expr>, HashMap<Expr, usize>) {
 
 /// The body of `residuals`: `let`s for shared nodes and auxiliary signals, then the array.
 fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
-    let roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+    let roots: Vec<Expr> = c.arrs.iter().map(Arr::evaluated).collect();
     let read = c.auxiliary_derivatives_read(&roots);
     let mut all_roots = roots.clone();
     for &(a, n) in &read {
@@ -564,12 +564,22 @@ pub fn tokens(c: &Compiled) -> TokenStream {
                     " (simulated: the states of the copy of the model, see [`copy_rates`])"
                 }
             };
-            format!(
+            let relation = format!(
                 " - {}: $${} = 0$${simulated}",
                 a.name,
                 printer.latex(a.expr)
-            )
+            );
+            match &a.realisation {
+                Realisation::Direct => relation,
+                Realisation::Integrated(i) => format!(
+                    "{relation}; integrated: the running value is $${}$$",
+                    printer.latex(i.expr)
+                ),
+            }
         })
+        .collect();
+    let integrated: Vec<bool> = (c.arrs.iter())
+        .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
         .collect();
     let arr_names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
     let simulated: Vec<bool> = (c.arrs.iter())
@@ -595,8 +605,16 @@ pub fn tokens(c: &Compiled) -> TokenStream {
         /// starts with the machine at rest.
         pub const SIMULATED: [bool; #n] = [#(#simulated),*];
 
+        /// Whether each residual is realised by integration: the ARR `r = A + dF/dt` is
+        /// evaluated as the running value `F + ∫A` (what [`residuals`] returns for it), whose
+        /// change since a reference instant ([`bondgraph::Reference`]) is the residual
+        /// `∫ r dt`: it reads each derivative one order lower than the relation.
+        pub const INTEGRATED: [bool; #n] = [#(#integrated),*];
+
         /// Every ARR's residual, in the order of [`RESIDUALS`]; each is zero (up to the
-        /// estimation of the signals) while the machine is healthy.
+        /// estimation of the signals) while the machine is healthy. For a residual realised
+        /// by integration ([`INTEGRATED`]) it is the running value `F + ∫A`, whose change
+        /// since a reference instant is zero while the machine is healthy.
         ///
         #(#[doc = #docs])*
         #[allow(non_snake_case, unused_variables, clippy::all)]
@@ -609,7 +627,9 @@ pub fn tokens(c: &Compiled) -> TokenStream {
         /// `s`: `Σ |∂r/∂θ| Δθ` over the uncertain parameters each ARR depends on, `Δθ` read
         /// from `u` (usually [`Params::UNCERTAINTY`]). An adaptive threshold is this plus a
         /// margin for noise; a healthy plant whose parameters are within `u` of `p` stays
-        /// under it to first order. An ARR that reads auxiliary signals has no bound (0).
+        /// under it to first order. An ARR that reads auxiliary signals, or one realised by
+        /// integration ([`INTEGRATED`]), has no bound (0): generate the code with
+        /// `realise = direct` (`--realise direct`) for adaptive thresholds.
         #[allow(non_snake_case, unused_variables, clippy::all)]
         #[must_use]
         pub fn bounds(p: &Params, u: &Params, s: &Signals) -> [f64; #n] {
@@ -831,6 +851,13 @@ fn generator(
         .into_iter()
         .map(Literal::u32_unsuffixed)
         .collect();
+    // The residuals realised by integration, each with its reference.
+    let integrated: Vec<Literal> = (c.arrs.iter().enumerate())
+        .filter(|(_, a)| matches!(a.realisation, Realisation::Integrated(_)))
+        .map(|(k, _)| count(k))
+        .collect();
+    let references = count(integrated.len());
+    let reference_index: Vec<Literal> = (0..integrated.len()).map(count).collect();
     let (copy_field, copy_init, copy_push, copy_read) = match copy {
         None => Default::default(),
         Some(copy) => {
@@ -888,6 +915,7 @@ fn generator(
             bank: B,
             integrals: [::bondgraph::Trapezoid; #i],
             others: [::bondgraph::Trapezoid; #o],
+            references: [::bondgraph::Reference; #references],
             #copy_field
             last: Signals,
         }
@@ -907,9 +935,28 @@ fn generator(
                     bank,
                     integrals: [::bondgraph::Trapezoid::new(); #i],
                     others: [::bondgraph::Trapezoid::new(); #o],
+                    references: ::core::array::from_fn(|_| ::bondgraph::Reference::default()),
                     #copy_init
                     last: Signals::default(),
                 })
+            }
+
+            /// Residuals realised by integration ([`INTEGRATED`]) taken over the last
+            /// `samples` steps (by default [`bondgraph::Reference::DEFAULT_WINDOW`]).
+            #[must_use]
+            pub fn with_integration_window(mut self, samples: usize) -> Self {
+                self.references = ::core::array::from_fn(|_| ::bondgraph::Reference::window(samples));
+                self
+            }
+
+            /// Residuals realised by integration ([`INTEGRATED`]) taken from the first
+            /// estimate: a fault that shows only while a signal moves leaves them offset for
+            /// good, and the noise they integrate grows with the record (see
+            /// [`bondgraph::Reference`]).
+            #[must_use]
+            pub fn integrated_from_start(mut self) -> Self {
+                self.references = ::core::array::from_fn(|_| ::bondgraph::Reference::from_start());
+                self
             }
 
             /// The parameters the residuals are computed with.
@@ -960,7 +1007,8 @@ fn generator(
                 #(
                     s.#other_fields = self.others[#other_index].push(at, { #integrands });
                 )*
-                let r = residuals(p, &s);
+                let mut r = residuals(p, &s);
+                #(r[#integrated] = self.references[#reference_index].push(r[#integrated]);)*
                 self.last = s;
                 Some(r)
             }

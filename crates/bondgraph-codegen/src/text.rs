@@ -3,7 +3,8 @@
 use std::fmt::Write as _;
 
 use bondgraph_core::{
-    CausalityReport, Compiled, Mode, Printer, ResidualForm, Setter, StorageCausality,
+    Arr, CausalityReport, Compiled, Mode, Printer, Realisation, ResidualForm, Setter,
+    StorageCausality, Symbol,
 };
 
 use crate::names;
@@ -270,6 +271,34 @@ fn classes(out: &mut String, c: &Compiled, k: &bondgraph_core::FaultClasses, tit
     }
 }
 
+/// How the residual generator evaluates `arr`, and the highest derivative it reads.
+fn realisation<F: Fn(Symbol) -> String>(
+    out: &mut String,
+    printer: &Printer<'_, Symbol, F>,
+    arr: &Arr,
+) {
+    let order = arr.realised_order();
+    match &arr.realisation {
+        Realisation::Direct if arr.form == ResidualForm::Relation => {
+            let _ = writeln!(
+                out,
+                "    realised as written: derivatives up to order {order}"
+            );
+        }
+        Realisation::Direct => {}
+        Realisation::Integrated(i) => {
+            let _ = writeln!(
+                out,
+                "    realised by integration, derivatives up to order {order}: the residual is \
+                 F(t) - F(t0) + int(A) over [t0, t], where ARR = A + der(F) and\n      \
+                 F = {}\n      A = {}",
+                printer.text(i.level),
+                printer.text(i.rate)
+            );
+        }
+    }
+}
+
 fn arrs(out: &mut String, c: &Compiled) {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let _ = writeln!(out, "ARRs");
@@ -317,6 +346,7 @@ fn arrs(out: &mut String, c: &Compiled) {
                  driven by the inputs as commanded, from the model's initial state"
             );
         }
+        realisation(out, &printer, arr);
         for &a in &arr.auxiliaries {
             let aux = &c.auxiliaries[a];
             let _ = writeln!(

@@ -5,7 +5,7 @@ use crate::display::Unsimplified;
 use crate::fdi::ResidualSet;
 use crate::graph::{first_too_large, MAX_EXPANDED};
 use crate::pipeline::analyse;
-use crate::product::{build, Compiled};
+use crate::product::{build, realise, Compiled};
 use crate::symbolic::rewrite::Limits;
 
 /// How far to take a model.
@@ -28,6 +28,19 @@ pub struct Options {
     pub simplify: Option<Limits>,
     /// Which residuals to derive and keep.
     pub residuals: ResidualSet,
+    /// How residual generators evaluate the ARRs.
+    pub realise: Realise,
+}
+
+/// How residual generators evaluate the ARRs (see [`crate::Realisation`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Realise {
+    /// Each ARR that can be is integrated once, so that it reads one order of derivative
+    /// fewer; the others as written.
+    #[default]
+    Lowest,
+    /// Every ARR as written.
+    Direct,
 }
 
 impl Default for Options {
@@ -36,6 +49,7 @@ impl Default for Options {
             derive: Derive::Everything,
             simplify: Some(Limits::default()),
             residuals: ResidualSet::default(),
+            realise: Realise::default(),
         }
     }
 }
@@ -120,7 +134,10 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
             });
         }
     }
-    let compiled = build(&model, Some(&analysis), text, file_name, diagnostics);
+    let mut compiled = build(&model, Some(&analysis), text, file_name, diagnostics);
+    if options.realise == Realise::Lowest {
+        realise(&mut compiled);
+    }
     Ok(Output {
         compiled,
         unsimplified,

@@ -21,7 +21,7 @@ mod symbolic;
 mod syntax;
 mod verify;
 
-pub use compile::{compile, without_bom, Derive, Options, Output};
+pub use compile::{compile, without_bom, Derive, Options, Output, Realise};
 pub use display::Unsimplified;
 pub use expr::{BinOp, Func};
 pub use fdi::candidates::{MAX_CANDIDATE_SIZE, MAX_DERIVATIONS, WINDOW_DETECTORS};

@@ -5,6 +5,7 @@
 //! ```ignore
 //! bondgraph::bond_graph!("models/backlash_bench.bg"); // relative to CARGO_MANIFEST_DIR
 //! bondgraph::bond_graph!("models/dc_motor.bg", residuals = best); // as `--residuals best`
+//! bondgraph::bond_graph!("models/dc_motor.bg", realise = direct); // as `--realise direct`
 //! bondgraph::bond_graph! {
 //!     model rc
 //!     param R1 = 2
@@ -18,7 +19,7 @@
 use std::path::{Path, PathBuf};
 
 use bondgraph_core::diagnostic::{Diagnostics, LineIndex};
-use bondgraph_core::{compile, Options, ResidualSet};
+use bondgraph_core::{compile, Options, Realise, ResidualSet};
 use proc_macro::{Delimiter, Spacing, TokenStream, TokenTree};
 use quote::quote;
 
@@ -40,6 +41,8 @@ struct Source {
     tokens: Vec<(usize, proc_macro::Span)>,
     /// Which residuals to generate (`residuals = per_sensor | best | all` after a path).
     residuals: ResidualSet,
+    /// How to realise them (`realise = lowest | direct` after a path).
+    realise: Realise,
 }
 
 fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::TokenStream> {
@@ -63,6 +66,7 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     };
     let options = Options {
         residuals: source.residuals,
+        realise: source.realise,
         ..Options::default()
     };
     let out = compile(&source.text, &source.name, &options).map_err(|d| refuse(&d))?;
@@ -128,8 +132,12 @@ fn read(input: TokenStream) -> Result<Source, String> {
     let tokens: Vec<TokenTree> = input.clone().into_iter().collect();
     if let [TokenTree::Literal(lit), rest @ ..] = tokens.as_slice() {
         if let Ok(path) = syn::parse_str::<syn::LitStr>(&lit.to_string()) {
-            let residuals = residual_set(rest)?;
-            return from_file(&path.value()).map(|s| Source { residuals, ..s });
+            let (residuals, realise) = settings(rest)?;
+            return from_file(&path.value()).map(|s| Source {
+                residuals,
+                realise,
+                ..s
+            });
         }
     }
     if tokens.is_empty() {
@@ -145,28 +153,52 @@ fn read(input: TokenStream) -> Result<Source, String> {
         path: None,
         tokens,
         residuals: ResidualSet::PerSensor,
+        realise: Realise::Lowest,
     })
 }
 
 /// What follows the path: nothing, or `, residuals = per_sensor | best | all`.
-fn residual_set(rest: &[TokenTree]) -> Result<ResidualSet, String> {
+fn settings(rest: &[TokenTree]) -> Result<(ResidualSet, Realise), String> {
     let text: Vec<String> = rest.iter().map(ToString::to_string).collect();
     let words: Vec<&str> = text.iter().map(String::as_str).collect();
-    match words.as_slice() {
-        [] => Ok(ResidualSet::PerSensor),
-        [",", "residuals", "=", set] => match *set {
-            "per_sensor" => Ok(ResidualSet::PerSensor),
-            "best" => Ok(ResidualSet::Best),
-            "all" => Ok(ResidualSet::All),
-            other => Err(format!(
-                "`residuals = {other}`: expected `per_sensor`, `best` or `all`"
-            )),
-        },
-        _ => Err(format!(
-            "after the model's path, expected nothing or `, residuals = per_sensor | best | all`, found `{}`",
+    let mut out = (ResidualSet::PerSensor, Realise::Lowest);
+    let expected = || {
+        format!(
+            "after the model's path, expected nothing or `, residuals = per_sensor | best | all` \
+             and `, realise = lowest | direct`, found `{}`",
             words.join(" ")
-        )),
+        )
+    };
+    for setting in words.chunks(4) {
+        match setting {
+            [",", "residuals", "=", set] => {
+                out.0 = match *set {
+                    "per_sensor" => ResidualSet::PerSensor,
+                    "best" => ResidualSet::Best,
+                    "all" => ResidualSet::All,
+                    other => {
+                        return Err(format!(
+                            "`residuals = {other}`: expected `per_sensor`, `best` or `all`"
+                        ))
+                    }
+                }
+            }
+            [",", "realise", "=", how] => {
+                out.1 = match *how {
+                    "lowest" => Realise::Lowest,
+                    "direct" => Realise::Direct,
+                    other => {
+                        return Err(format!(
+                        "`realise = {other}`: expected `lowest` (the ARRs integrated once where \
+                             that lowers the derivatives they read) or `direct` (as written)"
+                    ))
+                    }
+                }
+            }
+            _ => return Err(expected()),
+        }
     }
+    Ok(out)
 }
 
 /// Overrides the directory model paths are relative to: trybuild compiles its cases in a
@@ -190,6 +222,7 @@ fn from_file(relative: &str) -> Result<Source, String> {
         path: Some(path),
         tokens: Vec::new(),
         residuals: ResidualSet::PerSensor,
+        realise: Realise::Lowest,
     })
 }
 

@@ -1,13 +1,19 @@
-//! The bench's generated `residuals` against the same two ARRs written by hand, and the
-//! streaming `ResidualGenerator` from raw samples.
+//! The bench's generated `residuals` (its ARRs as written) against the same two ARRs written
+//! by hand, and the streaming `ResidualGenerator` from raw samples, for each realisation.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-bondgraph::bond_graph!("../../models/backlash_bench.bg");
+mod direct {
+    bondgraph::bond_graph!("../../models/backlash_bench.bg", realise = direct);
+}
+mod integrated {
+    bondgraph::bond_graph!("../../models/backlash_bench.bg");
+}
 
-use backlash_bench as bench;
+use direct::backlash_bench as bench;
+use integrated::backlash_bench as lowest;
 
 /// The two ARRs as an engineer would write them from the paper's equations: the armature
 /// circuit with the motor and load dynamics substituted, and the twist balance through the
@@ -74,9 +80,19 @@ fn generator(c: &mut Criterion) {
     let mut group = c.benchmark_group("residual_generator");
     group.throughput(Throughput::Elements(samples.len() as u64));
     for window in [11usize, 31] {
-        group.bench_function(format!("savitzky_golay_{window}"), |b| {
+        group.bench_function(format!("direct_savitzky_golay_{window}"), |b| {
             b.iter(|| {
                 let mut g = bench::ResidualGenerator::savitzky_golay(p, h, window, 3)
+                    .expect("valid estimator");
+                for &(t, s) in &samples {
+                    black_box(g.push(t, black_box(s)));
+                }
+            })
+        });
+        group.bench_function(format!("integrated_savitzky_golay_{window}"), |b| {
+            b.iter(|| {
+                let params = lowest::Params::default();
+                let mut g = lowest::ResidualGenerator::savitzky_golay(params, h, window, 3)
                     .expect("valid estimator");
                 for &(t, s) in &samples {
                     black_box(g.push(t, black_box(s)));

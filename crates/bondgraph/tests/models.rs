@@ -84,9 +84,10 @@ fn field(c: &Compiled, s: Symbol) -> Option<String> {
     }
 }
 
-/// Every ARR of `c` evaluated by the core at the signal values `values`, parameters at the
-/// model's values; an integral of a signal reads `NAME_int`, and an integral of a linear
-/// combination the same combination of those.
+/// Every ARR of `c` as its generator evaluates it (the relation, or the running value of one
+/// realised by integration) by the core at the signal values `values`, parameters at the
+/// model's values; an integral of a signal reads `NAME_int`, an integral of a linear
+/// combination the same combination of those, and the k-th other integral `int{k}`.
 fn expected(c: &Compiled, values: &HashMap<String, f64>) -> Vec<f64> {
     let leaf = |s: Symbol, suffix: &str| match s {
         Symbol::Parameter(p) => c.parameters[p].value,
@@ -95,11 +96,18 @@ fn expected(c: &Compiled, values: &HashMap<String, f64>) -> Vec<f64> {
             .unwrap_or(f64::NAN),
     };
     let mut integrals = HashMap::new();
-    let roots: Vec<Expr> = c.arrs.iter().map(|a| a.expr).collect();
+    let roots: Vec<Expr> = c.arrs.iter().map(|a| a.evaluated()).collect();
+    let nonlinear = c.readings().nonlinear;
     c.exprs.visit_reachable(&roots, |id, node| {
         if let Node::Int(arg) = node {
-            let mut inside = Evaluator::new(&c.exprs, |s| leaf(s, "_int"));
-            integrals.insert(id, inside.value(arg));
+            let value = match nonlinear.iter().position(|&e| e == arg) {
+                Some(k) => values
+                    .get(&format!("int{}", k + 1))
+                    .copied()
+                    .unwrap_or(f64::NAN),
+                None => Evaluator::new(&c.exprs, |s| leaf(s, "_int")).value(arg),
+            };
+            integrals.insert(id, value);
         }
     });
     let mut ev = Evaluator::new(&c.exprs, |s| leaf(s, "")).with_integrals(integrals);

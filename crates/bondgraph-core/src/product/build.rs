@@ -397,6 +397,7 @@ impl<'m> Builder<'m> {
                             integrals,
                             auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
                             sensitivities: None,
+                            realisation: Realisation::Direct,
                         });
                     }
                     Err(why) => stage.push(refusal(m, &arr.name, arr.junction, why)),
@@ -494,6 +495,7 @@ impl Builder<'_> {
             integrals,
             auxiliaries: Vec::new(),
             sensitivities: None,
+            realisation: Realisation::Direct,
         })
     }
 }
@@ -578,7 +580,11 @@ fn auxiliaries_read(
 /// What an expression reads, through the auxiliary signals it reads too: each signal's
 /// derivative orders (those read pointwise, not only under an integral) and integral, and
 /// the arguments of integrals of anything else.
-fn reads(exprs: &Exprs, auxiliaries: &Arena<Auxiliary>, e: Expr) -> (Vec<SignalUse>, Vec<Expr>) {
+pub(super) fn reads(
+    exprs: &Exprs,
+    auxiliaries: &Arena<Auxiliary>,
+    e: Expr,
+) -> (Vec<SignalUse>, Vec<Expr>) {
     let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
     let mut others = Vec::new();
     let roots = with_auxiliaries(exprs, auxiliaries, e);

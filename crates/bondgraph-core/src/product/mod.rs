@@ -9,11 +9,13 @@
 mod arena;
 mod build;
 mod readings;
+mod realise;
 mod uncertainty;
 
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
 pub use readings::{LinearTerm, ModelCopy, Quantity, Readings};
+pub(crate) use realise::realise;
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
 use crate::symbolic::{ExprId, Pool};
@@ -228,8 +230,68 @@ pub struct Arr {
     pub auxiliaries: Vec<Handle<Auxiliary>>,
     /// `∂r/∂θ` for each uncertain parameter θ it depends on, over the same signals: the
     /// adaptive threshold is `Σ |∂r/∂θ| Δθ`. `None` when they could not be derived (an ARR
-    /// that reads auxiliary signals): such an ARR has no adaptive threshold.
+    /// that reads auxiliary signals, or one realised by integration): such an ARR has no
+    /// adaptive threshold.
     pub sensitivities: Option<Vec<(Handle<Parameter>, Expr)>>,
+    /// How a residual generator evaluates it.
+    pub realisation: Realisation,
+}
+
+impl Arr {
+    /// The expression a residual generator evaluates: the relation itself, or, realised by
+    /// integration, `level + int(rate)` (before the value at the reference is subtracted).
+    pub fn evaluated(&self) -> Expr {
+        match &self.realisation {
+            Realisation::Direct => self.expr,
+            Realisation::Integrated(i) => i.expr,
+        }
+    }
+
+    /// What [`Arr::evaluated`] reads: the signals, and the arguments of `int(..)` that are
+    /// not one signal's integral.
+    pub fn evaluated_reads(&self) -> (&[SignalUse], &[Expr]) {
+        match &self.realisation {
+            Realisation::Direct => (&self.reads, &self.integrals),
+            Realisation::Integrated(i) => (&i.reads, &i.integrals),
+        }
+    }
+
+    /// The highest derivative order of a signal that its realisation reads.
+    pub fn realised_order(&self) -> u32 {
+        let (reads, _) = self.evaluated_reads();
+        reads
+            .iter()
+            .filter_map(|r| r.orders.last().copied())
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// How a residual is evaluated from sampled signals.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Realisation {
+    /// As written: every derivative it reads is estimated from the samples.
+    Direct,
+    /// By integration: the relation is `r = rate + d(level)/dt`, where `rate` reads no
+    /// derivative and `level` reads each derivative one order lower, so the residual is
+    /// `∫ r dt` from a reference instant, `level(t) − level(t₀) + ∫_{t₀}^t rate dt`: the
+    /// same zero set, with one order of differentiation fewer taken from noisy samples.
+    Integrated(Integrated),
+}
+
+/// An ARR realised by integration (see [`Realisation::Integrated`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Integrated {
+    /// `F`: what the relation is the time derivative of, less the rate's integral.
+    pub level: Expr,
+    /// `A`: the part of the relation that reads no derivative.
+    pub rate: Expr,
+    /// `level + int(rate)`: what is evaluated before the reference is subtracted.
+    pub expr: Expr,
+    /// What [`Integrated::expr`] reads.
+    pub reads: Vec<SignalUse>,
+    /// The arguments of the `int(..)` it holds that are not one signal's integral.
+    pub integrals: Vec<Expr>,
 }
 
 /// How a residual is evaluated.

@@ -61,7 +61,7 @@ impl Compiled {
     pub fn readings(&self) -> Readings {
         let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
         for arr in &self.arrs {
-            for r in &arr.reads {
+            for r in arr.evaluated_reads().0 {
                 let entry = uses.entry(r.signal).or_default();
                 entry.0.extend(r.orders.iter().copied());
                 entry.1 |= r.integral;
@@ -69,7 +69,7 @@ impl Compiled {
         }
         let mut nonlinear: Vec<Expr> = Vec::new();
         for arr in &self.arrs {
-            for &e in &arr.integrals {
+            for &e in arr.evaluated_reads().1 {
                 if self.linear_terms(e).is_none() && !nonlinear.contains(&e) {
                     nonlinear.push(e);
                 }

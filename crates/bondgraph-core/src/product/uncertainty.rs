@@ -68,7 +68,12 @@ mod tests {
                 }
             })
             .collect();
-        compile(&uncertain, "bench.bg", &Options::default())
+        // As written: an ARR realised by integration has no adaptive threshold.
+        let options = Options {
+            realise: crate::Realise::Direct,
+            ..Options::default()
+        };
+        compile(&uncertain, "bench.bg", &options)
             .expect("compiles")
             .compiled
     }

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 
 use super::scenario::{FaultMode, FaultTarget, Onset, Scenario};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
-use crate::expr::Expr;
+use crate::expr::{BinOp, Expr};
 use crate::product::{Compiled, Symbol};
 use crate::symbolic::hash::FastMap;
 use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
@@ -231,7 +231,7 @@ impl Builder<'_> {
             })
             .collect();
         let import = |pool: &mut Pool<P>, e| {
-            pool.import_from(&c.exprs, e, |p: &mut Pool<P>, s| match s {
+            let e = pool.import_from(&c.exprs, e, |p: &mut Pool<P>, s| match s {
                 // A parameter no fault changes is a number, so that what it takes part in
                 // is computed once, here, not at every step.
                 Symbol::Parameter(k) if !faulted.contains(&c.parameters[k].name.as_str()) => {
@@ -245,7 +245,8 @@ impl Builder<'_> {
                 Symbol::Sensor(..) | Symbol::Auxiliary(..) => p.num(f64::NAN),
                 Symbol::Time => p.leaf(P::Time),
                 Symbol::Loop(k) => p.leaf(P::Loop(k.index() as u32)),
-            })
+            });
+            inside_integrals(pool, e)
         };
         self.loops = space
             .loops
@@ -652,6 +653,58 @@ impl Builder<'_> {
             .with_label(format!("expected {} {what}", article(what))),
         );
     }
+}
+
+/// `e` with each factor of an integral that holds a faulted parameter taken back inside it:
+/// `int(p)/Je` as `int(p/Je)`. The product's expressions take parameters out of integrals
+/// (they are constant in time); a fault makes one change during the run, and then it scales
+/// what is integrated from then on, as the flow it weighs does, not what was integrated
+/// before.
+fn inside_integrals(pool: &mut Pool<P>, e: Id) -> Id {
+    if !pool.leaves(e).iter().any(|l| matches!(l, P::Param(_))) {
+        return e;
+    }
+    let mut order = Vec::new();
+    pool.visit_reachable(&[e], |id, _| order.push(id));
+    let mut new: FastMap<Id, Id> = FastMap::default();
+    // Numbers and faulted parameters: constant factors, taken in along with the parameters.
+    let faulted = |pool: &Pool<P>, x: Id| pool.leaves(x).iter().all(|l| matches!(l, P::Param(_)));
+    for id in order {
+        let m = |x: Id| new.get(&x).copied().unwrap_or(x);
+        let out = match pool.node(id) {
+            Node::Num(_) | Node::Leaf(_) => id,
+            Node::Neg(a) => match pool.node(m(a)) {
+                Node::Int(x) => {
+                    let y = pool.neg(x);
+                    pool.int(y)
+                }
+                _ => pool.neg(m(a)),
+            },
+            Node::Binary(op, a, b) => {
+                let (a, b) = (m(a), m(b));
+                match (op, pool.node(a), pool.node(b)) {
+                    (BinOp::Mul, Node::Int(x), _) if faulted(pool, b) => {
+                        let y = pool.mul(x, b);
+                        pool.int(y)
+                    }
+                    (BinOp::Mul, _, Node::Int(x)) if faulted(pool, a) => {
+                        let y = pool.mul(a, x);
+                        pool.int(y)
+                    }
+                    (BinOp::Div, Node::Int(x), _) if faulted(pool, b) => {
+                        let y = pool.div(x, b);
+                        pool.int(y)
+                    }
+                    _ => pool.binary(op, a, b),
+                }
+            }
+            Node::Call1(f, a) => pool.call(f, &[m(a)]),
+            Node::Call2(f, a, b) => pool.call(f, &[m(a), m(b)]),
+            Node::Int(a) => pool.int(m(a)),
+        };
+        new.insert(id, out);
+    }
+    new.get(&e).copied().unwrap_or(e)
 }
 
 fn article(what: &str) -> &'static str {

@@ -15,7 +15,9 @@ bondgraph::bond_graph! {
 }
 
 fn main() {
+    // Realised by integration: the running value -C1 v + int(I0) - int(v)/R1.
+    assert_eq!(rc::INTEGRATED, [true]);
     let p = rc::Params { R1: 4.0, ..rc::Params::default() };
-    let s = rc::Signals { I0: 1.0, v: 4.0, v_d1: 0.0 };
+    let s = rc::Signals { I0_int: 3.0, v: 4.0, v_int: 4.0 };
     assert_eq!(rc::residuals(&p, &s), [0.0]);
 }

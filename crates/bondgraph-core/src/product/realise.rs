@@ -1,0 +1,386 @@
+//! How each ARR is realised on sampled signals: as written, or by integration, with one order
+//! of differentiation fewer.
+//!
+//! A relation whose derivatives enter linearly with constant coefficients (parameters and
+//! numbers), `r = A + Σ cₖ·y⁽ⁿᵏ⁾`, where `A` reads no derivative, is the time derivative of
+//! `F = Σ cₖ·y⁽ⁿᵏ⁻¹⁾` plus `A`. Its integral from a reference instant,
+//! `F(t) − F(t₀) + ∫_{t₀}^t A dt`, vanishes exactly when `r` does on `[t₀, t]`, and reads each
+//! derivative one order lower: a first derivative instead of a second, a signal instead of a
+//! first derivative. On noisy samples that is the difference that counts: the noise gain of a
+//! derivative estimate grows by the window's length for each order. `A`'s nonlinear terms
+//! (the bench's backlash `w'(z)·ż`) are integrated numerically, which is what keeps a fault
+//! of a modulation that shows only while its argument moves visible after it stops.
+
+use std::collections::HashMap;
+
+use super::build::reads;
+use super::{Arr, Compiled, Expr, Exprs, Integrated, Realisation, ResidualForm, Symbol};
+use crate::expr::BinOp;
+use crate::symbolic::Node;
+
+/// `r = rate + d(level)/dt`, each part absent when zero.
+#[derive(Clone, Copy, Default)]
+struct Split {
+    level: Option<Expr>,
+    rate: Option<Expr>,
+}
+
+/// What is known of a node: the highest derivative order it reads, whether it is a constant.
+#[derive(Clone, Copy)]
+struct Facts {
+    order: u32,
+    constant: bool,
+}
+
+/// Realises every ARR of `c` that reads a derivative and can be integrated that way; the
+/// others, and simulated residuals, stay direct. An integrated ARR has no adaptive
+/// threshold (its sensitivities are those of the relation, read at orders it no longer
+/// estimates).
+pub(crate) fn realise(c: &mut Compiled) {
+    for k in 0..c.arrs.len() {
+        if let Some(integrated) = integrated(&mut c.exprs, &c.arrs[k]) {
+            let arr = &mut c.arrs[k];
+            let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, integrated.0);
+            arr.realisation = Realisation::Integrated(Integrated {
+                level: integrated.1,
+                rate: integrated.2,
+                expr: integrated.0,
+                reads,
+                integrals,
+            });
+            arr.sensitivities = None;
+        }
+    }
+}
+
+/// `(level + int(rate), level, rate)` for `arr`, when it is worth realising that way.
+fn integrated(exprs: &mut Exprs, arr: &Arr) -> Option<(Expr, Expr, Expr)> {
+    let reads_derivative = arr.reads.iter().any(|r| r.orders.iter().any(|&n| n > 0));
+    if arr.form != ResidualForm::Relation || !arr.auxiliaries.is_empty() || !reads_derivative {
+        return None;
+    }
+    let split = split(exprs, arr.expr)?;
+    let level = split.level?;
+    let rate = split.rate.unwrap_or_else(|| exprs.num(0.0));
+    let integral = integral(exprs, rate);
+    Some((exprs.add(level, integral), level, rate))
+}
+
+/// `int(e)`, with each term `c·y` of a signal `y` as `c·int(y)`: a signal's integral is one
+/// trapezoidal rule on its samples, shared by every ARR that reads it; the other terms stay
+/// under one `int(..)`.
+fn integral(exprs: &mut Exprs, e: Expr) -> Expr {
+    let mut linear: Vec<(bool, Expr)> = Vec::new();
+    let mut rest: Vec<(bool, Expr)> = Vec::new();
+    let mut stack = vec![(true, e)];
+    while let Some((plus, e)) = stack.pop() {
+        match exprs.node(e) {
+            Node::Binary(BinOp::Add, a, b) => stack.extend([(plus, b), (plus, a)]),
+            Node::Binary(BinOp::Sub, a, b) => stack.extend([(!plus, b), (plus, a)]),
+            Node::Neg(a) => stack.push((!plus, a)),
+            _ => match scaled_signal(exprs, e) {
+                Some((c, y)) => {
+                    let iy = exprs.int(y);
+                    let term = match c {
+                        Some((BinOp::Div, c)) => exprs.div(iy, c),
+                        Some((_, c)) => exprs.mul(c, iy),
+                        None => iy,
+                    };
+                    linear.push((plus, term));
+                }
+                None => rest.push((plus, e)),
+            },
+        }
+    }
+    if !rest.is_empty() {
+        let rest = exprs.signed_sum(&rest);
+        let int = exprs.int(rest);
+        linear.push((true, int));
+    }
+    exprs.signed_sum(&linear)
+}
+
+/// `e` as a signal (input or measured, not differentiated) times or over a constant.
+fn scaled_signal(exprs: &Exprs, e: Expr) -> Option<(Option<(BinOp, Expr)>, Expr)> {
+    let signal = |x: Expr| {
+        matches!(
+            exprs.node(x),
+            Node::Leaf(Symbol::Input(_, 0) | Symbol::Sensor(_, 0))
+        )
+    };
+    let constant = |x: Expr| {
+        (exprs.leaves(x).iter()).all(|l| matches!(l, Symbol::Parameter(_)))
+            && !exprs_has_int(exprs, x)
+    };
+    match exprs.node(e) {
+        _ if signal(e) => Some((None, e)),
+        Node::Binary(BinOp::Mul, c, y) if signal(y) && constant(c) => {
+            Some((Some((BinOp::Mul, c)), y))
+        }
+        Node::Binary(BinOp::Mul, y, c) if signal(y) && constant(c) => {
+            Some((Some((BinOp::Mul, c)), y))
+        }
+        Node::Binary(BinOp::Div, y, c) if signal(y) && constant(c) => {
+            Some((Some((BinOp::Div, c)), y))
+        }
+        _ => None,
+    }
+}
+
+fn exprs_has_int(exprs: &Exprs, e: Expr) -> bool {
+    let mut found = false;
+    exprs.visit_reachable(&[e], |_, n| found |= matches!(n, Node::Int(_)));
+    found
+}
+
+/// `e` as `rate + d(level)/dt`, if its derivatives enter linearly with constant coefficients.
+fn split(exprs: &mut Exprs, e: Expr) -> Option<Split> {
+    let mut order: Vec<Expr> = Vec::new();
+    exprs.visit_reachable(&[e], |id, _| order.push(id));
+    let mut facts: HashMap<Expr, Facts> = HashMap::with_capacity(order.len());
+    let mut splits: HashMap<Expr, Option<Split>> = HashMap::new();
+    for id in order {
+        let node = exprs.node(id);
+        let f = node_facts(node, &facts);
+        facts.insert(id, f);
+        let s = if f.order == 0 {
+            Some(Split {
+                level: None,
+                rate: Some(id),
+            })
+        } else {
+            split_node(exprs, node, &facts, &splits)
+        };
+        splits.insert(id, s);
+    }
+    splits.get(&e).copied().flatten()
+}
+
+fn node_facts(node: Node<Symbol>, facts: &HashMap<Expr, Facts>) -> Facts {
+    let of = |a: Expr| {
+        facts.get(&a).copied().unwrap_or(Facts {
+            order: u32::MAX,
+            constant: false,
+        })
+    };
+    match node {
+        Node::Num(_) => Facts {
+            order: 0,
+            constant: true,
+        },
+        Node::Leaf(leaf) => match leaf {
+            Symbol::Parameter(_) => Facts {
+                order: 0,
+                constant: true,
+            },
+            Symbol::Input(_, n) | Symbol::Sensor(_, n) | Symbol::Auxiliary(_, n) => Facts {
+                order: n,
+                constant: false,
+            },
+            Symbol::State(_) | Symbol::Time | Symbol::Loop(_) => Facts {
+                order: 0,
+                constant: false,
+            },
+        },
+        Node::Neg(a) | Node::Call1(_, a) | Node::Int(a) => {
+            let a = of(a);
+            Facts {
+                order: a.order,
+                constant: a.constant && !matches!(node, Node::Int(_)),
+            }
+        }
+        Node::Binary(_, a, b) | Node::Call2(_, a, b) => {
+            let (a, b) = (of(a), of(b));
+            Facts {
+                order: a.order.max(b.order),
+                constant: a.constant && b.constant,
+            }
+        }
+    }
+}
+
+/// The split of a node that reads a derivative, from its children's.
+fn split_node(
+    exprs: &mut Exprs,
+    node: Node<Symbol>,
+    facts: &HashMap<Expr, Facts>,
+    splits: &HashMap<Expr, Option<Split>>,
+) -> Option<Split> {
+    let constant = |a: Expr| facts.get(&a).is_some_and(|f| f.constant);
+    let of = |a: Expr| splits.get(&a).copied().flatten();
+    match node {
+        Node::Leaf(Symbol::Sensor(s, n)) if n > 0 => Some(Split {
+            level: Some(exprs.leaf(Symbol::Sensor(s, n - 1))),
+            rate: None,
+        }),
+        Node::Leaf(Symbol::Input(u, n)) if n > 0 => Some(Split {
+            level: Some(exprs.leaf(Symbol::Input(u, n - 1))),
+            rate: None,
+        }),
+        Node::Neg(a) => Some(map(exprs, of(a)?, |p, x| p.neg(x))),
+        Node::Binary(BinOp::Add, a, b) => Some(combine(exprs, of(a)?, of(b)?, true)),
+        Node::Binary(BinOp::Sub, a, b) => Some(combine(exprs, of(a)?, of(b)?, false)),
+        Node::Binary(BinOp::Mul, a, b) if constant(a) => {
+            Some(map(exprs, of(b)?, |p, x| p.mul(a, x)))
+        }
+        Node::Binary(BinOp::Mul, a, b) if constant(b) => {
+            Some(map(exprs, of(a)?, |p, x| p.mul(x, b)))
+        }
+        Node::Binary(BinOp::Div, a, b) if constant(b) => {
+            Some(map(exprs, of(a)?, |p, x| p.div(x, b)))
+        }
+        _ => None,
+    }
+}
+
+fn map(exprs: &mut Exprs, s: Split, mut f: impl FnMut(&mut Exprs, Expr) -> Expr) -> Split {
+    Split {
+        level: s.level.map(|x| f(exprs, x)),
+        rate: s.rate.map(|x| f(exprs, x)),
+    }
+}
+
+fn combine(exprs: &mut Exprs, a: Split, b: Split, plus: bool) -> Split {
+    let mut join = |x: Option<Expr>, y: Option<Expr>| match (x, y) {
+        (x, None) => x,
+        (None, Some(y)) => Some(if plus { y } else { exprs.neg(y) }),
+        (Some(x), Some(y)) => Some(if plus {
+            exprs.add(x, y)
+        } else {
+            exprs.sub(x, y)
+        }),
+    };
+    let level = join(a.level, b.level);
+    let rate = join(a.rate, b.rate);
+    Split { level, rate }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use crate::product::{Compiled, Expr, Realisation, Symbol};
+    use crate::symbolic::{Derivatives, Evaluator, Node};
+    use crate::{compile, Options, Realise};
+
+    fn compiled(text: &str, realise: Realise) -> Compiled {
+        let options = Options {
+            realise,
+            ..Options::default()
+        };
+        let c = compile(text, "test.bg", &options).expect("valid").compiled;
+        assert!(!c.has_errors(), "{:?}", c.diagnostics);
+        c
+    }
+
+    const MOTOR: &str = "model m\nparam Re = 0.3\nparam L = 0.5\nparam ke = 0.5\nparam Je = 0.8\nparam fe = 0.1\ninput U0\nSe U = U0\nR Rm = Re\nI Lm = L\nGY motor = ke\nI Jm = Je\nR fm = fe\nDf i on elec\nDf y1 on shaft\nU -> 1:elec -> Rm, Lm\nelec -> motor -> 1:shaft -> Jm, fm\n";
+
+    /// `r` at arbitrary values of its leaves and of each `int(..)` node.
+    fn value(c: &Compiled, e: Expr, seed: f64) -> f64 {
+        let leaf = |s: Symbol| {
+            let h = format!("{s:?}")
+                .bytes()
+                .fold(seed, |a, b| (a * 31.0 + f64::from(b)) % 97.0);
+            0.1 + h / 50.0
+        };
+        let mut integrals = HashMap::new();
+        c.exprs.visit_reachable(&[e], |id, node| {
+            if let Node::Int(_) = node {
+                integrals.insert(id, 0.2 + (id.index() as f64 * 0.37 + seed) % 1.3);
+            }
+        });
+        Evaluator::new(&c.exprs, leaf)
+            .with_integrals(integrals)
+            .value(e)
+    }
+
+    /// The motor's ARRs, read by hand: `U0 − Re·i − L·i' − ke·y1` is `d(−L·i)/dt` plus
+    /// `U0 − Re·i − ke·y1`, and its integral reads no derivative at all.
+    #[test]
+    fn the_motor_is_realised_without_derivatives() {
+        let c = compiled(MOTOR, Realise::Lowest);
+        for arr in &c.arrs {
+            assert!(
+                matches!(arr.realisation, Realisation::Integrated(_)),
+                "{}",
+                arr.name
+            );
+            assert_eq!(arr.realised_order(), 0, "{}", arr.name);
+        }
+        let Realisation::Integrated(i) = &c.arrs[0].realisation else {
+            unreachable!()
+        };
+        let name = |s: Symbol| match s {
+            Symbol::Parameter(p) => c.parameters[p].name.clone(),
+            Symbol::Sensor(h, 0) => c.sensors[h].name.clone(),
+            Symbol::Input(u, 0) => c.inputs[u].name.clone(),
+            other => format!("{other:?}"),
+        };
+        let text = |e| crate::Printer::new(&c.exprs, name).text(e);
+        assert_eq!(text(i.level), "-(L * i)");
+        assert_eq!(text(i.rate), "U0 - Re * i - ke * y1");
+        assert_eq!(
+            text(i.expr),
+            "-(L * i) + int(U0) - Re * int(i) - ke * int(y1)"
+        );
+        let direct = compiled(MOTOR, Realise::Direct);
+        assert!(direct
+            .arrs
+            .iter()
+            .all(|a| a.realisation == Realisation::Direct));
+        assert_eq!(direct.arrs[0].realised_order(), 1);
+    }
+
+    /// On every model of `models/`, each integrated ARR is its rate plus its level's time
+    /// derivative: the identity holds at arbitrary values of the signals, their derivatives
+    /// and integrals.
+    #[test]
+    fn every_split_is_an_identity() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../models");
+        let mut paths: Vec<_> = std::fs::read_dir(dir)
+            .expect("models")
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "bg"))
+            .collect();
+        paths.sort();
+        let mut checked = 0;
+        for path in paths {
+            let text = std::fs::read_to_string(&path).expect("readable");
+            let mut c = compiled(&text, Realise::Lowest);
+            for k in 0..c.arrs.len() {
+                let Realisation::Integrated(i) = c.arrs[k].realisation.clone() else {
+                    continue;
+                };
+                let mut d = Derivatives::new(|p: &mut crate::symbolic::Pool<Symbol>, s| match s {
+                    Symbol::Sensor(h, n) => Some(p.leaf(Symbol::Sensor(h, n + 1))),
+                    Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),
+                    Symbol::Parameter(_) => Some(p.num(0.0)),
+                    Symbol::Time => Some(p.num(1.0)),
+                    _ => None,
+                });
+                let dl = d.of(&mut c.exprs, i.level).expect("differentiable");
+                let sum = c.exprs.add(i.rate, dl);
+                let expr = c.arrs[k].expr;
+                for seed in [1.0, 2.5, 7.0] {
+                    let (a, b) = (value(&c, sum, seed), value(&c, expr, seed));
+                    assert!(
+                        (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0),
+                        "{}: {}: {a} against {b}",
+                        path.display(),
+                        c.arrs[k].name
+                    );
+                }
+                assert!(c.arrs[k].realised_order() < max_order(&c.arrs[k]));
+                checked += 1;
+            }
+        }
+        assert!(checked >= 20, "only {checked} integrated ARRs");
+    }
+
+    fn max_order(arr: &crate::product::Arr) -> u32 {
+        (arr.reads.iter())
+            .filter_map(|r| r.orders.last().copied())
+            .max()
+            .unwrap_or(0)
+    }
+}
