@@ -11,6 +11,10 @@ use serde_json::Value;
 const DURATION: f64 = 3.0;
 const FAULT_AT: f64 = 1.5;
 const FAULT_RISE: f64 = 0.3;
+/// How far ahead of its instant a residual sees: half the widest estimator window
+/// `--calibrate` may choose on these records (201 of 3,000 samples, a thousandth of the time
+/// scale apart), and a sample more.
+const LOOKAHEAD: f64 = 0.101;
 
 /// How a model is driven: the inputs `amplitude * (1 - cos(1.3 t/scale) + ...)` reach its
 /// operating range at its own pace, and a fault multiplies a parameter by `factor`.
@@ -158,8 +162,6 @@ impl Case {
             "residuals",
             &self.model,
             record,
-            "--window",
-            "51",
             "--calibrate",
             healthy,
             "--margin",
@@ -184,7 +186,7 @@ impl Case {
             .collect()
     }
 
-    /// The noise statements: a 10^-5 of each measured signal's peak.
+    /// The noise statements: a thousandth of each measured signal's peak.
     fn noise(&self, peaks: &std::collections::HashMap<String, f64>) -> Vec<String> {
         self.json["sensors"]
             .as_array()
@@ -192,7 +194,7 @@ impl Case {
             .iter()
             .map(|s| {
                 let name = s["name"].as_str().expect("name");
-                format!("noise {name} {}", 1e-5 * peaks[name].max(1e-12))
+                format!("noise {name} {}", 1e-3 * peaks[name].max(1e-12))
             })
             .collect()
     }
@@ -231,7 +233,7 @@ fn no_model_alarms_when_healthy() {
         let calibration = case.simulate("h1.csv", &with(1));
         let healthy = case.simulate("h2.csv", &with(2));
         let alarms = case.alarms(&healthy, &calibration);
-        assert!(alarms.len() > 2900, "{file}: {} rows", alarms.len());
+        assert!(alarms.len() > 2400, "{file}: {} rows", alarms.len());
         let false_alarms = alarms
             .iter()
             .filter(|(_, on, _)| on.iter().any(|&a| a))
@@ -316,7 +318,7 @@ fn each_detectable_fault_is_named() {
             let alarms = case.alarms(&record, &calibration);
             let early = alarms
                 .iter()
-                .filter(|(t, on, _)| *t < at - 0.05 * scale && on.iter().any(|&a| a))
+                .filter(|(t, on, _)| *t < at - LOOKAHEAD * scale && on.iter().any(|&a| a))
                 .count();
             assert_eq!(early, 0, "{file}: {name}: alarms before its fault");
             let named = alarms

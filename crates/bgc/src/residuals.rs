@@ -29,15 +29,20 @@ pub struct ResidualArgs {
     /// column per input and measured signal the ARRs read, named as in the model.
     #[arg(value_name = "DATA")]
     data: PathBuf,
-    /// Samples in the Savitzky–Golay window (odd).
-    #[arg(long, value_name = "N", default_value_t = 11)]
-    window: usize,
+    /// Samples in the Savitzky–Golay window (odd) [default: with `--calibrate`, the one of
+    /// 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy record) under
+    /// which the residuals are smallest on the healthy record; else 11].
+    #[arg(long, value_name = "N")]
+    window: Option<usize>,
     /// Residuals realised by integration (`integrated` in the model's output) are the
     /// relation's integral over the last N samples, or from the record's first estimate
     /// (`start`): a fault that shows only while a signal moves then leaves them offset for
-    /// good, but the noise they integrate grows with the record.
-    #[arg(long, value_name = "N|start", default_value_t = Integration::Window(Reference::DEFAULT_WINDOW))]
-    integration_window: Integration,
+    /// good, but the noise they integrate grows with the record [default: with
+    /// `--calibrate`, the one of 250, 1000 and 2500 samples (at most a twentieth of the
+    /// healthy record) with the largest ratio of its length to the residuals' RMS on the
+    /// healthy record; else 250].
+    #[arg(long, value_name = "N|start")]
+    integration_window: Option<Integration>,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
     /// ARRs read if higher].
     #[arg(long, value_name = "D")]
@@ -110,7 +115,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         .collect();
     let data_name = args.data.display().to_string();
     let (_, bytes) = cli::read(&args.data)?;
-    let data = Data::read(&bytes, &names, args.window).map_err(|e| {
+    let shortest = args.window.unwrap_or(WINDOWS[0]);
+    let data = Data::read(&bytes, &names, shortest).map_err(|e| {
         eprintln!("error: {data_name}: {e}");
         Failure::Invalid
     })?;
@@ -118,22 +124,26 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let degree = args.degree.unwrap_or(top.max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
-    let build = || {
+    let build = |window: usize, integration: Integration| {
         let fit = Fit {
             step: data.step,
-            window: args.window,
+            window,
             degree,
-            integration: args.integration_window,
+            integration,
         };
         Generator::new(&c, &readings, &params, &fit).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
         })
     };
+    let mut window = args.window.unwrap_or(WINDOWS[0]);
+    let mut integration = args
+        .integration_window
+        .unwrap_or(Integration::Window(Reference::DEFAULT_WINDOW));
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
         let (_, bytes) = cli::read(path)?;
-        let healthy = Data::read(&bytes, &names, args.window).map_err(|e| {
+        let healthy = Data::read(&bytes, &names, shortest).map_err(|e| {
             eprintln!("error: {name}: {e}");
             Failure::Invalid
         })?;
@@ -149,12 +159,46 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             eprintln!("error: --false-alarm-rate must be in [0, 1) and --margin non-negative");
             return Err(Failure::Usage);
         }
-        let calibrated = calibrate(build()?, &healthy, args.false_alarm_rate, args.margin);
+        if args.window.is_none() {
+            window = quietest(&|w| build(w, integration), &healthy)?;
+            eprintln!(
+                "note: {name}: the residuals are smallest there with a window of {window} samples"
+            );
+        }
+        let integrated = c
+            .arrs
+            .iter()
+            .any(|a| matches!(a.realisation, Realisation::Integrated(_)));
+        if args.integration_window.is_none() && integrated {
+            let which: Vec<bool> = (c.arrs.iter())
+                .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+                .collect();
+            let n =
+                longest_integration(&|n| build(window, Integration::Window(n)), &healthy, &which)?;
+            integration = Integration::Window(n);
+            eprintln!(
+                "note: {name}: integrated residuals are taken over {n} samples, where their \
+                 length is largest against their noise"
+            );
+        }
+        let calibrated = calibrate(
+            build(window, integration)?,
+            &healthy,
+            args.false_alarm_rate,
+            args.margin,
+        );
         for (level, calibrated) in levels.iter_mut().zip(calibrated) {
             level.get_or_insert(calibrated);
         }
     }
-    let mut generator = build()?;
+    if data.time.len() < window {
+        eprintln!(
+            "error: {data_name}: {} rows: the estimator's window of {window} samples needs at least {window}",
+            data.time.len()
+        );
+        return Err(Failure::Invalid);
+    }
+    let mut generator = build(window, integration)?;
     if args.adaptive {
         // Every residual with a bound gets a threshold: its margin defaults to 0.
         for (level, arr) in levels.iter_mut().zip(&c.arrs) {
@@ -294,6 +338,78 @@ impl Drawn {
             .collect();
         crate::plot::draw(path, &self.time, &panels)
     }
+}
+
+/// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
+const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
+
+/// The window of [`WINDOWS`] (at most a tenth of the healthy record) under which the
+/// residuals are smallest on it: the least geometric mean of their RMS, so that each
+/// residual counts alike whatever its units. A longer window averages more noise away until
+/// its polynomial no longer follows the signals; a fault that lasts is seen the same through
+/// either, one shorter than the window is blurred.
+fn quietest(
+    build: &dyn Fn(usize) -> Result<Generator, Failure>,
+    healthy: &Data,
+) -> Result<usize, Failure> {
+    let mut best: Option<(f64, usize)> = None;
+    let longest = (healthy.time.len() / 10).max(WINDOWS[0]);
+    for &window in WINDOWS.iter().filter(|&&w| w <= longest) {
+        let score: f64 = rms(build(window)?, healthy).iter().map(|r| r.ln()).sum();
+        if best.is_none_or(|(b, _)| score < b) {
+            best = Some((score, window));
+        }
+    }
+    Ok(best.map_or(WINDOWS[0], |(_, w)| w))
+}
+
+/// The integration windows `--calibrate` chooses from, shortest first.
+const INTEGRATIONS: [usize; 3] = [Reference::DEFAULT_WINDOW, 1000, 2500];
+
+/// The integration window of [`INTEGRATIONS`] (at most a twentieth of the healthy record)
+/// with the largest ratio of its length to the integrated residuals' RMS on it (geometric
+/// mean over the residuals): a fault that moves a relation for as long as it lasts moves its
+/// integral in proportion to the window, while the noise grows as its square root or less.
+/// A longer window must gain a tenth to be chosen: it also takes longer to show a fault.
+fn longest_integration(
+    build: &dyn Fn(usize) -> Result<Generator, Failure>,
+    healthy: &Data,
+    integrated: &[bool],
+) -> Result<usize, Failure> {
+    let mut best: Option<(f64, usize)> = None;
+    let longest = (healthy.time.len() / 20).max(INTEGRATIONS[0]);
+    for &n in INTEGRATIONS.iter().filter(|&&n| n <= longest) {
+        let score: f64 = (rms(build(n)?, healthy).iter().zip(integrated))
+            .filter(|(_, &i)| i)
+            .map(|(r, _)| (n as f64 / r).ln())
+            .sum();
+        if best.is_none_or(|(b, _)| score > b + 0.1f64.ln_1p()) {
+            best = Some((score, n));
+        }
+    }
+    Ok(best.map_or(INTEGRATIONS[0], |(_, n)| n))
+}
+
+/// Each residual's RMS over a record (at least the smallest positive number).
+fn rms(mut generator: Generator, record: &Data) -> Vec<f64> {
+    let mut sums: Vec<(f64, usize)> = Vec::new();
+    let mut raw = vec![0.0; record.columns.len()];
+    for (k, &t) in record.time.iter().enumerate() {
+        for (v, column) in raw.iter_mut().zip(&record.columns) {
+            *v = column[k];
+        }
+        if let Some(e) = generator.push(t, &raw, false) {
+            sums.resize(e.residuals.len(), (0.0, 0));
+            for (s, r) in sums.iter_mut().zip(e.residuals) {
+                if r.is_finite() {
+                    *s = (s.0 + r * r, s.1 + 1);
+                }
+            }
+        }
+    }
+    sums.iter()
+        .map(|&(sum, n)| (sum / n.max(1) as f64).sqrt().max(f64::MIN_POSITIVE))
+        .collect()
 }
 
 /// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin. With
