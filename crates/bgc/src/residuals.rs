@@ -38,9 +38,9 @@ pub struct ResidualArgs {
     /// relation's integral over the last N samples, or from the record's first estimate
     /// (`start`): a fault that shows only while a signal moves then leaves them offset for
     /// good, but the noise they integrate grows with the record [default: with
-    /// `--calibrate`, the one of 250, 1000 and 2500 samples (at most a twentieth of the
-    /// healthy record) with the largest ratio of its length to the residuals' RMS on the
-    /// healthy record; else 250].
+    /// `--calibrate`, for each residual, the one of 250, 1000, 2500, 10000 and 25000
+    /// samples (at most a twentieth of the healthy record) with the largest ratio of its
+    /// length to the residual's RMS on the healthy record; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
@@ -124,12 +124,12 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let degree = args.degree.unwrap_or(top.max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
-    let build = |window: usize, integration: Integration| {
+    let build = |window: usize, integration: &[Integration]| {
         let fit = Fit {
             step: data.step,
             window,
             degree,
-            integration,
+            integration: integration.to_vec(),
         };
         Generator::new(&c, &readings, &params, &fit).map_err(|e| {
             eprintln!("error: {e}");
@@ -137,9 +137,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         })
     };
     let mut window = args.window.unwrap_or(WINDOWS[0]);
-    let mut integration = args
-        .integration_window
-        .unwrap_or(Integration::Window(Reference::DEFAULT_WINDOW));
+    let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
         let (_, bytes) = cli::read(path)?;
@@ -160,7 +158,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             return Err(Failure::Usage);
         }
         if args.window.is_none() {
-            window = quietest(&|w| build(w, integration), &healthy)?;
+            window = quietest(&|w| build(w, &integration), &healthy)?;
             eprintln!(
                 "note: {name}: the residuals are smallest there with a window of {window} samples"
             );
@@ -173,16 +171,21 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             let which: Vec<bool> = (c.arrs.iter())
                 .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
                 .collect();
-            let n =
-                longest_integration(&|n| build(window, Integration::Window(n)), &healthy, &which)?;
-            integration = Integration::Window(n);
+            integration =
+                longest_integration(&|i| build(window, &vec![i; which.len()]), &healthy, &which)?;
+            let chosen: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
+                .filter(|(_, &i)| i)
+                .map(|((a, i), _)| format!("{} over {i}", a.name))
+                .collect();
             eprintln!(
-                "note: {name}: integrated residuals are taken over {n} samples, where their \
-                 length is largest against their noise"
+                "note: {name}: integrated residuals taken where their length is largest against \
+                 their noise (of {} samples): {}",
+                INTEGRATIONS.map(|n| n.to_string()).join(", "),
+                chosen.join(", ")
             );
         }
         let calibrated = calibrate(
-            build(window, integration)?,
+            build(window, &integration)?,
             &healthy,
             args.false_alarm_rate,
             args.margin,
@@ -198,7 +201,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         );
         return Err(Failure::Invalid);
     }
-    let mut generator = build(window, integration)?;
+    let mut generator = build(window, &integration)?;
     if args.adaptive {
         // Every residual with a bound gets a threshold: its margin defaults to 0.
         for (level, arr) in levels.iter_mut().zip(&c.arrs) {
@@ -364,30 +367,43 @@ fn quietest(
 }
 
 /// The integration windows `--calibrate` chooses from, shortest first.
-const INTEGRATIONS: [usize; 3] = [Reference::DEFAULT_WINDOW, 1000, 2500];
+const INTEGRATIONS: [usize; 5] = [Reference::DEFAULT_WINDOW, 1000, 2500, 10_000, 25_000];
 
-/// The integration window of [`INTEGRATIONS`] (at most a twentieth of the healthy record)
-/// with the largest ratio of its length to the integrated residuals' RMS on it (geometric
-/// mean over the residuals): a fault that moves a relation for as long as it lasts moves its
-/// integral in proportion to the window, while the noise grows as its square root or less.
-/// A longer window must gain a tenth to be chosen: it also takes longer to show a fault.
+/// For each integrated residual, the integration window of [`INTEGRATIONS`] (at most a
+/// twentieth of the healthy record) with the largest ratio of its length to the residual's
+/// RMS on it: a fault that moves a relation for as long as it lasts moves its integral in
+/// proportion to the length, while the noise grows as its square root or less, and a model
+/// error as the length itself. A longer one must gain a tenth to be chosen: it also takes
+/// longer to show a fault, and its noise is known from fewer independent stretches. From
+/// the start is never chosen: the noise integrated then grows with the record like a random
+/// walk, whose largest excursion on one healthy record says little of another's (on the
+/// Table 3 bench, 1,316 false alarms of 2,800 samples).
 fn longest_integration(
-    build: &dyn Fn(usize) -> Result<Generator, Failure>,
+    build: &dyn Fn(Integration) -> Result<Generator, Failure>,
     healthy: &Data,
     integrated: &[bool],
-) -> Result<usize, Failure> {
-    let mut best: Option<(f64, usize)> = None;
-    let longest = (healthy.time.len() / 20).max(INTEGRATIONS[0]);
-    for &n in INTEGRATIONS.iter().filter(|&&n| n <= longest) {
-        let score: f64 = (rms(build(n)?, healthy).iter().zip(integrated))
-            .filter(|(_, &i)| i)
-            .map(|(r, _)| (n as f64 / r).ln())
-            .sum();
-        if best.is_none_or(|(b, _)| score > b + 0.1f64.ln_1p()) {
-            best = Some((score, n));
+) -> Result<Vec<Integration>, Failure> {
+    let rows = healthy.time.len();
+    let candidates = (INTEGRATIONS.iter())
+        .filter(|&&n| n <= (rows / 20).max(INTEGRATIONS[0]))
+        .map(|&n| (Integration::Window(n), n as f64));
+    let mut best: Vec<Option<(f64, Integration)>> = vec![None; integrated.len()];
+    for (candidate, length) in candidates {
+        for ((best, r), &integrated) in best
+            .iter_mut()
+            .zip(rms(build(candidate)?, healthy))
+            .zip(integrated)
+        {
+            let score = (length / r).ln();
+            if integrated && best.is_none_or(|(b, _)| score > b + 0.1f64.ln_1p()) {
+                *best = Some((score, candidate));
+            }
         }
     }
-    Ok(best.map_or(INTEGRATIONS[0], |(_, n)| n))
+    Ok(best
+        .into_iter()
+        .map(|b| b.map(|(_, i)| i).unwrap_or_default())
+        .collect())
 }
 
 /// Each residual's RMS over a record (at least the smallest positive number).
@@ -890,6 +906,12 @@ pub enum Integration {
     Start,
 }
 
+impl Default for Integration {
+    fn default() -> Self {
+        Integration::Window(Reference::DEFAULT_WINDOW)
+    }
+}
+
 impl Integration {
     fn reference(self) -> Reference {
         match self {
@@ -933,8 +955,8 @@ pub struct Fit {
     pub window: usize,
     /// The fits' polynomial degree.
     pub degree: u32,
-    /// Over what integrated residuals are taken.
-    pub integration: Integration,
+    /// Over what each integrated residual is taken (by ARR; the default past the end).
+    pub integration: Vec<Integration>,
 }
 
 /// The residuals at one instant, as [`Generator::push`] gives them.
@@ -1131,7 +1153,10 @@ impl Generator {
             copy: CopyRun::new(c, readings, params, &slot),
             references: (c.arrs.iter().enumerate())
                 .filter(|(_, a)| matches!(a.realisation, Realisation::Integrated(_)))
-                .map(|(k, _)| (k, how.integration.reference()))
+                .map(|(k, _)| {
+                    let over = how.integration.get(k).copied().unwrap_or_default();
+                    (k, over.reference())
+                })
                 .collect(),
         })
     }
