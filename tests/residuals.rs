@@ -425,6 +425,8 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
             record,
             "--window",
             "51",
+            "--realise",
+            "direct",
             "--calibrate",
             &healthy,
             "--margin",
