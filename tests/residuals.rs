@@ -483,3 +483,60 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--calibrate` alone on the dead-zone scenario: the windows it chooses from the healthy
+/// record (it says which) raise no alarm before the fault, and after it the alarms name the
+/// link and its dead zone for seconds, the motor's side (ARR1) all but never. The window of
+/// least noise on the healthy record (501 samples) had ARR1 alarm at the load's stalls.
+#[test]
+fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
+    let dir = std::env::temp_dir().join(format!("bgc-calibrate-alone-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("dz.csv").display().to_string();
+    let healthy = dir.join("h.csv").display().to_string();
+    let scenario = [
+        "simulate",
+        "models/backlash_bench.bg",
+        "scenarios/bench_dead_zone.scn",
+    ];
+    let mut args = scenario.to_vec();
+    args.extend(["-o", &record]);
+    assert_eq!(code(&bgc(&args)), 0);
+    let mut args = scenario.to_vec();
+    args.extend(["--seed", "7", "--duration", "9.5", "-o", &healthy]);
+    assert_eq!(code(&bgc(&args)), 0);
+    let out = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &record,
+        "--calibrate",
+        &healthy,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("estimates over 201 samples"),
+        "{}",
+        stderr(&out)
+    );
+    let (mut before, mut named, mut motor) = (0, 0, 0);
+    for line in stdout(&out).lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let t: f64 = cells[0].parse().expect("time");
+        if t < 9.7 && (cells[5] == "1" || cells[6] == "1") {
+            before += 1;
+        }
+        if t > 10.5 && cells[7] == "link w" {
+            named += 1;
+        }
+        if t > 10.5 && cells[5] == "1" {
+            motor += 1;
+        }
+    }
+    assert_eq!(before, 0, "false alarms before the fault");
+    assert!(
+        named > 3000,
+        "samples naming the link and its dead zone: {named}"
+    );
+    assert!(motor < 20, "samples with ARR1 in alarm: {motor}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -29,9 +29,9 @@ pub struct ResidualArgs {
     /// column per input and measured signal the ARRs read, named as in the model.
     #[arg(value_name = "DATA")]
     data: PathBuf,
-    /// Samples in the Savitzky–Golay window (odd) [default: with `--calibrate`, the one of
-    /// 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy record) under
-    /// which the residuals are smallest on the healthy record; else 11].
+    /// Samples in the Savitzky–Golay window (odd) [default: with `--calibrate`, the longest
+    /// of 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy record) up
+    /// to which no residual's RMS on the healthy record grows; else 11].
     #[arg(long, value_name = "N")]
     window: Option<usize>,
     /// Residuals realised by integration (`integrated` in the model's output) are the
@@ -160,7 +160,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         if args.window.is_none() {
             window = quietest(&|w| build(w, &integration), &healthy)?;
             eprintln!(
-                "note: {name}: the residuals are smallest there with a window of {window} samples"
+                "note: {name}: estimates over {window} samples, the longest window up to which \
+                 no residual grows there"
             );
         }
         let integrated = c
@@ -346,24 +347,29 @@ impl Drawn {
 /// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
 const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
 
-/// The window of [`WINDOWS`] (at most a tenth of the healthy record) under which the
-/// residuals are smallest on it: the least geometric mean of their RMS, so that each
-/// residual counts alike whatever its units. A longer window averages more noise away until
-/// its polynomial no longer follows the signals; a fault that lasts is seen the same through
-/// either, one shorter than the window is blurred.
+/// The longest window of [`WINDOWS`] (at most a tenth of the healthy record) up to which no
+/// residual's RMS on it grows: a longer window averages more noise away until its polynomial
+/// no longer follows the signals somewhere, which the residual that reads them shows first.
+/// Stopping there rather than at the least overall noise keeps a margin for a faulty record,
+/// whose signals are less smooth than the healthy one's (on the bench's dead-zone scenario, the
+/// window of least noise, 501 samples, had ARR1 alarm at the load's stalls, which ARR2 alone
+/// should show).
 fn quietest(
     build: &dyn Fn(usize) -> Result<Generator, Failure>,
     healthy: &Data,
 ) -> Result<usize, Failure> {
-    let mut best: Option<(f64, usize)> = None;
     let longest = (healthy.time.len() / 10).max(WINDOWS[0]);
+    let mut chosen: Option<(usize, Vec<f64>)> = None;
     for &window in WINDOWS.iter().filter(|&&w| w <= longest) {
-        let score: f64 = rms(build(window)?, healthy).iter().map(|r| r.ln()).sum();
-        if best.is_none_or(|(b, _)| score < b) {
-            best = Some((score, window));
+        let now = rms(build(window)?, healthy);
+        if let Some((_, before)) = &chosen {
+            if now.iter().zip(before).any(|(n, b)| n > b) {
+                break;
+            }
         }
+        chosen = Some((window, now));
     }
-    Ok(best.map_or(WINDOWS[0], |(_, w)| w))
+    Ok(chosen.map_or(WINDOWS[0], |(w, _)| w))
 }
 
 /// The integration windows `--calibrate` chooses from, shortest first.
