@@ -8,8 +8,9 @@
 //! derivative one order lower: a first derivative instead of a second, a signal instead of a
 //! first derivative. On noisy samples that is the difference that counts: the noise gain of a
 //! derivative estimate grows by the window's length for each order. `A`'s nonlinear terms
-//! (the bench's backlash `w'(z)·ż`) are integrated numerically, which is what keeps a fault
-//! of a modulation that shows only while its argument moves visible after it stops.
+//! (the bench's backlash `w'(z)·ż`) are integrated numerically: a fault of a modulation that
+//! shows only while its argument moves stays visible as long as the reference instant is
+//! before that motion (the window, or the whole record from the start).
 
 use std::collections::HashMap;
 
