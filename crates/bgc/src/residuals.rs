@@ -97,10 +97,13 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     } else {
         args.realise.realise()
     };
+    // The expressions as `bgc MODEL --emit rust` and `bond_graph!` write them: which ARRs can
+    // be integrated depends on the form they are written in, and the two must evaluate the
+    // same residuals.
     let c = cli::compile_with(
         &args.model,
         Derive::Everything,
-        None,
+        Some(bondgraph_core::Limits::default()),
         (args.residuals.set(), realise),
     )?;
     if c.has_errors() || c.arrs.is_empty() {
