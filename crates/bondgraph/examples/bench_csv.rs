@@ -13,8 +13,9 @@ bondgraph::bond_graph!("../../models/backlash_bench.bg");
 
 use backlash_bench as bench;
 
-/// Thresholds on |residual| (V for ARR1, rad/s for ARR2): a few times what the estimator's
-/// error gives on this record's healthy part at a 5 ms step.
+/// Thresholds on |residual|: the ARRs realised by integration, each residual is its relation's
+/// integral over the last 250 samples (V·s for ARR1, rad for ARR2); a few times what the
+/// estimators' error gives on this record's healthy part at a 5 ms step.
 const LEVELS: [f64; 2] = [0.02, 0.02];
 
 /// Consecutive samples needed to raise or clear an alarm (25 ms at 5 ms).
