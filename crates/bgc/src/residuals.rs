@@ -93,6 +93,12 @@ pub struct ResidualArgs {
 pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     // The bound from parameter uncertainty is that of the relation as written.
     let realise = if args.adaptive {
+        if args.realise.realise() != Realise::Direct {
+            eprintln!(
+                "note: --adaptive evaluates the ARRs as written (--realise direct): their bounds \
+                 from parameter uncertainty are derived for them"
+            );
+        }
         Realise::Direct
     } else {
         args.realise.realise()
