@@ -560,14 +560,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
 /// trajectories, for the generator to evaluate the relation that is printed.
 fn split_gaps(c: &Compiled) -> Vec<f64> {
     let mut pool = c.exprs.clone();
-    let mut d = Derivatives::new(|p: &mut Pool<Symbol>, s: Symbol| match s {
-        Symbol::Sensor(h, n) => Some(p.leaf(Symbol::Sensor(h, n + 1))),
-        Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),
-        Symbol::Auxiliary(a, n) => Some(p.leaf(Symbol::Auxiliary(a, n + 1))),
-        Symbol::Parameter(_) => Some(p.num(0.0)),
-        Symbol::Time => Some(p.num(1.0)),
-        Symbol::State(_) | Symbol::Loop(_) => None,
-    });
+    let mut d = Derivatives::new(crate::product::time_rate);
     c.arrs
         .iter()
         .map(|arr| {

@@ -15,7 +15,7 @@ mod uncertainty;
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
 pub use readings::{LinearTerm, ModelCopy, Quantity, Readings};
-pub(crate) use realise::realise;
+pub(crate) use realise::{realise, time_rate};
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
 use crate::symbolic::{ExprId, Pool};

@@ -272,8 +272,9 @@ fn product(exprs: &mut Exprs, c: Expr, x: Split) -> Option<Split> {
     })
 }
 
-/// A leaf's time derivative: a signal's next derivative, 0 for a parameter, 1 for time.
-fn time_rate(p: &mut Exprs, s: Symbol) -> Option<Expr> {
+/// A leaf's time derivative: a signal's next derivative, 0 for a parameter, 1 for time (none
+/// for what a relation realised by integration cannot read).
+pub(crate) fn time_rate(p: &mut Exprs, s: Symbol) -> Option<Expr> {
     match s {
         Symbol::Sensor(h, n) => Some(p.leaf(Symbol::Sensor(h, n + 1))),
         Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),
@@ -409,13 +410,7 @@ mod tests {
                 let Realisation::Integrated(i) = c.arrs[k].realisation.clone() else {
                     continue;
                 };
-                let mut d = Derivatives::new(|p: &mut crate::symbolic::Pool<Symbol>, s| match s {
-                    Symbol::Sensor(h, n) => Some(p.leaf(Symbol::Sensor(h, n + 1))),
-                    Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),
-                    Symbol::Parameter(_) => Some(p.num(0.0)),
-                    Symbol::Time => Some(p.num(1.0)),
-                    _ => None,
-                });
+                let mut d = Derivatives::new(super::time_rate);
                 let dl = d.of(&mut c.exprs, i.level).expect("differentiable");
                 let sum = c.exprs.add(i.rate, dl);
                 let expr = c.arrs[k].expr;
