@@ -167,7 +167,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             return Err(Failure::Usage);
         }
         if args.window.is_none() {
-            window = quietest(&|w| build(w, &integration), &healthy)?;
+            window = longest_steady_window(&|w| build(w, &integration), &healthy)?;
             eprintln!(
                 "note: {name}: estimates over {window} samples, the longest window up to which \
                  no residual grows there"
@@ -363,7 +363,7 @@ const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
 /// whose signals are less smooth than the healthy one's (on the bench's dead-zone scenario, the
 /// window of least noise, 501 samples, had ARR1 alarm at the load's stalls, which ARR2 alone
 /// should show).
-fn quietest(
+fn longest_steady_window(
     build: &dyn Fn(usize) -> Result<Generator, Failure>,
     healthy: &Data,
 ) -> Result<usize, Failure> {
