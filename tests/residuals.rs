@@ -336,6 +336,20 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Simulates the bench under `scenarios/bench_dead_zone.scn` (the dead zone tripled at 10 s)
+/// with `extra` options into `path`.
+fn dead_zone(path: &str, extra: &[&str]) {
+    let mut args = vec![
+        "simulate",
+        "models/backlash_bench.bg",
+        "scenarios/bench_dead_zone.scn",
+    ];
+    args.extend(extra);
+    args.extend(["-o", path]);
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+}
+
 /// Adaptive thresholds: the bench's plant with every uncertain parameter moved by its stated
 /// 5 % raises alarms against fixed thresholds, none against adaptive ones, and the dead-zone
 /// fault still raises ARR2's.
@@ -345,16 +359,8 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
     std::fs::create_dir_all(&dir).expect("temp dir");
     let healthy = dir.join("healthy.csv").display().to_string();
     let moved = dir.join("moved.csv").display().to_string();
-    let scenario = [
-        "simulate",
-        "models/backlash_bench.bg",
-        "scenarios/bench_dead_zone.scn",
-    ];
-    let mut args = scenario.to_vec();
-    args.extend(["--seed", "7", "--duration", "9.5", "-o", &healthy]);
-    assert_eq!(code(&bgc(&args)), 0);
-    let mut args = scenario.to_vec();
-    args.extend(["--duration", "14", "-o", &moved]);
+    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
+    let mut extra = vec!["--duration", "14"];
     for fault in [
         "fault Re = 1.05*Re at 0",
         "fault L = 0.95*L at 0",
@@ -363,10 +369,9 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
         "fault Js = 1.05*Js at 0",
         "fault fs = 0.95*fs at 0",
     ] {
-        args.extend(["-e", fault]);
+        extra.extend(["-e", fault]);
     }
-    let out = bgc(&args);
-    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    dead_zone(&moved, &extra);
     let alarms = |adaptive: bool| {
         let mut args = vec![
             "residuals",
@@ -505,17 +510,8 @@ fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
     std::fs::create_dir_all(&dir).expect("temp dir");
     let record = dir.join("dz.csv").display().to_string();
     let healthy = dir.join("h.csv").display().to_string();
-    let scenario = [
-        "simulate",
-        "models/backlash_bench.bg",
-        "scenarios/bench_dead_zone.scn",
-    ];
-    let mut args = scenario.to_vec();
-    args.extend(["-o", &record]);
-    assert_eq!(code(&bgc(&args)), 0);
-    let mut args = scenario.to_vec();
-    args.extend(["--seed", "7", "--duration", "9.5", "-o", &healthy]);
-    assert_eq!(code(&bgc(&args)), 0);
+    dead_zone(&record, &[]);
+    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
     let out = bgc(&[
         "residuals",
         "models/backlash_bench.bg",

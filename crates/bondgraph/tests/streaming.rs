@@ -182,6 +182,14 @@ fn run(samples: &[(f64, [f64; 3])]) -> ([f64; 2], [f64; 2]) {
     (worst, bound)
 }
 
+/// The FSM row of `component`.
+fn row(fsm: &'static bondgraph::Fsm, component: &str) -> &'static bondgraph::Component {
+    fsm.components
+        .iter()
+        .find(|r| r.name == component)
+        .expect("an FSM row")
+}
+
 /// ∂r_k/∂s_i for every field, by central differences of the generated residuals.
 fn sensitivities(p: &bench::Params, s: &bench::Signals) -> [Vec<f64>; 2] {
     let base = s.to_array();
@@ -222,11 +230,7 @@ fn streaming_residuals_stay_below_their_bound_and_faults_rise_ten_times_above_it
         let (seen, _) = run(&faulty);
         eprintln!("{parameter} x{factor}: worst {seen:?}");
         let alarms = [seen[0] > bound[0], seen[1] > bound[1]];
-        let row = bench::FSM
-            .components
-            .iter()
-            .find(|r| r.name == component)
-            .expect("an FSM row");
+        let row = row(&bench::FSM, component);
         for k in 0..2 {
             if row.signature[k] {
                 assert!(
@@ -341,11 +345,7 @@ fn integrated_residuals_are_the_integrals_of_the_direct_ones() {
     for (parameter, factor, component) in [("Re", 1.5, "Rm"), ("j0", 3.0, "w")] {
         let (seen, apart) = worst(&simulate(&c, &HashMap::from([(parameter, factor)])));
         eprintln!("integrated, {parameter} x{factor}: worst {seen:?}, from the direct ones' integral {apart:?}");
-        let row = lowest::FSM
-            .components
-            .iter()
-            .find(|r| r.name == component)
-            .expect("an FSM row");
+        let row = row(&lowest::FSM, component);
         for k in 0..2 {
             if row.signature[k] {
                 assert!(
