@@ -548,6 +548,79 @@ fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The bench driven by a square wave, so that its shafts turn at steady speed between steps,
+/// with the dead zone tripled half way: 60 s at 1 kHz, both encoders noisy.
+fn square_wave(path: &str, seed: &str, fault: bool) {
+    let mut args = vec![
+        "simulate",
+        BENCH,
+        "-e",
+        "duration 60",
+        "-e",
+        "step 0.001",
+        "-e",
+        "input U0 = 10 + 5*sign(sin(0.6283185307179586*t))",
+        "-e",
+        "noise y1 1e-4",
+        "-e",
+        "noise y2 1e-4",
+        "--seed",
+        seed,
+        "-o",
+        path,
+    ];
+    if fault {
+        args.extend(["-e", "fault j0 = 3*j0 at 30.25"]);
+    }
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+}
+
+/// `--calibrate` alone on a record long enough to tell a random walk from a drift takes the
+/// bench's ARR2 from the start, where it is the link's law itself: the tripled dead zone, which
+/// the relation's rate shows only while the twist moves, keeps it in alarm for as long as the
+/// fault lasts, with no alarm before it on another seed. Integrated over the longest window
+/// instead, it is in alarm for a window's length after the fault and at few steps after.
+#[test]
+fn calibrate_alone_keeps_a_wider_dead_zone_in_alarm_at_steady_speed() {
+    let dir = std::env::temp_dir().join(format!("bgc-steady-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("fault.csv").display().to_string();
+    let healthy = dir.join("healthy.csv").display().to_string();
+    square_wave(&record, "2", true);
+    square_wave(&healthy, "1", false);
+    let shares = |extra: &[&str]| {
+        let mut args = vec!["residuals", BENCH, &record, "--calibrate", &healthy];
+        args.extend(extra);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let (mut before, mut after, mut on) = (0, 0, 0);
+        for line in stdout(&out).lines().skip(1) {
+            let cells: Vec<&str> = line.split(',').collect();
+            let t: f64 = cells[0].parse().expect("time");
+            // Centred estimates read up to half their window (at most 501 samples) ahead.
+            if t < 30.0 && (cells[5] == "1" || cells[6] == "1") {
+                before += 1;
+            }
+            if t > 31.25 {
+                after += 1;
+                on += usize::from(cells[6] == "1");
+            }
+        }
+        assert_eq!(before, 0, "false alarms before the fault");
+        (stderr(&out), on as f64 / after as f64)
+    };
+    let (said, from_start) = shares(&[]);
+    assert!(said.contains("ARR2 from the start"), "{said}");
+    assert!(
+        from_start >= 0.95,
+        "ARR2 in alarm in {from_start} of the samples"
+    );
+    let (_, windowed) = shares(&["--integration-window", "10000"]);
+    assert!(windowed < 0.5, "over a window: {windowed}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every model of `models/` compiled by `bond_graph!`, realised as by default.
 mod every {
     pub mod backlash_bench_table3 {

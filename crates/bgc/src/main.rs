@@ -3,6 +3,7 @@
 //! Exit codes: 0 when the model is valid and the output written, 1 when the model is invalid,
 //! 2 for a usage error (bad arguments, a file that cannot be read or written).
 
+mod calibrate;
 mod cli;
 mod plot;
 mod report;

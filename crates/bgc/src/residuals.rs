@@ -17,6 +17,7 @@ use bondgraph_core::{
     Realise, Signal, Symbol, Tape,
 };
 
+use crate::calibrate::{self, Walk};
 use crate::cli::{self, Failure};
 
 /// What `bgc residuals` takes.
@@ -39,8 +40,9 @@ pub struct ResidualArgs {
     /// (`start`): a fault that shows only while a signal moves then leaves them offset for
     /// good, but the noise they integrate grows with the record [default: with
     /// `--calibrate`, for each residual, the one of 250, 1000, 2500, 10000 and 25000
-    /// samples (at most a twentieth of the healthy record) with the largest ratio of its
-    /// length to the residual's RMS on the healthy record; else 250].
+    /// samples (at most a twentieth of the healthy record), or from the start where its
+    /// noise there is white plus a random walk, with the largest ratio of its length to its
+    /// noise; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
@@ -124,7 +126,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         .collect();
     let data_name = args.data.display().to_string();
     let (_, bytes) = cli::read(&args.data)?;
-    let shortest = args.window.unwrap_or(WINDOWS[0]);
+    let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
     let data = Data::read(&bytes, &names, shortest).map_err(|e| {
         eprintln!("error: {data_name}: {e}");
         Failure::Invalid
@@ -145,8 +147,10 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             Failure::Usage
         })
     };
-    let mut window = args.window.unwrap_or(WINDOWS[0]);
+    let mut window = args.window.unwrap_or(calibrate::WINDOWS[0]);
     let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
+    // Where a residual taken from the start has its threshold grow with its noise's walk.
+    let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
         let (_, bytes) = cli::read(path)?;
@@ -167,40 +171,53 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             return Err(Failure::Usage);
         }
         if args.window.is_none() {
-            window = longest_steady_window(&|w| build(w, &integration), &healthy)?;
+            window = calibrate::longest_steady_window(&|w| build(w, &integration), &healthy)?;
             eprintln!(
                 "note: {name}: estimates over {window} samples, the longest window up to which \
                  no residual grows there"
             );
         }
-        let integrated = c
-            .arrs
-            .iter()
-            .any(|a| matches!(a.realisation, Realisation::Integrated(_)));
-        if args.integration_window.is_none() && integrated {
-            let which: Vec<bool> = (c.arrs.iter())
-                .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
-                .collect();
-            integration =
-                longest_integration(&|i| build(window, &vec![i; which.len()]), &healthy, &which)?;
-            let chosen: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
+        let which: Vec<bool> = (c.arrs.iter())
+            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+            .collect();
+        if args.integration_window.is_none() && which.contains(&true) {
+            let chosen = calibrate::longest_integration(
+                &|i| build(window, &vec![i; which.len()]),
+                &healthy,
+                &which,
+                window,
+            )?;
+            (integration, walks) = chosen.into_iter().unzip();
+            let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
                 .filter(|(_, &i)| i)
-                .map(|((a, i), _)| format!("{} over {i}", a.name))
+                .map(|((a, i), _)| match i {
+                    Integration::Window(n) => format!("{} over {n}", a.name),
+                    Integration::Start => format!(
+                        "{} from the start (its threshold grows as its noise's random walk)",
+                        a.name
+                    ),
+                })
                 .collect();
             eprintln!(
                 "note: {name}: integrated residuals taken where their length is largest against \
-                 their noise (of {} samples): {}",
-                INTEGRATIONS.map(|n| n.to_string()).join(", "),
-                chosen.join(", ")
+                 their noise (of {} samples, or from the start where its noise is white plus a \
+                 random walk): {}",
+                calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
+                said.join(", ")
             );
         }
-        let calibrated = calibrate(
+        let calibrated = calibrate::thresholds(
             build(window, &integration)?,
             &healthy,
+            &walks,
             args.false_alarm_rate,
             args.margin,
         );
-        for (level, calibrated) in levels.iter_mut().zip(calibrated) {
+        for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
+            // A level the user gave is a level, not a multiple of the walk's deviation.
+            if level.is_some() {
+                *walk = None;
+            }
             level.get_or_insert(calibrated);
         }
     }
@@ -249,6 +266,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             out
         });
         let mut chunk = Chunk::default();
+        let mut estimates = 0;
         for (k, &t) in data.time.iter().enumerate() {
             for (v, column) in raw.iter_mut().zip(&data.columns) {
                 *v = column[k];
@@ -256,19 +274,21 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             let Some(e) = generator.push(t, &raw, args.adaptive) else {
                 continue;
             };
-            for (((now, on), alarm), ((l, b), &r)) in now
+            for ((((now, on), alarm), walk), ((l, b), &r)) in now
                 .iter_mut()
                 .zip(&mut on)
                 .zip(&mut alarms)
+                .zip(&walks)
                 .zip(levels.iter().zip(e.bounds).zip(e.residuals))
             {
-                *now = l.map(|l| l + b);
+                *now = l.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
                 *on = match (alarm.as_mut(), *now) {
                     (Some(a), Some(l)) => a.update_with_level(r, l),
                     _ => false,
                 };
             }
             chunk.push(e.at, e.residuals, &now, &on);
+            estimates += 1;
             drawn.push(e.at, e.residuals, &now, &on);
             if chunk.time.len() == CHUNK_ROWS {
                 // The writer stops only when this side has: it cannot have gone away.
@@ -351,125 +371,6 @@ impl Drawn {
             .collect();
         crate::plot::draw(path, &self.time, &panels)
     }
-}
-
-/// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
-const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
-
-/// The longest window of [`WINDOWS`] (at most a tenth of the healthy record) up to which no
-/// residual's RMS on it grows: a longer window averages more noise away until its polynomial
-/// no longer follows the signals somewhere, which the residual that reads them shows first.
-/// Stopping there rather than at the least overall noise keeps a margin for a faulty record,
-/// whose signals are less smooth than the healthy one's (on the bench's dead-zone scenario, the
-/// window of least noise, 501 samples, had ARR1 alarm at the load's stalls, which ARR2 alone
-/// should show).
-fn longest_steady_window(
-    build: &dyn Fn(usize) -> Result<Generator, Failure>,
-    healthy: &Data,
-) -> Result<usize, Failure> {
-    let longest = (healthy.time.len() / 10).max(WINDOWS[0]);
-    let mut chosen: Option<(usize, Vec<f64>)> = None;
-    for &window in WINDOWS.iter().filter(|&&w| w <= longest) {
-        let now = rms(build(window)?, healthy);
-        if let Some((_, before)) = &chosen {
-            if now.iter().zip(before).any(|(n, b)| n > b) {
-                break;
-            }
-        }
-        chosen = Some((window, now));
-    }
-    Ok(chosen.map_or(WINDOWS[0], |(w, _)| w))
-}
-
-/// The integration windows `--calibrate` chooses from, shortest first.
-const INTEGRATIONS: [usize; 5] = [Reference::DEFAULT_WINDOW, 1000, 2500, 10_000, 25_000];
-
-/// For each integrated residual, the integration window of [`INTEGRATIONS`] (at most a
-/// twentieth of the healthy record) with the largest ratio of its length to the residual's
-/// RMS on it: a fault that moves a relation for as long as it lasts moves its integral in
-/// proportion to the length, while the noise grows as its square root or less, and a model
-/// error as the length itself. A longer one must gain a tenth to be chosen: it also takes
-/// longer to show a fault, and its noise is known from fewer independent stretches. From
-/// the start is never chosen: the noise integrated then grows with the record like a random
-/// walk, whose largest excursion on one healthy record says little of another's (on the
-/// Table 3 bench, 1,316 false alarms of 2,800 samples).
-fn longest_integration(
-    build: &dyn Fn(Integration) -> Result<Generator, Failure>,
-    healthy: &Data,
-    integrated: &[bool],
-) -> Result<Vec<Integration>, Failure> {
-    let rows = healthy.time.len();
-    let candidates = (INTEGRATIONS.iter())
-        .filter(|&&n| n <= (rows / 20).max(INTEGRATIONS[0]))
-        .map(|&n| (Integration::Window(n), n as f64));
-    let mut best: Vec<Option<(f64, Integration)>> = vec![None; integrated.len()];
-    for (candidate, length) in candidates {
-        for ((best, r), &integrated) in best
-            .iter_mut()
-            .zip(rms(build(candidate)?, healthy))
-            .zip(integrated)
-        {
-            let score = (length / r).ln();
-            if integrated && best.is_none_or(|(b, _)| score > b + 0.1f64.ln_1p()) {
-                *best = Some((score, candidate));
-            }
-        }
-    }
-    Ok(best
-        .into_iter()
-        .map(|b| b.map(|(_, i)| i).unwrap_or_default())
-        .collect())
-}
-
-/// Each residual's RMS over a record (at least the smallest positive number).
-fn rms(mut generator: Generator, record: &Data) -> Vec<f64> {
-    let mut sums: Vec<(f64, usize)> = Vec::new();
-    let mut raw = vec![0.0; record.columns.len()];
-    for (k, &t) in record.time.iter().enumerate() {
-        for (v, column) in raw.iter_mut().zip(&record.columns) {
-            *v = column[k];
-        }
-        if let Some(e) = generator.push(t, &raw, false) {
-            sums.resize(e.residuals.len(), (0.0, 0));
-            for (s, r) in sums.iter_mut().zip(e.residuals) {
-                if r.is_finite() {
-                    *s = (s.0 + r * r, s.1 + 1);
-                }
-            }
-        }
-    }
-    sums.iter()
-        .map(|&(sum, n)| (sum / n.max(1) as f64).sqrt().max(f64::MIN_POSITIVE))
-        .collect()
-}
-
-/// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin. With
-/// adaptive thresholds this is the margin for noise and estimation error, added to the bound
-/// from parameter uncertainty: a healthy record taken at the nominal parameters shows what
-/// the noise does, and nothing of what the uncertainty may do.
-fn calibrate(mut generator: Generator, healthy: &Data, rate: f64, margin: f64) -> Vec<f64> {
-    let mut seen: Vec<Vec<f64>> = Vec::new();
-    let mut raw = vec![0.0; healthy.columns.len()];
-    for (k, &t) in healthy.time.iter().enumerate() {
-        for (v, column) in raw.iter_mut().zip(&healthy.columns) {
-            *v = column[k];
-        }
-        if let Some(e) = generator.push(t, &raw, false) {
-            seen.resize(e.residuals.len(), Vec::new());
-            for (s, r) in seen.iter_mut().zip(e.residuals) {
-                s.push(r.abs());
-            }
-        }
-    }
-    seen.into_iter()
-        .map(|mut s| {
-            s.sort_by(f64::total_cmp);
-            // The sample with a share `rate` of the others above it.
-            let above = (rate * s.len() as f64).floor() as usize;
-            let at = s.len().saturating_sub(above + 1);
-            s.get(at).copied().unwrap_or(0.0) * (1.0 + margin)
-        })
-        .collect()
 }
 
 fn signal_name(c: &Compiled, s: Signal) -> String {
