@@ -128,9 +128,10 @@ def fdt_run(generator, data):
 def report(label, t, r, alarm, at):
     # bgc's centred estimates at t read samples up to half a window later (at most 0.25 s):
     # alarms count as before the fault from that far before it.
-    before, after, early = t < at, t > at + 1.0, t < at - LOOKAHEAD
-    rms = float(np.sqrt(np.mean(r[before] ** 2)))
-    change = r[after] - np.mean(r[before])
+    after, early = t > at + 1.0, t < at - LOOKAHEAD
+    # Noise from before what any estimate of a faulty sample reads.
+    rms = float(np.sqrt(np.mean(r[early] ** 2)))
+    change = r[after] - np.mean(r[early])
     snr = float(np.sqrt(np.mean(change ** 2)) / rms) if rms > 0 else float("inf")
     print(f"| {label} | {rms:.3g} | {snr:.3g} | {100 * np.mean(alarm[after]):.1f} % | "
           f"{int(np.sum(alarm[early]))} |")
