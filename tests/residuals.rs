@@ -466,10 +466,10 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     let (arr1, arr2, rows) = alarms(&text);
     assert_eq!(arr1, 0);
     assert!(arr2 > rows * 9 / 10, "{arr2} of {rows}");
-    // The last two columns: candidates (with exoneration), then suspects.
+    // The last three columns: candidates (with exoneration), suspects, the episode's.
     let named = text
         .lines()
-        .filter(|l| l.rsplit(',').nth(1) == Some("link w"))
+        .filter(|l| l.rsplit(',').nth(2) == Some("link w"))
         .count();
     assert_eq!(named, arr2);
     // Its plot: a panel per residual, titled with where it comes from, with a legend.
@@ -755,5 +755,65 @@ fn bgc_residuals_computes_what_the_generated_code_computes_on_every_model() {
         loudspeaker, parallel_rlc, quarter_car, resistive_loop, rigid_gear_drive, rlc_series,
         thermal_two_zone, three_tank, torque_sensor_drive, two_tank, varistor_loop,
         wheatstone_bridge);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// With every residual (`--residuals best`) on the dead-zone scenario, the two simulated
+/// residuals stay in alarm after the fault while the twist's alarm only while it moves: the
+/// alarms of a sample then hold fewer residuals than the dead zone's signature, and the
+/// components whose signature holds them are many. The alarms since the first narrow to the
+/// link and its dead zone, and to no more than the relations of one residual per sensor give.
+#[test]
+fn the_episode_narrows_the_candidates_to_the_dead_zone() {
+    let dir = std::env::temp_dir().join(format!("bgc-episode-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("dz.csv").display().to_string();
+    let healthy = dir.join("h.csv").display().to_string();
+    dead_zone(&record, &[]);
+    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
+    // Per row after the fault: (instant candidates, episode candidates); and the ranking.
+    let run = |residuals: &str| {
+        let out = bgc(&[
+            "residuals",
+            BENCH,
+            &record,
+            "--calibrate",
+            &healthy,
+            "--residuals",
+            residuals,
+        ]);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let rows: Vec<(String, String)> = (stdout(&out).lines().skip(1))
+            .filter_map(|line| {
+                let cells: Vec<&str> = line.split(',').collect();
+                let t: f64 = cells[0].parse().expect("time");
+                let n = cells.len();
+                (t > 10.5).then(|| (cells[n - 3].to_string(), cells[n - 1].to_string()))
+            })
+            .collect();
+        (rows, stderr(&out))
+    };
+    let (best, ranking) = run("best");
+    let narrowed = best.iter().filter(|(_, e)| e == "link w").count();
+    assert_eq!(
+        narrowed,
+        best.len(),
+        "episode candidates other than `link w`"
+    );
+    let wide = best
+        .iter()
+        .filter(|(c, _)| c.split(' ').count() > 2)
+        .count();
+    assert!(
+        wide > best.len() / 2,
+        "the instant's candidates were wide in {wide} of {} rows",
+        best.len()
+    );
+    assert!(
+        ranking.contains(" 1  link w: matches every residual seen in alarm"),
+        "{ranking}"
+    );
+    let (per_sensor, _) = run("per-sensor");
+    assert!(per_sensor.iter().all(|(_, e)| e == "link w"));
     let _ = std::fs::remove_dir_all(&dir);
 }

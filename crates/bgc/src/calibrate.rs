@@ -73,7 +73,10 @@ impl Walk {
         let lags = (long / short) as f64;
         // A NaN (a residual that is not a number somewhere) is no walk either.
         let walks = b.partial_cmp(&(Self::SLACK * lags * a));
-        if !matches!(walks, Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)) {
+        if !matches!(
+            walks,
+            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
+        ) {
             return None;
         }
         let rate = ((b - a) / (long - short) as f64).max(0.0);

@@ -11,7 +11,7 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph::{Differentiator, Reference, SavitzkyGolay, Threshold, Trapezoid};
+use bondgraph::{Differentiator, Episode, Reference, SavitzkyGolay, Threshold, Trapezoid};
 use bondgraph_core::{
     Arr, Compiled, Derive, Expr, ExprId, Handle, Node, Pool, Quantity, Readings, Realisation,
     Realise, Signal, Symbol, Tape,
@@ -263,7 +263,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             for chunk in receive {
                 chunk.write(&mut out, rows, &mut named);
             }
-            out
+            (out, named)
         });
         let mut chunk = Chunk::default();
         let mut estimates = 0;
@@ -299,6 +299,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         drop(send);
         writer.join().unwrap_or_default()
     });
+    let (out, named) = out;
+    named.report(&rows, &c);
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(|e| {
             eprintln!("error: {e}");
@@ -415,7 +417,7 @@ fn header(c: &Compiled) -> String {
     for a in &c.arrs {
         let _ = write!(h, ",alarm_{}", a.name);
     }
-    h.push_str(",candidates,suspects\n");
+    h.push_str(",candidates,suspects,episode\n");
     h
 }
 
@@ -460,25 +462,31 @@ impl Chunk {
             for &a in on {
                 out.push_str(if a { ",1" } else { ",0" });
             }
-            out.push_str(named.cells(rows, on));
+            named.cells(rows, t, on, out);
             out.push('\n');
         }
     }
 }
 
-/// The candidates and suspects cells of the last alarm pattern: alarms change seldom, and
-/// naming them for every row would cost more than the rest of the row.
+/// The candidates and suspects cells of the last alarm pattern, and the episode's candidates
+/// for the residuals seen in alarm so far: alarms change seldom, and naming them for every row
+/// would cost more than the rest of the row.
 #[derive(Default)]
 struct Named {
     alarms: Vec<bool>,
     cells: String,
+    episode: Option<Episode>,
+    /// When the episode started.
+    first: Option<f64>,
+    seen: Vec<bool>,
+    episode_cell: String,
 }
 
 impl Named {
-    /// `,candidates,suspects` for `on`.
-    fn cells(&mut self, rows: &[(&str, Vec<bool>)], on: &[bool]) -> &str {
+    /// `,candidates,suspects,episode` for the alarms `on` at `t`.
+    fn cells(&mut self, rows: &[(&str, Vec<bool>)], t: f64, on: &[bool], out: &mut String) {
+        let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
         if self.alarms != on || self.cells.is_empty() {
-            let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
             self.cells = format!(
                 ",{},{}",
                 bondgraph::candidates(fsm(), on).join(" "),
@@ -487,7 +495,49 @@ impl Named {
             self.alarms.clear();
             self.alarms.extend_from_slice(on);
         }
-        &self.cells
+        out.push_str(&self.cells);
+        let episode = self.episode.get_or_insert_with(|| Episode::new(on.len()));
+        episode.push(on);
+        if episode.started() {
+            self.first.get_or_insert(t);
+            let seen = episode.seen();
+            if seen != self.seen || self.episode_cell.is_empty() {
+                self.episode_cell = format!(",{}", episode.candidates(fsm()).join(" "));
+                self.seen = seen;
+            }
+            out.push_str(&self.episode_cell);
+        } else {
+            out.push(',');
+        }
+    }
+
+    /// The ranking of the components by the whole episode, on standard error.
+    fn report(&self, rows: &[(&str, Vec<bool>)], c: &Compiled) {
+        let (Some(episode), Some(first)) = (&self.episode, self.first) else {
+            return;
+        };
+        let shares: Vec<String> = (c.arrs.iter().zip(episode.shares()))
+            .map(|(a, s)| format!("{} {:.1} %", a.name, 100.0 * s))
+            .collect();
+        eprintln!(
+            "note: alarms from {first} s on: {} of the samples since (seen in alarm from \
+             {} %); the components by how well a single fault of each explains them:",
+            shares.join(", "),
+            100.0 * Episode::SEEN
+        );
+        let fsm = rows.iter().map(|(n, s)| (*n, s.as_slice()));
+        for (k, r) in episode.rank(fsm).iter().enumerate() {
+            let why = match (r.unexplained, r.unseen) {
+                (0, 0) => "matches every residual seen in alarm".to_string(),
+                (0, n) => format!("{n} residual(s) of its signature not seen in alarm"),
+                (m, n) => format!(
+                    "{m} residual(s) in alarm outside its signature (up to {:.1} % of the time), \
+                     {n} of it not seen",
+                    100.0 * r.share
+                ),
+            };
+            eprintln!("  {:>2}  {}: {why}", k + 1, r.names.join(" "));
+        }
     }
 }
 

@@ -31,10 +31,13 @@ impl Fsm {
     /// alarm. No alarm, no candidate.
     #[must_use]
     pub fn candidates(&self, alarms: &[bool]) -> Vec<&'static str> {
-        candidates(
-            self.components.iter().map(|c| (c.name, c.signature)),
-            alarms,
-        )
+        candidates(self.rows(), alarms)
+    }
+
+    /// Each component's name and signature: the rows [`crate::Episode::rank`] and
+    /// [`crate::Episode::candidates`] take.
+    pub fn rows(&self) -> impl Iterator<Item = (&'static str, &'static [bool])> + Clone {
+        self.components.iter().map(|c| (c.name, c.signature))
     }
 
     /// The components whose fault is consistent with `alarms` without assuming that a fault
@@ -43,10 +46,7 @@ impl Fsm {
     /// when a fault is still too small to reach some of its residuals. No alarm, no suspect.
     #[must_use]
     pub fn suspects(&self, alarms: &[bool]) -> Vec<&'static str> {
-        suspects(
-            self.components.iter().map(|c| (c.name, c.signature)),
-            alarms,
-        )
+        suspects(self.rows(), alarms)
     }
 }
 
