@@ -336,18 +336,21 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Simulates the bench with `args` (a scenario, options) into `path`.
+fn simulate_bench(args: &[&str], path: &str) {
+    let mut all = vec!["simulate", BENCH];
+    all.extend(args);
+    all.extend(["-o", path]);
+    let out = bgc(&all);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+}
+
 /// Simulates the bench under `scenarios/bench_dead_zone.scn` (the dead zone tripled at 10 s)
 /// with `extra` options into `path`.
 fn dead_zone(path: &str, extra: &[&str]) {
-    let mut args = vec![
-        "simulate",
-        "models/backlash_bench.bg",
-        "scenarios/bench_dead_zone.scn",
-    ];
+    let mut args = vec!["scenarios/bench_dead_zone.scn"];
     args.extend(extra);
-    args.extend(["-o", path]);
-    let out = bgc(&args);
-    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    simulate_bench(&args, path);
 }
 
 /// Adaptive thresholds: the bench's plant with every uncertain parameter moved by its stated
@@ -552,8 +555,6 @@ fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
 /// with the dead zone tripled half way: 60 s at 1 kHz, both encoders noisy.
 fn square_wave(path: &str, seed: &str, fault: bool) {
     let mut args = vec![
-        "simulate",
-        BENCH,
         "-e",
         "duration 60",
         "-e",
@@ -566,14 +567,11 @@ fn square_wave(path: &str, seed: &str, fault: bool) {
         "noise y2 1e-4",
         "--seed",
         seed,
-        "-o",
-        path,
     ];
     if fault {
         args.extend(["-e", "fault j0 = 3*j0 at 30.25"]);
     }
-    let out = bgc(&args);
-    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    simulate_bench(&args, path);
 }
 
 /// `--calibrate` alone on a record long enough to tell a random walk from a drift takes the
