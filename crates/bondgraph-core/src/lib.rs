@@ -16,6 +16,7 @@ pub mod generate;
 mod graph;
 mod pipeline;
 mod product;
+pub mod program;
 mod sim;
 mod symbolic;
 mod syntax;

@@ -1,0 +1,326 @@
+//! The product lowered to the residual program: slots for what the residuals read, `int(..)`
+//! replaced by slots, auxiliary signals by their definitions, the copy's integrals by its
+//! states.
+
+use std::collections::HashMap;
+
+use super::{Channel, Code, CopyRates, Evaluation, Fill, Leaf, Program, Raw, Residual};
+use super::{Sensitivity, Slot, Source};
+use crate::product::{Arena, Auxiliary, Compiled, Expr, Handle, ModelCopy, Quantity};
+use crate::product::{Readings, Realisation, Signal, Symbol};
+use crate::symbolic::{Node, Pool};
+
+impl Compiled {
+    /// The residual program of the ARRs as realised (see [`Program`]).
+    pub fn program(&self) -> Program {
+        let readings = self.readings();
+        let raw = raw_signals(self, &readings);
+        let (channels, differentiated) = channels(&raw, &readings);
+        let mut lower = Lowering {
+            c: self,
+            code: Pool::default(),
+            slots: Arena::default(),
+            slot: HashMap::new(),
+            nonlinear: readings.nonlinear.clone(),
+            auxiliary: HashMap::new(),
+            residual_memo: HashMap::new(),
+            copy_memo: HashMap::new(),
+        };
+        lower.slots(&readings, &raw, &channels);
+        let residuals = (self.arrs.iter())
+            .map(|a| Residual {
+                name: a.name.clone(),
+                code: lower.residual(a.evaluated()),
+                evaluation: match a.realisation {
+                    Realisation::Direct => Evaluation::Direct,
+                    Realisation::Integrated(_) => Evaluation::Integrated,
+                },
+            })
+            .collect();
+        let mut sensitivities = Vec::new();
+        for (k, arr) in self.arrs.iter().enumerate() {
+            for &(parameter, e) in arr.sensitivities.iter().flatten() {
+                let code = lower.residual(e);
+                sensitivities.push(Sensitivity {
+                    residual: k,
+                    parameter,
+                    code,
+                });
+            }
+        }
+        let roots: Vec<Expr> = self.arrs.iter().map(|a| a.evaluated()).collect();
+        let named = (self.auxiliary_derivatives_read(&roots).into_iter())
+            .map(|(a, n)| {
+                let aux = &self.auxiliaries[a];
+                let name = match n {
+                    0 => aux.name.clone(),
+                    n => format!("{}_d{n}", aux.name),
+                };
+                (lower.auxiliary(a, n), name)
+            })
+            .collect();
+        let copy = (readings.copy.as_ref()).map(|copy| lower.copy(copy, &raw));
+        Program {
+            raw,
+            channels,
+            differentiated,
+            slots: lower.slots,
+            code: lower.code,
+            residuals,
+            sensitivities,
+            named,
+            copy,
+        }
+    }
+}
+
+/// The raw signals the residuals read, in [`Signal`] order.
+fn raw_signals(c: &Compiled, readings: &Readings) -> Arena<Raw> {
+    let mut raw = Arena::default();
+    for &(signal, order) in &readings.raw {
+        let name = match signal {
+            Signal::Input(u) => c.inputs[u].name.clone(),
+            Signal::Sensor(h) => c.sensors[h].name.clone(),
+        };
+        raw.push(Raw {
+            signal,
+            name,
+            order,
+        });
+    }
+    raw
+}
+
+/// The bank's channels: the raw signals whose derivatives are read first (the bank
+/// differentiates only those), then the other raw signals, then the integrals.
+fn channels(raw: &Arena<Raw>, readings: &Readings) -> (Arena<Channel>, usize) {
+    let mut channels = Arena::default();
+    let differentiated = raw.values().filter(|r| r.order > 0).count();
+    let ranked =
+        (raw.iter().filter(|(_, r)| r.order > 0)).chain(raw.iter().filter(|(_, r)| r.order == 0));
+    for (h, r) in ranked {
+        channels.push(Channel {
+            source: Source::Raw(h),
+            order: r.order,
+        });
+    }
+    for &s in &readings.integrated {
+        if let Some(h) = raw.find(|r| r.signal == s) {
+            channels.push(Channel {
+                source: Source::Integral(h),
+                order: 0,
+            });
+        }
+    }
+    (channels, differentiated)
+}
+
+/// Lowers product expressions into the program's pool.
+struct Lowering<'c> {
+    c: &'c Compiled,
+    code: Pool<Leaf>,
+    slots: Arena<Slot>,
+    slot: HashMap<Quantity, Handle<Slot>>,
+    nonlinear: Vec<Expr>,
+    auxiliary: HashMap<(Handle<Auxiliary>, u32), Code>,
+    /// What each product node became in the residuals, and in the copy's rates: the same
+    /// state is a slot in one and a state in the other.
+    residual_memo: HashMap<Expr, Code>,
+    copy_memo: HashMap<Expr, Code>,
+}
+
+/// Where an expression is lowered.
+#[derive(Clone, Copy)]
+enum Context<'a> {
+    Residual,
+    Copy(&'a ModelCopy),
+}
+
+impl Lowering<'_> {
+    /// One slot per quantity read, in the readings' order; a nonlinear integral's integrand
+    /// reads the slots before it.
+    fn slots(&mut self, readings: &Readings, raw: &Arena<Raw>, channels: &Arena<Channel>) {
+        let channel = |source: Source| channels.find(|c| c.source == source);
+        let raw_of = |s: Signal| raw.find(|r| r.signal == s);
+        for &quantity in &readings.quantities {
+            let fill = match quantity {
+                Quantity::Derivative(s, order) => raw_of(s)
+                    .and_then(|h| channel(Source::Raw(h)))
+                    .map(|channel| Fill::Estimate { channel, order }),
+                Quantity::Integral(s) => raw_of(s)
+                    .and_then(|h| channel(Source::Integral(h)))
+                    .map(|channel| Fill::Estimate { channel, order: 0 }),
+                // Filled below, once every slot it may read exists.
+                Quantity::Nonlinear(_) => Some(Fill::Simulated(0)),
+                Quantity::Simulated(k) => Some(Fill::Simulated(k.index() as u32)),
+            };
+            // Every signal read has a raw signal and a channel (see `channels`).
+            let Some(fill) = fill else { continue };
+            let h = self.slots.push(Slot { quantity, fill });
+            self.slot.insert(quantity, h);
+        }
+        for (k, &integrand) in readings.nonlinear.iter().enumerate() {
+            let code = self.residual(integrand);
+            if let Some(&h) = self.slot.get(&Quantity::Nonlinear(k)) {
+                self.slots.get_mut(h).fill = Fill::Integral(code);
+            }
+        }
+    }
+
+    fn residual(&mut self, root: Expr) -> Code {
+        self.lower(root, Context::Residual)
+    }
+
+    /// The copy's rates, over its states and inputs.
+    fn copy(&mut self, copy: &ModelCopy, raw: &Arena<Raw>) -> CopyRates {
+        let rates = (copy.rates.iter())
+            .map(|&e| self.lower(e, Context::Copy(copy)))
+            .collect();
+        let names = (self.c.states.values().map(|s| s.name.clone()))
+            .chain((1..=copy.integrals.len()).map(|k| format!("int{k}")))
+            .collect();
+        let inputs = (copy.inputs.iter())
+            .filter_map(|&u| raw.find(|r| r.signal == Signal::Input(u)))
+            .collect();
+        CopyRates {
+            rates,
+            names,
+            inputs,
+        }
+    }
+
+    /// The auxiliary signal's `n`-th derivative, lowered once.
+    fn auxiliary(&mut self, a: Handle<Auxiliary>, n: u32) -> Code {
+        if let Some(&code) = self.auxiliary.get(&(a, n)) {
+            return code;
+        }
+        let c = self.c;
+        let code = match c.auxiliaries[a].derivatives.get(n as usize) {
+            Some(&e) => self.residual(e),
+            None => self.code.num(f64::NAN),
+        };
+        self.auxiliary.insert((a, n), code);
+        code
+    }
+
+    fn memo(&self, cx: Context<'_>) -> &HashMap<Expr, Code> {
+        match cx {
+            Context::Residual => &self.residual_memo,
+            Context::Copy(..) => &self.copy_memo,
+        }
+    }
+
+    /// `root` in the program's pool, children first, each node once per context.
+    fn lower(&mut self, root: Expr, cx: Context<'_>) -> Code {
+        let c = self.c;
+        let order = c
+            .exprs
+            .reachable_unless(root, |id| self.memo(cx).contains_key(&id));
+        for id in order {
+            let code = self.node(c.exprs.node(id), cx);
+            match cx {
+                Context::Residual => self.residual_memo.insert(id, code),
+                Context::Copy(..) => self.copy_memo.insert(id, code),
+            };
+        }
+        self.get(root, cx)
+    }
+
+    /// What `e` became; every child is lowered before its parent.
+    fn get(&mut self, e: Expr, cx: Context<'_>) -> Code {
+        match self.memo(cx).get(&e) {
+            Some(&code) => code,
+            None => self.code.num(f64::NAN),
+        }
+    }
+
+    fn node(&mut self, node: Node<Symbol>, cx: Context<'_>) -> Code {
+        match node {
+            Node::Num(bits) => self.code.num(f64::from_bits(bits)),
+            Node::Leaf(s) => self.leaf(s, cx),
+            Node::Neg(a) => {
+                let a = self.get(a, cx);
+                self.code.neg(a)
+            }
+            Node::Binary(op, a, b) => {
+                let (a, b) = (self.get(a, cx), self.get(b, cx));
+                self.code.binary(op, a, b)
+            }
+            Node::Call1(f, a) => {
+                let a = self.get(a, cx);
+                self.code.call(f, &[a])
+            }
+            Node::Call2(f, a, b) => {
+                let (a, b) = (self.get(a, cx), self.get(b, cx));
+                self.code.call(f, &[a, b])
+            }
+            Node::Int(a) => match cx {
+                Context::Residual => self.integral(a),
+                Context::Copy(copy) => match copy.integrals.iter().position(|&e| e == a) {
+                    Some(k) => (self.code).leaf(Leaf::State((self.c.states.len() + k) as u32)),
+                    None => self.code.num(f64::NAN),
+                },
+            },
+        }
+    }
+
+    /// A product leaf. What a context cannot read (a loop unknown; a derivative of an input
+    /// in the copy) never occurs in it; it would be NaN, which no residual passes for zero.
+    fn leaf(&mut self, s: Symbol, cx: Context<'_>) -> Code {
+        let slot = |this: &mut Self, q: Quantity| match this.slot.get(&q) {
+            Some(&h) => this.code.leaf(Leaf::Slot(h)),
+            // A signal read only under an integral: never evaluated.
+            None => this.code.num(f64::NAN),
+        };
+        match (s, cx) {
+            (Symbol::Parameter(p), _) => self.code.leaf(Leaf::Parameter(p)),
+            (Symbol::Time, _) => self.code.leaf(Leaf::Time),
+            (Symbol::State(k), Context::Copy(..)) => self.code.leaf(Leaf::State(k.index() as u32)),
+            (Symbol::Input(u, 0), Context::Copy(copy)) => {
+                match copy.inputs.iter().position(|&i| i == u) {
+                    Some(j) => self.code.leaf(Leaf::Input(j as u32)),
+                    None => self.code.num(f64::NAN),
+                }
+            }
+            (Symbol::Input(u, n), Context::Residual) => {
+                slot(self, Quantity::Derivative(Signal::Input(u), n))
+            }
+            (Symbol::Sensor(h, n), Context::Residual) => {
+                slot(self, Quantity::Derivative(Signal::Sensor(h), n))
+            }
+            (Symbol::State(k), Context::Residual) => slot(self, Quantity::Simulated(k)),
+            (Symbol::Auxiliary(a, n), Context::Residual) => self.auxiliary(a, n),
+            _ => self.code.num(f64::NAN),
+        }
+    }
+
+    /// `int(a)` in a residual: its own slot, or the combination of the signals' integrals
+    /// it is.
+    fn integral(&mut self, a: Expr) -> Code {
+        if let Some(k) = self.nonlinear.iter().position(|&e| e == a) {
+            return match self.slot.get(&Quantity::Nonlinear(k)) {
+                Some(&h) => self.code.leaf(Leaf::Slot(h)),
+                None => self.code.num(f64::NAN),
+            };
+        }
+        let Some(terms) = self.c.linear_terms(a) else {
+            return self.code.num(f64::NAN);
+        };
+        let mut signed = Vec::with_capacity(terms.len());
+        for (plus, coefficient, signal) in terms {
+            let Some(&h) = self.slot.get(&Quantity::Integral(signal)) else {
+                return self.code.num(f64::NAN);
+            };
+            let integral = self.code.leaf(Leaf::Slot(h));
+            let term = match coefficient {
+                Some(k) => {
+                    let k = self.get(k, Context::Residual);
+                    self.code.mul(k, integral)
+                }
+                None => integral,
+            };
+            signed.push((plus, term));
+        }
+        self.code.signed_sum(&signed)
+    }
+}

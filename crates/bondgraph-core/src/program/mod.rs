@@ -1,0 +1,178 @@
+//! The residual program: what a residual generator does with each sample, lowered once from
+//! the product so that every backend runs the same thing. The Rust emitter prints it (the
+//! generated `ResidualGenerator`); the interpreter crate runs it (`bgc residuals`, the
+//! tests).
+//!
+//! Per sample, a generator:
+//! 1. steps the copy of the model, if a simulated residual reads one, on the raw inputs;
+//! 2. feeds the estimator bank its [`Channel`]s: raw signals, and the trapezoidal integrals
+//!    of some of them;
+//! 3. once the bank's windows are full, fills each [`Slot`] at the instant of the estimates:
+//!    from an estimate, from the copy's state at that instant, or (in slot order) by
+//!    integrating an expression of the slots filled before it;
+//! 4. evaluates the residuals, straight-line expressions over the slots and the parameters,
+//!    and takes the change of those realised by integration since their reference.
+//!
+//! Nothing in the expressions is an integral any more: each `int(..)` of the product is a
+//! slot (or a combination of slots with parameter coefficients), each auxiliary signal is
+//! its definition.
+
+mod lower;
+
+use crate::product::{Arena, Handle, Parameter, Quantity, Signal};
+use crate::symbolic::{ExprId, Pool};
+
+/// A leaf of the program's expressions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Leaf {
+    /// A quantity estimated (or integrated, or simulated) from the samples.
+    Slot(Handle<Slot>),
+    /// A model parameter.
+    Parameter(Handle<Parameter>),
+    /// Time: the copy's rates may read it.
+    Time,
+    /// The copy's `k`-th state (its rates only): the model's states, then its integrals.
+    State(u32),
+    /// The copy's `j`-th input, in the order of [`CopyRates::inputs`] (its rates only).
+    Input(u32),
+}
+
+/// An expression of the program.
+pub type Code = ExprId<Leaf>;
+
+/// One raw signal a generator takes, in the order of its `push`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Raw {
+    /// The input or measured signal.
+    pub signal: Signal,
+    /// Its name in the model.
+    pub name: String,
+    /// The highest derivative of it that the residuals read.
+    pub order: u32,
+}
+
+/// What one channel of the estimator bank is fed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// A raw signal as sampled.
+    Raw(Handle<Raw>),
+    /// The trapezoidal integral of a raw signal from the first sample.
+    Integral(Handle<Raw>),
+}
+
+/// One signal the estimator bank estimates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Channel {
+    /// What it is fed.
+    pub source: Source,
+    /// The highest derivative read of it (0: its value only).
+    pub order: u32,
+}
+
+/// How a slot gets its value at the instant of the estimates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Fill {
+    /// The bank's estimate of a channel's derivative.
+    Estimate {
+        /// The channel.
+        channel: Handle<Channel>,
+        /// The derivative's order (0: the value).
+        order: u32,
+    },
+    /// The trapezoidal integral, over the instants of the estimates, of an expression of the
+    /// slots before it.
+    Integral(Code),
+    /// A state of the copy of the model (its position in the copy's states).
+    Simulated(u32),
+}
+
+/// One quantity the residuals read: a field of the generated `Signals`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slot {
+    /// What it is, in the product's terms.
+    pub quantity: Quantity,
+    /// How it is filled.
+    pub fill: Fill,
+}
+
+/// How a residual's expression becomes the residual.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Evaluation {
+    /// The expression is the residual.
+    Direct,
+    /// The expression is a running value `F + ∫A`; the residual is its change since a
+    /// reference instant (`bondgraph::Reference`).
+    Integrated,
+}
+
+/// One residual.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Residual {
+    /// The ARR's name.
+    pub name: String,
+    /// What is evaluated.
+    pub code: Code,
+    /// How it becomes the residual.
+    pub evaluation: Evaluation,
+}
+
+/// One sensitivity `∂r/∂θ` of a residual to an uncertain parameter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sensitivity {
+    /// The residual, by position.
+    pub residual: usize,
+    /// The parameter.
+    pub parameter: Handle<Parameter>,
+    /// `∂r/∂θ`.
+    pub code: Code,
+}
+
+/// The copy of the model that simulated residuals run, integrated from rest on the raw
+/// inputs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CopyRates {
+    /// Each state's rate: the model's state equations, then the argument of each integral
+    /// they hold.
+    pub rates: Vec<Code>,
+    /// The states' names: the model's, then `int1`, `int2`…
+    pub names: Vec<String>,
+    /// The raw signals the rates read as [`Leaf::Input`]s, in order.
+    pub inputs: Vec<Handle<Raw>>,
+}
+
+/// The residual program of a compiled model (see the module's documentation).
+#[derive(Clone, Debug)]
+pub struct Program {
+    /// The raw signals, in the order a generator takes them.
+    pub raw: Arena<Raw>,
+    /// The bank's channels: the raw signals whose derivatives are read, the other raw
+    /// signals, then the integrals.
+    pub channels: Arena<Channel>,
+    /// How many of the first channels need derivatives.
+    pub differentiated: usize,
+    /// The quantities the residuals read, in the order they are filled.
+    pub slots: Arena<Slot>,
+    /// Every expression of the program.
+    pub code: Pool<Leaf>,
+    /// The residuals, in the ARRs' order.
+    pub residuals: Vec<Residual>,
+    /// Every sensitivity of every residual, residual by residual.
+    pub sensitivities: Vec<Sensitivity>,
+    /// Expressions with a name of their own (the auxiliary signals the residuals read:
+    /// `z1`, `z1_d1`…), which a backend may bind to that name.
+    pub named: Vec<(Code, String)>,
+    /// The copy of the model, when a simulated residual reads one.
+    pub copy: Option<CopyRates>,
+}
+
+impl Program {
+    /// The highest derivative any channel needs.
+    pub fn top_order(&self) -> u32 {
+        self.channels.values().map(|c| c.order).max().unwrap_or(0)
+    }
+
+    /// The slot holding `q`, if the residuals read it.
+    pub fn slot(&self, q: Quantity) -> Option<Handle<Slot>> {
+        self.slots.find(|s| s.quantity == q)
+    }
+}

@@ -1,0 +1,68 @@
+//! The copy of the model that simulated residuals run.
+
+use bondgraph::Replay;
+use bondgraph_core::program::{CopyRates, Fill, Leaf, Program};
+use bondgraph_core::Tape;
+
+use crate::generator::fold;
+
+/// The copy of the model, stepped on the raw inputs as the generated code steps it.
+pub(crate) struct CopyRun {
+    pub(crate) replay: Replay,
+    rates: Tape<Leaf>,
+    /// The raw index of each input the rates read.
+    inputs: Vec<usize>,
+    /// Each simulated slot and the copy's state it reads.
+    pub(crate) read: Vec<(usize, usize)>,
+    /// Reused between samples.
+    u: Vec<f64>,
+    scratch: Vec<f64>,
+    out: Vec<f64>,
+}
+
+impl CopyRun {
+    /// The copy `copy` of `program`, with the parameters `params`.
+    pub(crate) fn new(program: &Program, copy: &CopyRates, params: &[f64]) -> CopyRun {
+        let (pool, rates) = fold(&program.code, &copy.rates, params);
+        let read = (program.slots.iter())
+            .filter_map(|(h, s)| match s.fill {
+                Fill::Simulated(k) => Some((h.index(), k as usize)),
+                _ => None,
+            })
+            .collect();
+        CopyRun {
+            replay: Replay::new(&vec![0.0; copy.rates.len()]),
+            rates: Tape::new(&pool, &rates),
+            inputs: copy.inputs.iter().map(|h| h.index()).collect(),
+            read,
+            u: vec![0.0; copy.inputs.len()],
+            scratch: Vec::new(),
+            out: Vec::new(),
+        }
+    }
+
+    /// Advances the copy to the raw samples at `t`.
+    pub(crate) fn push(&mut self, t: f64, raw: &[f64]) {
+        for (u, &k) in self.u.iter_mut().zip(&self.inputs) {
+            *u = raw.get(k).copied().unwrap_or(f64::NAN);
+        }
+        let CopyRun {
+            replay,
+            rates,
+            u,
+            scratch,
+            out,
+            ..
+        } = self;
+        replay.push(t, u, |t, x, u, dx| {
+            let leaf = |l: Leaf| match l {
+                Leaf::State(k) => x.get(k as usize).copied().unwrap_or(f64::NAN),
+                Leaf::Input(j) => u.get(j as usize).copied().unwrap_or(f64::NAN),
+                Leaf::Time => t,
+                Leaf::Slot(_) | Leaf::Parameter(_) => f64::NAN,
+            };
+            rates.values_into(leaf, |_| f64::NAN, scratch, out);
+            dx.copy_from_slice(out);
+        });
+    }
+}

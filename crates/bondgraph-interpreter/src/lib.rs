@@ -1,0 +1,11 @@
+//! Runs a residual [`Program`](bondgraph_core::program::Program) on samples, as the
+//! residual code bgc generates from the same program runs it: the same runtime estimators,
+//! integrators and copy of the model, in the same order, so the two agree to rounding.
+//! `bgc residuals` and the tests run models through it without compiling Rust.
+
+mod copy;
+mod fit;
+mod generator;
+
+pub use fit::{Fit, Integration};
+pub use generator::{Estimate, Generator};
