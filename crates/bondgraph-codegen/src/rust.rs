@@ -9,11 +9,12 @@
 //! signals they read) is computed once, as a `let`: the bench's `exp(gamma (N y2_int −
 //! y1_int))` is evaluated once per call.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 
+use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Slot, Source};
 use bondgraph_core::{
-    children, Arr, Auxiliary, BinOp, Compiled, Expr, Func, Handle, Input, Node, Printer, Quantity,
-    Readings, Realisation, ResidualForm, Signal, Symbol,
+    children, BinOp, Compiled, Func, Handle, Node, Pool, Printer, Quantity, Readings, Realisation,
+    ResidualForm, Signal,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
@@ -57,26 +58,25 @@ pub fn ident(name: &str) -> Ident {
     }
 }
 
-/// One field of `Signals`.
+/// One field of `Signals`: one slot of the program.
 struct Field {
     name: String,
-    quantity: Quantity,
+    slot: Handle<Slot>,
     doc: String,
 }
 
-/// The fields of `Signals`, in the order of the product's readings: per signal its value,
-/// derivatives and integral, then the integrals of nonlinear expressions.
-fn fields(c: &Compiled, readings: &Readings) -> Vec<Field> {
+/// The fields of `Signals`, one per slot of the program, in order: per signal its value,
+/// derivatives and integral, then the integrals of nonlinear expressions, then the copy's
+/// states.
+fn fields(c: &Compiled, program: &Program, readings: &Readings) -> Vec<Field> {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
     let name_of = |signal: Signal| match signal {
         Signal::Input(u) => (&c.inputs[u].name, "input"),
         Signal::Sensor(s) => (&c.sensors[s].name, "measured signal"),
     };
-    readings
-        .quantities
-        .iter()
-        .map(|&quantity| {
-            let (name, doc) = match quantity {
+    (program.slots.iter())
+        .map(|(slot, s)| {
+            let (name, doc) = match s.quantity {
                 Quantity::Derivative(signal, 0) => {
                     let (name, what) = name_of(signal);
                     (name.clone(), format!("The {what} `{name}`."))
@@ -99,7 +99,7 @@ fn fields(c: &Compiled, readings: &Readings) -> Vec<Field> {
                     format!("int{}", k + 1),
                     format!(
                         "`int({})`: the integral from the start of the record of an expression that is not linear in the signals.",
-                        printer.text(readings.nonlinear[k])
+                        readings.nonlinear.get(k).map_or_else(String::new, |&e| printer.text(e))
                     ),
                 ),
                 Quantity::Simulated(k) => {
@@ -110,11 +110,7 @@ fn fields(c: &Compiled, readings: &Readings) -> Vec<Field> {
                     )
                 }
             };
-            Field {
-                name,
-                quantity,
-                doc,
-            }
+            Field { name, slot, doc }
         })
         .collect()
 }
@@ -125,30 +121,39 @@ const PRODUCT: u8 = 2;
 const UNARY: u8 = 3;
 const ATOM: u8 = 5;
 
-/// How the right-hand sides of the copy of the model read its states and inputs:
-/// `x[k]`, `u[j]`, and each `int(..)` as the state after the model's.
-#[derive(Clone)]
-struct CopyLeaves {
-    states: usize,
-    integrals: Vec<Expr>,
-    inputs: Vec<Handle<Input>>,
+/// Where program code is printed: what time and the copy's leaves are called there.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Place {
+    /// `residuals` and `bounds`: slots as `s.NAME`; they read no time.
+    Residuals,
+    /// `push`, integrating a nonlinear expression at the estimates' instant `at`.
+    Push,
+    /// `copy_rates`: states `x[k]`, inputs `u[j]`, time `t`.
+    Copy,
 }
 
-/// Lowers product expressions to Rust, with shared nodes bound once.
-struct Lowering<'c> {
-    c: &'c Compiled,
-    /// Lowering the copy's rates instead of residuals.
-    copy: Option<CopyLeaves>,
-    /// Each signal quantity's field.
-    field: HashMap<Quantity, Ident>,
+/// Prints program code as Rust, with shared nodes bound once.
+struct Lowering<'p> {
+    c: &'p Compiled,
+    program: &'p Program,
+    place: Place,
+    /// Each slot's field.
+    field: HashMap<Handle<Slot>, Ident>,
     /// Nodes already bound to a `let`.
-    bound: HashMap<Expr, Ident>,
-    /// Each auxiliary signal's derivative, once bound.
-    auxiliary: HashMap<(Handle<Auxiliary>, u32), Ident>,
-    others: Vec<Expr>,
+    bound: HashMap<Code, Ident>,
 }
 
-impl Lowering<'_> {
+impl<'p> Lowering<'p> {
+    fn new(c: &'p Compiled, program: &'p Program, fields: &[Field], place: Place) -> Self {
+        Lowering {
+            c,
+            program,
+            place,
+            field: fields.iter().map(|f| (f.slot, ident(&f.name))).collect(),
+            bound: HashMap::new(),
+        }
+    }
+
     fn wrap(ts: TokenStream, prec: u8, needed: u8) -> TokenStream {
         if prec < needed {
             quote!((#ts))
@@ -158,20 +163,20 @@ impl Lowering<'_> {
     }
 
     /// `e` as Rust, with its binding strength.
-    fn expr(&self, e: Expr) -> (TokenStream, u8) {
+    fn expr(&self, e: Code) -> (TokenStream, u8) {
         if let Some(name) = self.bound.get(&e) {
             return (quote!(#name), ATOM);
         }
-        match self.c.exprs.node(e) {
+        match self.program.code.node(e) {
             Node::Num(bits) => number(f64::from_bits(bits)),
-            Node::Leaf(s) => (self.leaf(s), ATOM),
+            Node::Leaf(l) => (self.leaf(l), ATOM),
             Node::Neg(a) => {
                 let a = self.operand(a, UNARY);
                 (quote!(-#a), UNARY)
             }
             Node::Binary(BinOp::Pow, a, b) => {
                 let base = self.receiver(a);
-                match self.c.exprs.node(b) {
+                match self.program.code.node(b) {
                     Node::Num(bits)
                         if f64::from_bits(bits).fract() == 0.0
                             && f64::from_bits(bits).abs() < 64.0 =>
@@ -230,32 +235,20 @@ impl Lowering<'_> {
                 };
                 (ts, ATOM)
             }
-            Node::Int(a) if self.copy.is_some() => {
-                let copy = self.copy.as_ref().map_or((0, None), |c| {
-                    (c.states, c.integrals.iter().position(|&e| e == a))
-                });
-                let k = count(copy.0 + copy.1.unwrap_or(0));
-                (quote!(x[#k]), ATOM)
-            }
-            Node::Int(a) => {
-                let single = self
-                    .c
-                    .linear_terms(a)
-                    .is_some_and(|t| t.len() == 1 && t[0].0 && t[0].1.is_none());
-                (self.integral(a), if single { ATOM } else { SUM })
-            }
+            // The program holds no integral (each is a slot or a state).
+            Node::Int(_) => (quote!(f64::NAN), ATOM),
         }
     }
 
-    fn operand(&self, e: Expr, needed: u8) -> TokenStream {
+    fn operand(&self, e: Code, needed: u8) -> TokenStream {
         let (ts, prec) = self.expr(e);
         Self::wrap(ts, prec, needed)
     }
 
     /// `e` as the receiver of a method call: a number needs its type (`2.0_f64.exp()`).
-    fn receiver(&self, e: Expr) -> TokenStream {
-        match self.c.exprs.node(e) {
-            Node::Num(bits) if !self.bound.contains_key(&e) => {
+    fn receiver(&self, e: Code) -> TokenStream {
+        match self.program.code.node(e) {
+            Node::Num(bits) if !self.bound.contains_key(&e) && f64::from_bits(bits).is_finite() => {
                 let lit = Literal::f64_suffixed(f64::from_bits(bits));
                 quote!((#lit))
             }
@@ -263,70 +256,64 @@ impl Lowering<'_> {
         }
     }
 
-    fn leaf(&self, s: Symbol) -> TokenStream {
-        let field = |q: Quantity| match self.field.get(&q) {
-            Some(name) => quote!(s.#name),
-            // Every quantity an ARR reads has a field (see `fields`).
-            None => quote!(f64::NAN),
-        };
-        if let Some(copy) = &self.copy {
-            match s {
-                Symbol::State(k) => {
-                    let k = count(k.index());
-                    return quote!(x[#k]);
-                }
-                Symbol::Input(u, 0) => {
-                    let j = count(copy.inputs.iter().position(|&i| i == u).unwrap_or(0));
-                    return quote!(u[#j]);
-                }
-                Symbol::Time => return quote!(t),
-                _ => {}
-            }
-        }
-        match s {
-            Symbol::Parameter(p) => {
+    fn leaf(&self, l: Leaf) -> TokenStream {
+        match (l, self.place) {
+            (Leaf::Slot(h), _) => match self.field.get(&h) {
+                Some(name) => quote!(s.#name),
+                None => quote!(f64::NAN),
+            },
+            (Leaf::Parameter(p), _) => {
                 let name = ident(&self.c.parameters[p].name);
                 quote!(p.#name)
             }
-            Symbol::Input(u, n) => field(Quantity::Derivative(Signal::Input(u), n)),
-            Symbol::Sensor(h, n) => field(Quantity::Derivative(Signal::Sensor(h), n)),
-            Symbol::Auxiliary(a, n) => match self.auxiliary.get(&(a, n)) {
-                Some(name) => quote!(#name),
-                None => quote!(f64::NAN),
-            },
-            // A simulated residual reads the states of the copy of the model.
-            Symbol::State(k) => field(Quantity::Simulated(k)),
-            // ARRs read neither time nor the loops of the state equations.
-            Symbol::Time | Symbol::Loop(_) => quote!(f64::NAN),
+            (Leaf::Time, Place::Copy) => quote!(t),
+            (Leaf::Time, Place::Push) => quote!(at),
+            (Leaf::State(k), Place::Copy) => {
+                let k = count(k as usize);
+                quote!(x[#k])
+            }
+            (Leaf::Input(j), Place::Copy) => {
+                let j = count(j as usize);
+                quote!(u[#j])
+            }
+            // Residuals read neither time nor the copy's own leaves.
+            _ => quote!(f64::NAN),
         }
     }
 
-    /// `int(a)`: the integrals of the signals it combines linearly, or its own field.
-    fn integral(&self, a: Expr) -> TokenStream {
-        if let Some(k) = self.others.iter().position(|&e| e == a) {
-            let name = &self.field[&Quantity::Nonlinear(k)];
-            return quote!(s.#name);
-        }
-        let mut out: Option<TokenStream> = None;
-        for (positive, coefficient, signal) in self.c.linear_terms(a).unwrap_or_default() {
-            let Some(name) = self.field.get(&Quantity::Integral(signal)) else {
+    /// `let`s for every node of `roots` used more than once and for each named node (named
+    /// `name`, the others `prefix1`, `prefix2`…), bound from here on.
+    fn bind_shared(
+        &mut self,
+        roots: &[Code],
+        named: &[(Code, String)],
+        prefix: &str,
+    ) -> Vec<TokenStream> {
+        let code = &self.program.code;
+        let mut all = roots.to_vec();
+        all.extend(named.iter().map(|&(e, _)| e));
+        let (order, uses) = uses(code, &all);
+        let mut lets = Vec::new();
+        let mut next = 0usize;
+        for id in order {
+            let shared = uses.get(&id).copied().unwrap_or(0) >= 2
+                && !matches!(code.node(id), Node::Num(_) | Node::Leaf(_));
+            let name = named.iter().find(|(e, _)| *e == id).map(|(_, n)| n);
+            if !shared && name.is_none() {
                 continue;
-            };
-            let term = match coefficient {
-                Some(k) => {
-                    let k = self.operand(k, PRODUCT);
-                    quote!(#k * s.#name)
+            }
+            let (value, _) = self.expr(id);
+            let name = match name {
+                Some(name) => format_ident!("{}", name),
+                None => {
+                    next += 1;
+                    format_ident!("{}{}", prefix, next)
                 }
-                None => quote!(s.#name),
             };
-            out = Some(match (out, positive) {
-                (None, true) => term,
-                (None, false) => quote!(-#term),
-                (Some(o), true) => quote!(#o + #term),
-                (Some(o), false) => quote!(#o - #term),
-            });
+            lets.push(quote!(let #name = #value;));
+            self.bound.insert(id, name);
         }
-        out.unwrap_or_else(|| quote!(0.0))
+        lets
     }
 }
 
@@ -337,6 +324,10 @@ fn count(n: usize) -> Literal {
 
 /// A number as a Rust literal (negative ones as a negation).
 fn number(x: f64) -> (TokenStream, u8) {
+    if !x.is_finite() {
+        // Only what a context cannot read is lowered to NaN; it never occurs in one.
+        return (quote!(f64::NAN), ATOM);
+    }
     let lit = Literal::f64_unsuffixed(x.abs());
     if x.is_sign_negative() && x != 0.0 {
         (quote!(-#lit), UNARY)
@@ -346,10 +337,10 @@ fn number(x: f64) -> (TokenStream, u8) {
 }
 
 /// How many times each node is reached from `roots` (once per parent edge), children first.
-fn uses(c: &Compiled, roots: &[Expr]) -> (Vec<Expr>, HashMap<Expr, usize>) {
+fn uses(code: &Pool<Leaf>, roots: &[Code]) -> (Vec<Code>, HashMap<Code, usize>) {
     let mut order = Vec::new();
-    let mut count: HashMap<Expr, usize> = HashMap::new();
-    c.exprs.visit_reachable(roots, |id, node| {
+    let mut count: HashMap<Code, usize> = HashMap::new();
+    code.visit_reachable(roots, |id, node| {
         order.push(id);
         for child in children(node) {
             *count.entry(child).or_default() += 1;
@@ -362,49 +353,9 @@ fn uses(c: &Compiled, roots: &[Expr]) -> (Vec<Expr>, HashMap<Expr, usize>) {
 }
 
 /// The body of `residuals`: `let`s for shared nodes and auxiliary signals, then the array.
-fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
-    let roots: Vec<Expr> = c.arrs.iter().map(Arr::evaluated).collect();
-    let read = c.auxiliary_derivatives_read(&roots);
-    let mut all_roots = roots.clone();
-    for &(a, n) in &read {
-        all_roots.push(c.auxiliaries[a].derivatives[n as usize]);
-    }
-    let (order, count) = uses(c, &all_roots);
-    let aux_root: HashMap<Expr, Vec<(Handle<Auxiliary>, u32)>> =
-        read.iter().fold(HashMap::new(), |mut m, &(a, n)| {
-            let e = c.auxiliaries[a].derivatives[n as usize];
-            m.entry(e).or_default().push((a, n));
-            m
-        });
-    let mut lets = Vec::new();
-    let mut next = 0usize;
-    for id in order {
-        let shared = count.get(&id).copied().unwrap_or(0) >= 2
-            && !matches!(c.exprs.node(id), Node::Num(_) | Node::Leaf(_));
-        let named = aux_root.get(&id);
-        if !shared && named.is_none() {
-            continue;
-        }
-        let (value, _) = lower.expr(id);
-        let name = match named.and_then(|v| v.first()) {
-            Some(&(a, n)) => {
-                let aux = &c.auxiliaries[a];
-                match n {
-                    0 => format_ident!("{}", aux.name),
-                    n => format_ident!("{}_d{}", aux.name, n),
-                }
-            }
-            None => {
-                next += 1;
-                format_ident!("t{}", next)
-            }
-        };
-        lets.push(quote!(let #name = #value;));
-        for &key in named.into_iter().flatten() {
-            lower.auxiliary.insert(key, name.clone());
-        }
-        lower.bound.insert(id, name);
-    }
+fn residual_body(lower: &mut Lowering<'_>) -> TokenStream {
+    let roots: Vec<Code> = lower.program.residuals.iter().map(|r| r.code).collect();
+    let lets = lower.bind_shared(&roots, &lower.program.named, "t");
     let values: Vec<TokenStream> = roots.iter().map(|&r| lower.expr(r).0).collect();
     quote! {
         #(#lets)*
@@ -412,45 +363,19 @@ fn residual_body(lower: &mut Lowering<'_>, c: &Compiled) -> TokenStream {
     }
 }
 
-/// Each ARR's bound from parameter uncertainty, `Σ |∂r/∂θ| u.θ`, with the nodes its
+/// Each residual's bound from parameter uncertainty, `Σ |∂r/∂θ| u.θ`, with the nodes its
 /// sensitivities share computed once.
-fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
-    let mut lower = Lowering {
-        c,
-        field: template.field.clone(),
-        copy: None,
-        bound: HashMap::new(),
-        auxiliary: HashMap::new(),
-        others: template.others.clone(),
-    };
-    let roots: Vec<Expr> = c
-        .arrs
-        .iter()
-        .flat_map(|a| a.sensitivities.iter().flatten().map(|&(_, e)| e))
-        .collect();
-    let (order, count) = uses(c, &roots);
-    let mut lets = Vec::new();
-    for id in order {
-        let shared = count.get(&id).copied().unwrap_or(0) >= 2
-            && !matches!(c.exprs.node(id), Node::Num(_) | Node::Leaf(_));
-        if shared {
-            let (value, _) = lower.expr(id);
-            let name = format_ident!("b{}", lets.len() + 1);
-            lets.push(quote!(let #name = #value;));
-            lower.bound.insert(id, name);
-        }
-    }
-    let sums: Vec<TokenStream> = c
-        .arrs
-        .iter()
-        .map(|a| {
-            let terms: Vec<TokenStream> = a
-                .sensitivities
-                .iter()
-                .flatten()
-                .map(|&(p, e)| {
-                    let (value, _) = lower.expr(e);
-                    let name = ident(&c.parameters[p].name);
+fn bounds_body(lower: &mut Lowering<'_>) -> TokenStream {
+    let program = lower.program;
+    let roots: Vec<Code> = program.sensitivities.iter().map(|s| s.code).collect();
+    let lets = lower.bind_shared(&roots, &[], "b");
+    let sums: Vec<TokenStream> = (0..program.residuals.len())
+        .map(|k| {
+            let terms: Vec<TokenStream> = (program.sensitivities.iter())
+                .filter(|s| s.residual == k)
+                .map(|s| {
+                    let (value, _) = lower.expr(s.code);
+                    let name = ident(&lower.c.parameters[s.parameter].name);
                     quote!(f64::abs(#value) * u.#name)
                 })
                 .collect();
@@ -467,48 +392,21 @@ fn bounds_body(c: &Compiled, template: &Lowering<'_>) -> TokenStream {
     }
 }
 
-/// The copy of the model simulated residuals run: how its rates read states and inputs, and
-/// the items `COPY_STATES`, `COPY_INPUTS` and `copy_rates`; `None` when no residual runs one.
-fn copy_items(c: &Compiled, readings: &Readings) -> Option<(CopyLeaves, TokenStream)> {
-    let copy = readings.copy.as_ref()?;
-    let inputs = &copy.inputs;
-    let leaves = CopyLeaves {
-        states: c.states.len(),
-        integrals: copy.integrals.clone(),
-        inputs: inputs.clone(),
-    };
-    let mut lower = Lowering {
-        c,
-        copy: Some(leaves.clone()),
-        field: HashMap::new(),
-        bound: HashMap::new(),
-        auxiliary: HashMap::new(),
-        others: Vec::new(),
-    };
-    let (order, uses) = uses(c, &copy.rates);
-    let mut lets = Vec::new();
-    for id in order {
-        let shared = uses.get(&id).copied().unwrap_or(0) >= 2
-            && !matches!(
-                c.exprs.node(id),
-                Node::Num(_) | Node::Leaf(_) | Node::Int(_)
-            );
-        if shared {
-            let (value, _) = lower.expr(id);
-            let name = format_ident!("t{}", lets.len() + 1);
-            lets.push(quote!(let #name = #value;));
-            lower.bound.insert(id, name);
-        }
-    }
+/// The items `COPY_STATES`, `COPY_STATE_NAMES`, `COPY_INPUTS` and `copy_rates` of the copy
+/// of the model simulated residuals run; `None` when no residual runs one.
+fn copy_items(lower: &mut Lowering<'_>) -> Option<TokenStream> {
+    let program = lower.program;
+    let copy = program.copy.as_ref()?;
+    let lets = lower.bind_shared(&copy.rates, &[], "t");
     let rates: Vec<TokenStream> = copy.rates.iter().map(|&r| lower.expr(r).0).collect();
     let slots: Vec<Literal> = (0..rates.len()).map(count).collect();
     let m = count(rates.len());
-    let names: Vec<String> = (c.states.values().map(|s| s.name.clone()))
-        .chain((1..=copy.integrals.len()).map(|k| format!("int{k}")))
+    let names = &copy.names;
+    let input_names: Vec<&str> = (copy.inputs.iter())
+        .map(|&h| program.raw[h].name.as_str())
         .collect();
-    let input_names: Vec<&str> = inputs.iter().map(|&u| c.inputs[u].name.as_str()).collect();
-    let k = count(inputs.len());
-    let items = quote! {
+    let k = count(copy.inputs.len());
+    Some(quote! {
         /// How many states the copy of the model that simulated residuals run has: the
         /// model's, then one per `int(..)` its state equations hold; all zero at the start
         /// (the model at rest).
@@ -527,32 +425,20 @@ fn copy_items(c: &Compiled, readings: &Readings) -> Option<(CopyLeaves, TokenStr
             #(#lets)*
             #(dx[#slots] = #rates;)*
         }
-    };
-    Some((leaves, items))
+    })
 }
 
 /// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
-/// streaming `ResidualGenerator`.
+/// streaming `ResidualGenerator`, printed from the model's residual program.
 pub fn tokens(c: &Compiled) -> TokenStream {
+    let program = c.program();
     let readings = c.readings();
-    let others = readings.nonlinear.clone();
-    let fields = fields(c, &readings);
-    let mut lower = Lowering {
-        c,
-        field: fields
-            .iter()
-            .map(|f| (f.quantity, ident(&f.name)))
-            .collect(),
-        copy: None,
-        bound: HashMap::new(),
-        auxiliary: HashMap::new(),
-        others: others.clone(),
-    };
+    let fields = fields(c, &program, &readings);
     let params = params(c);
     let signals = signals(&fields);
-    let n = count(c.arrs.len());
-    let body = residual_body(&mut lower, c);
-    let bounds = bounds_body(c, &lower);
+    let n = count(program.residuals.len());
+    let body = residual_body(&mut Lowering::new(c, &program, &fields, Place::Residuals));
+    let bounds = bounds_body(&mut Lowering::new(c, &program, &fields, Place::Residuals));
     let printer = Printer::new(&c.exprs, |s| names::latex(c, s));
     let docs: Vec<String> = c
         .arrs
@@ -578,17 +464,20 @@ pub fn tokens(c: &Compiled) -> TokenStream {
             }
         })
         .collect();
-    let integrated: Vec<bool> = (c.arrs.iter())
-        .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+    let integrated: Vec<bool> = (program.residuals.iter())
+        .map(|r| r.evaluation == Evaluation::Integrated)
         .collect();
-    let arr_names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let arr_names: Vec<&str> = program.residuals.iter().map(|r| r.name.as_str()).collect();
     let simulated: Vec<bool> = (c.arrs.iter())
         .map(|a| a.form == ResidualForm::Simulated)
         .collect();
     let fsm = fsm(c);
-    let copy = copy_items(c, &readings);
-    let generator = generator(c, &readings, &fields, &lower, copy.as_ref().map(|x| &x.0));
-    let copy = copy.map(|x| x.1);
+    let copy = copy_items(&mut Lowering::new(c, &program, &fields, Place::Copy));
+    let generator = generator(
+        &program,
+        &fields,
+        &Lowering::new(c, &program, &fields, Place::Push),
+    );
     quote! {
         #params
         #signals
@@ -763,113 +652,79 @@ fn fsm(c: &Compiled) -> TokenStream {
     }
 }
 
-/// The streaming generator: raw samples in, residuals out.
-fn generator(
-    c: &Compiled,
-    readings: &Readings,
-    fields: &[Field],
-    lower: &Lowering<'_>,
-    copy: Option<&CopyLeaves>,
-) -> TokenStream {
-    let raw: BTreeMap<Signal, u32> = readings.raw.iter().copied().collect();
-    let integrated = &readings.integrated;
-    let others = &readings.nonlinear;
-    let signal_name = |s: Signal| match s {
-        Signal::Input(u) => c.inputs[u].name.clone(),
-        Signal::Sensor(h) => c.sensors[h].name.clone(),
-    };
-    let raw_names: Vec<String> = raw.keys().map(|&s| signal_name(s)).collect();
-    let raw_index: HashMap<Signal, usize> = raw.keys().enumerate().map(|(i, &s)| (s, i)).collect();
-    let orders: Vec<u32> = raw.values().copied().collect();
-    let order_literals: Vec<Literal> = orders.iter().map(|&n| Literal::u32_unsuffixed(n)).collect();
-    let r = count(raw.len());
-    let top = orders.iter().copied().max().unwrap_or(0);
+/// The streaming generator: raw samples in, residuals out, as the program says.
+fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> TokenStream {
+    let raw_names: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    let order_literals: Vec<Literal> = (program.raw.values())
+        .map(|r| Literal::u32_unsuffixed(r.order))
+        .collect();
+    let r = count(program.raw.len());
+    let top = program.top_order();
     let top_literal = Literal::u32_unsuffixed(top);
-    let i = count(integrated.len());
-    let channels = count(raw.len() + integrated.len());
-    // Channels: the raw signals whose derivatives are read, then the other raw signals, then
-    // the integrals; the bank differentiates the first ones only.
-    let differentiated = orders.iter().filter(|&&n| n > 0).count();
-    let mut channel_of_raw = vec![0; orders.len()];
-    let ranked = (0..orders.len()).filter(|&k| orders[k] > 0);
-    for (channel, k) in ranked
-        .chain((0..orders.len()).filter(|&k| orders[k] == 0))
-        .enumerate()
-    {
-        channel_of_raw[k] = channel;
-    }
-    let differentiated_literal = count(differentiated);
+    let channels = count(program.channels.len());
+    let differentiated_literal = count(program.differentiated);
     // The bank's estimates by order, bound by a slice pattern that cannot panic.
     let by_order: Vec<Ident> = (0..=top).map(|k| format_ident!("e{}", k)).collect();
-    let raw_slots: Vec<Literal> = (0..raw.len()).map(count).collect();
-    let raw_channels: Vec<Literal> = channel_of_raw.iter().map(|&c| count(c)).collect();
-    let integral_slots: Vec<Literal> = (0..integrated.len())
-        .map(|k| count(raw.len() + k))
+    // What each channel is fed: a raw sample, or the next value of a raw signal's integral.
+    let mut integrals = 0usize;
+    let feeds: Vec<TokenStream> = (program.channels.iter())
+        .map(|(h, channel)| {
+            let x = count(h.index());
+            match channel.source {
+                Source::Raw(k) => {
+                    let k = count(k.index());
+                    quote!(x[#x] = raw[#k];)
+                }
+                Source::Integral(k) => {
+                    let (k, i) = (count(k.index()), count(integrals));
+                    integrals += 1;
+                    quote!(x[#x] = self.integrals[#i].push(t, raw[#k]);)
+                }
+            }
+        })
         .collect();
-    let integral_index: Vec<Literal> = (0..integrated.len()).map(count).collect();
-    let integrated_raw: Vec<Literal> = integrated.iter().map(|s| count(raw_index[s])).collect();
-    // How each field is filled from the estimates: `e{order}[channel]`.
+    let i = count(integrals);
+    // How each field is filled, in the program's order: from the estimates (`e{order}[channel]`),
+    // from the copy, or by integrating an expression of the fields before it.
+    let mut others = 0usize;
     let fill: Vec<TokenStream> = fields
         .iter()
         .map(|f| {
             let name = ident(&f.name);
-            match f.quantity {
-                Quantity::Derivative(s, n) => {
-                    let channel = count(channel_of_raw[raw_index[&s]]);
-                    let order = format_ident!("e{}", n);
+            match program.slots[f.slot].fill {
+                Fill::Estimate { channel, order } => {
+                    let channel = count(channel.index());
+                    let order = format_ident!("e{}", order);
                     quote!(s.#name = #order[#channel];)
                 }
-                Quantity::Integral(s) => {
-                    let k = integrated.iter().position(|&x| x == s).unwrap_or(0);
-                    let channel = count(raw.len() + k);
-                    quote!(s.#name = e0[#channel];)
+                Fill::Simulated(k) => {
+                    let k = count(k as usize);
+                    quote!(s.#name = xh[#k];)
                 }
-                Quantity::Nonlinear(_) | Quantity::Simulated(_) => quote!(),
+                Fill::Integral(integrand) => {
+                    let k = count(others);
+                    others += 1;
+                    let (integrand, _) = lower.expr(integrand);
+                    quote!(s.#name = self.others[#k].push(at, { #integrand });)
+                }
             }
         })
         .collect();
-    let o = count(others.len());
-    // Inside `push`, none of `residuals`' `let`s exist: a lowering of its own.
-    let fresh = Lowering {
-        c,
-        field: lower.field.clone(),
-        copy: None,
-        bound: HashMap::new(),
-        auxiliary: HashMap::new(),
-        others: Vec::new(),
-    };
-    let integrands: Vec<TokenStream> = others.iter().map(|&e| fresh.expr(e).0).collect();
-    let other_fields: Vec<Ident> = (0..others.len())
-        .map(|k| format_ident!("int{}", k + 1))
-        .collect();
-    let other_index: Vec<Literal> = (0..others.len()).map(count).collect();
-    let mut channel_orders = vec![0; raw.len() + integrated.len()];
-    for (k, &n) in orders.iter().enumerate() {
-        channel_orders[channel_of_raw[k]] = n;
-    }
-    let channel_orders: Vec<Literal> = channel_orders
-        .into_iter()
-        .map(Literal::u32_unsuffixed)
+    let o = count(others);
+    let channel_orders: Vec<Literal> = (program.channels.values())
+        .map(|c| Literal::u32_unsuffixed(c.order))
         .collect();
     // The residuals realised by integration, each with its reference.
-    let integrated: Vec<Literal> = (c.arrs.iter().enumerate())
-        .filter(|(_, a)| matches!(a.realisation, Realisation::Integrated(_)))
+    let integrated: Vec<Literal> = (program.residuals.iter().enumerate())
+        .filter(|(_, r)| r.evaluation == Evaluation::Integrated)
         .map(|(k, _)| count(k))
         .collect();
     let references = count(integrated.len());
     let reference_index: Vec<Literal> = (0..integrated.len()).map(count).collect();
-    let (copy_field, copy_init, copy_push, copy_read) = match copy {
+    let (copy_field, copy_init, copy_push, copy_read) = match &program.copy {
         None => Default::default(),
         Some(copy) => {
-            let inputs: Vec<Literal> = (copy.inputs.iter())
-                .map(|&u| count(raw_index.get(&Signal::Input(u)).copied().unwrap_or(0)))
-                .collect();
-            let (hats, slots): (Vec<Ident>, Vec<Literal>) = (fields.iter())
-                .filter_map(|f| match f.quantity {
-                    Quantity::Simulated(k) => Some((ident(&f.name), count(k.index()))),
-                    _ => None,
-                })
-                .unzip();
+            let inputs: Vec<Literal> = copy.inputs.iter().map(|h| count(h.index())).collect();
             (
                 quote!(copy: ::bondgraph::Replay,),
                 quote!(copy: ::bondgraph::Replay::new(&[0.0; COPY_STATES]),),
@@ -879,10 +734,7 @@ fn generator(
                         copy_rates(&params, t, x, u, dx)
                     });
                 },
-                quote! {
-                    let xh = self.copy.at(at)?;
-                    #(s.#hats = xh[#slots];)*
-                },
+                quote!(let xh = self.copy.at(at)?;),
             )
         }
     };
@@ -991,22 +843,15 @@ fn generator(
             pub fn push(&mut self, t: f64, raw: [f64; #r]) -> Option<[f64; RESIDUAL_COUNT]> {
                 #copy_push
                 let mut x = [0.0; CHANNELS];
-                #(x[#raw_channels] = raw[#raw_slots];)*
-                #(
-                    x[#integral_slots] =
-                        self.integrals[#integral_index].push(t, raw[#integrated_raw]);
-                )*
+                #(#feeds)*
                 let at = t - self.bank.delay();
                 let [#(#by_order,)* ..] = self.bank.push(x)? else {
                     return None;
                 };
-                let mut s = Signals::default();
-                #(#fill)*
                 #copy_read
                 let p = &self.params;
-                #(
-                    s.#other_fields = self.others[#other_index].push(at, { #integrands });
-                )*
+                let mut s = Signals::default();
+                #(#fill)*
                 let mut r = residuals(p, &s);
                 #(r[#integrated] = self.references[#reference_index].push(r[#integrated]);)*
                 self.last = s;
