@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use bondgraph::{Episode, Threshold};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise};
-pub use bondgraph_interpreter::{Fit, Generator, Integration};
+pub use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
 use crate::calibrate::{self, Walk};
 use crate::cli::{self, Failure};
@@ -40,6 +40,13 @@ pub struct ResidualArgs {
     /// noise; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
+    /// Estimate with Poisson filters `(ω/(s + ω))ⁿ` of cutoff ω = W rad/s instead of
+    /// Savitzky–Golay fits: the same filter on every signal, `n` one above the highest
+    /// derivative read, so that an ARR linear in the signals holds exactly on the filtered
+    /// signals; a lower cutoff lets less noise through and shows a fault later (about n/ω
+    /// seconds).
+    #[arg(long, value_name = "W", conflicts_with_all = ["window", "degree"])]
+    cutoff: Option<f64>,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
     /// ARRs read if higher].
     #[arg(long, value_name = "D")]
@@ -114,6 +121,20 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         return Err(Failure::Invalid);
     }
     let program = c.program();
+    if let Some(w) = args.cutoff {
+        if !(w.is_finite() && w > 0.0) {
+            eprintln!("error: --cutoff must be a positive number of rad/s, not {w}");
+            return Err(Failure::Usage);
+        }
+        if program.copy.is_some() {
+            // The copy's states are not filtered: against filtered signals they would lag.
+            eprintln!(
+                "error: --cutoff: the simulated residuals compare signals with a copy of the \
+                 model that the filter does not see; use Savitzky-Golay fits (--window) for them"
+            );
+            return Err(Failure::Usage);
+        }
+    }
     let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
     let data_name = args.data.display().to_string();
     let (_, bytes) = cli::read(&args.data)?;
@@ -126,10 +147,13 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
     let build = |window: usize, integration: &[Integration]| {
+        let estimator = match args.cutoff {
+            Some(cutoff) => Estimator::Poisson { cutoff },
+            None => Estimator::SavitzkyGolay { window, degree },
+        };
         let fit = Fit {
             step: data.step,
-            window,
-            degree,
+            estimator,
             integration: integration.to_vec(),
         };
         Generator::new(&c, &program, &params, &fit).map_err(|e| {
@@ -137,7 +161,15 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             Failure::Usage
         })
     };
-    let mut window = args.window.unwrap_or(calibrate::WINDOWS[0]);
+    // A filter's window: the samples of twice its delay, for the choices that scale with it.
+    let filter_window = |w: f64| {
+        let delay = f64::from(program.top_order() + 1) / w / data.step;
+        2 * (delay.ceil() as usize).min(data.time.len() / 4) + 1
+    };
+    let mut window = match args.cutoff {
+        Some(w) => filter_window(w),
+        None => args.window.unwrap_or(calibrate::WINDOWS[0]),
+    };
     let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
     // Where a residual taken from the start has its threshold grow with its noise's walk.
     let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
@@ -160,7 +192,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             eprintln!("error: --false-alarm-rate must be in [0, 1) and --margin non-negative");
             return Err(Failure::Usage);
         }
-        if args.window.is_none() {
+        if args.window.is_none() && args.cutoff.is_none() {
             window = calibrate::longest_steady_window(&|w| build(w, &integration), &healthy)?;
             eprintln!(
                 "note: {name}: estimates over {window} samples, the longest window up to which \

@@ -873,6 +873,19 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
             }
         }
 
+        impl ResidualGenerator<::bondgraph::Each<::bondgraph::PoissonFilter, CHANNELS>> {
+            /// A generator with the same Poisson filter `(ω/(s + ω))ⁿ` on every signal, of
+            /// cutoff `cutoff` rad/s and `n` one above the highest derivative read, for
+            /// samples every `step` seconds: no window, and an ARR linear in the signals holds
+            /// exactly on the filtered signals (see [`bondgraph::PoissonFilter`]).
+            pub fn poisson(params: Params, step: f64, cutoff: f64) -> Result<Self, ::bondgraph::EstimatorError> {
+                let bank = ::bondgraph::Each::new(CHANNEL_ORDERS, |order| {
+                    ::bondgraph::PoissonFilter::new(order, #top_literal + 1, cutoff, step)
+                })?;
+                Self::with_bank(params, bank)
+            }
+        }
+
         impl<D: ::bondgraph::Differentiator> ResidualGenerator<::bondgraph::Each<D, CHANNELS>> {
             /// A generator with the estimator `estimator(order)` for each of the bank's
             /// signals (`order` from [`CHANNEL_ORDERS`]): a

@@ -1,6 +1,6 @@
 //! How a generator estimates and integrates.
 
-use bondgraph::Reference;
+use bondgraph::{Differentiator, EstimatorError, PoissonFilter, Reference, SavitzkyGolay};
 
 /// Over what residuals realised by integration are integrated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -52,17 +52,53 @@ impl std::str::FromStr for Integration {
     }
 }
 
-/// How a [`Generator`](crate::Generator) estimates: Savitzky–Golay fits of `degree` over
-/// `window` samples every `step` seconds, and over what residuals realised by integration are
-/// integrated.
+/// How every channel's value and derivatives are estimated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Estimator {
+    /// Centred Savitzky–Golay fits of `degree` over `window` samples (odd).
+    SavitzkyGolay {
+        /// Samples in each fit.
+        window: usize,
+        /// The polynomial's degree.
+        degree: u32,
+    },
+    /// Poisson filters `(ω/(s + ω))ⁿ` of cutoff `cutoff` rad/s, `n` one above the highest
+    /// derivative the program reads, the same for every channel (see
+    /// [`bondgraph::PoissonFilter`]).
+    Poisson {
+        /// The cutoff ω, in rad/s.
+        cutoff: f64,
+    },
+}
+
+impl Estimator {
+    /// The estimator of a channel read up to `order`, in a program that reads up to `top`,
+    /// for samples every `step` seconds.
+    pub fn build(
+        self,
+        order: u32,
+        top: u32,
+        step: f64,
+    ) -> Result<Box<dyn Differentiator + Send>, EstimatorError> {
+        Ok(match self {
+            Estimator::SavitzkyGolay { window, degree } => {
+                Box::new(SavitzkyGolay::new(order, degree, window, step, true)?)
+            }
+            Estimator::Poisson { cutoff } => {
+                Box::new(PoissonFilter::new(order, top + 1, cutoff, step)?)
+            }
+        })
+    }
+}
+
+/// How a [`Generator`](crate::Generator) estimates, from samples every `step` seconds, and
+/// over what residuals realised by integration are integrated.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fit {
     /// The record's step, in seconds.
     pub step: f64,
-    /// Samples in each fit (odd).
-    pub window: usize,
-    /// The fits' polynomial degree.
-    pub degree: u32,
+    /// How every channel is estimated.
+    pub estimator: Estimator,
     /// Over what each integrated residual is taken (by residual; the default past the end).
     pub integration: Vec<Integration>,
 }

@@ -1,6 +1,6 @@
 //! The residual generator of a program, run sample by sample.
 
-use bondgraph::{Differentiator, EstimatorError, Reference, SavitzkyGolay, Trapezoid};
+use bondgraph::{Differentiator, EstimatorError, Reference, Trapezoid};
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Source};
 use bondgraph_core::{Compiled, Pool, Tape};
 
@@ -24,7 +24,7 @@ struct Integral {
 /// order, as the generated `ResidualGenerator` of the same program.
 pub struct Generator {
     /// One estimator per channel, and what it is fed.
-    estimators: Vec<SavitzkyGolay>,
+    estimators: Vec<Box<dyn Differentiator + Send>>,
     feeds: Vec<Feed>,
     /// For each channel, the slots of the derivatives read, by order.
     scatter: Vec<Vec<(usize, usize)>>,
@@ -87,7 +87,8 @@ impl Generator {
         params: &[f64],
         how: &Fit,
     ) -> Result<Generator, EstimatorError> {
-        let fit = |order: u32| SavitzkyGolay::new(order, how.degree, how.window, how.step, true);
+        let top = program.top_order();
+        let fit = |order: u32| how.estimator.build(order, top, how.step);
         let mut estimators = Vec::with_capacity(program.channels.len());
         let mut feeds = Vec::with_capacity(program.channels.len());
         for channel in program.channels.values() {
@@ -135,10 +136,7 @@ impl Generator {
                 )
             })
             .collect();
-        let delay = estimators
-            .iter()
-            .map(Differentiator::delay)
-            .fold(0.0, f64::max);
+        let delay = estimators.iter().map(|e| e.delay()).fold(0.0, f64::max);
         Ok(Generator {
             estimators,
             feeds,

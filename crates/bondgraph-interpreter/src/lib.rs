@@ -7,5 +7,5 @@ mod copy;
 mod fit;
 mod generator;
 
-pub use fit::{Fit, Integration};
+pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimate, Generator};

@@ -306,12 +306,12 @@ impl StateVariableFilter {
         // exp(M h) with the input and its slope as two more states: [x1, x2, u, u'].
         let w2 = omega * omega;
         let m = [
-            [0.0, 1.0, 0.0, 0.0],
-            [-w2, -2.0 * zeta * omega, w2, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-            [0.0, 0.0, 0.0, 0.0],
+            vec![0.0, 1.0, 0.0, 0.0],
+            vec![-w2, -2.0 * zeta * omega, w2, 0.0],
+            vec![0.0, 0.0, 0.0, 1.0],
+            vec![0.0, 0.0, 0.0, 0.0],
         ];
-        let e = expm(m, step);
+        let e = expm(&m, step);
         Ok(StateVariableFilter {
             phi: [[e[0][0], e[0][1]], [e[1][0], e[1][1]]],
             gamma0: [e[0][2], e[1][2]],
@@ -326,28 +326,35 @@ impl StateVariableFilter {
     }
 }
 
-/// `exp(m h)` by scaling and squaring a Taylor series.
-fn expm<const N: usize>(m: [[f64; N]; N], h: f64) -> [[f64; N]; N] {
+/// `exp(m h)` of a square matrix by scaling and squaring a Taylor series.
+pub(crate) fn expm(m: &[Vec<f64>], h: f64) -> Vec<Vec<f64>> {
+    let n = m.len();
     let norm: f64 = m.iter().flatten().map(|v| v.abs()).sum::<f64>() * h;
     let squarings = norm.max(1.0).log2().ceil() as i32 + 1;
     let scale = h / 2f64.powi(squarings);
-    let mul = |a: &[[f64; N]; N], b: &[[f64; N]; N]| {
-        let mut c = [[0.0; N]; N];
-        for (i, row) in c.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                *v = (0..N).map(|k| a[i][k] * b[k][j]).sum();
-            }
-        }
-        c
+    let mul = |a: &[Vec<f64>], b: &[Vec<f64>]| -> Vec<Vec<f64>> {
+        (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| (0..n).map(|k| a[i][k] * b[k][j]).sum())
+                    .collect()
+            })
+            .collect()
     };
-    let a = m.map(|row| row.map(|v| v * scale));
-    let mut term = [[0.0; N]; N];
-    for (i, row) in term.iter_mut().enumerate() {
-        row[i] = 1.0;
-    }
-    let mut sum = term;
+    let a: Vec<Vec<f64>> = m
+        .iter()
+        .map(|row| row.iter().map(|v| v * scale).collect())
+        .collect();
+    let identity: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| if i == j { 1.0 } else { 0.0 }).collect())
+        .collect();
+    let mut term = identity.clone();
+    let mut sum = identity;
     for k in 1..=20 {
-        term = mul(&term, &a).map(|row| row.map(|v| v / f64::from(k)));
+        term = mul(&term, &a)
+            .into_iter()
+            .map(|row| row.into_iter().map(|v| v / f64::from(k)).collect())
+            .collect();
         for (srow, trow) in sum.iter_mut().zip(&term) {
             for (s, t) in srow.iter_mut().zip(trow) {
                 *s += t;
