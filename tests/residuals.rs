@@ -46,14 +46,29 @@ mod direct {
 }
 use direct::backlash_bench as bench_direct;
 
-/// Runs `bgc residuals` on `model` with `set` (and `--adaptive` if asked) on `data` and the
-/// generated `$module::ResidualGenerator` on the same CSV, and checks that they agree to
+/// Runs `bgc residuals` on `model` with `set` (and `--adaptive` if asked; Savitzky–Golay fits
+/// unless another estimator is named) on `data` and the generated
+/// `$module::ResidualGenerator` on the same CSV, and checks that they agree to
 /// `tolerance` (relative, and absolute below 1; a value that is not finite in one is not
 /// finite in the other) at every instant; returns how many rows were compared.
 macro_rules! agree {
-    ($module:path, $model:expr, $set:expr, $data:expr, $tolerance:expr, $adaptive:expr) => {{
+    (@build $m:ident, savitzky_golay, $h:expr) => {{
+        // The degree `bgc residuals` takes: 3, or the highest order read if higher.
+        let degree = $m::RAW_ORDERS.iter().copied().max().unwrap_or(0).max(3);
+        $m::ResidualGenerator::savitzky_golay($m::Params::default(), $h, 21, degree)
+            .expect("estimator")
+    }};
+    (@build $m:ident, modulating, $h:expr) => {
+        $m::ResidualGenerator::modulating($m::Params::default(), $h, 21).expect("estimator")
+    };
+    ($module:path, $model:expr, $set:expr, $data:expr, $tolerance:expr, $adaptive:expr) => {
+        agree!($module, $model, $set, $data, $tolerance, $adaptive, savitzky_golay)
+    };
+    ($module:path, $model:expr, $set:expr, $data:expr, $tolerance:expr, $adaptive:expr,
+     $estimator:ident) => {{
         use $module as m;
         let data_arg: &str = $data;
+        let estimator = stringify!($estimator).replace('_', "-");
         let mut args = vec![
             "residuals",
             $model,
@@ -62,6 +77,8 @@ macro_rules! agree {
             "21",
             "--residuals",
             $set,
+            "--estimator",
+            &estimator,
         ];
         if $adaptive {
             args.push("--adaptive");
@@ -71,11 +88,7 @@ macro_rules! agree {
         let cli = table(&stdout(&out));
         let samples = table(&std::fs::read_to_string(data_arg).expect("data"));
         let h = 1e-3;
-        // The degree `bgc residuals` takes: 3, or the highest order read if higher.
-        let degree = m::RAW_ORDERS.iter().copied().max().unwrap_or(0).max(3);
-        let mut generator =
-            m::ResidualGenerator::savitzky_golay(m::Params::default(), h, 21, degree)
-                .expect("estimator");
+        let mut generator = agree!(@build m, $estimator, h);
         let raw: Vec<&[f64]> = m::RAW_SIGNALS
             .iter()
             .map(|name| column(&samples, name))
@@ -728,7 +741,7 @@ fn simulate_every_input(dir: &std::path::Path, file: &str) -> String {
 
 /// `bgc residuals` and the generated `ResidualGenerator` of each model `every::NAME` on the
 /// same record of `models/NAME.bg` (see [`simulate_every_input`]): the same numbers at every
-/// instant.
+/// instant, with Savitzky–Golay fits and with modulating functions.
 macro_rules! same_numbers {
     ($dir:expr; $($name:ident),*) => {{
         $(
@@ -737,6 +750,10 @@ macro_rules! same_numbers {
             let model = format!("models/{file}");
             let rows = agree!(every::$name::$name, &model, "per-sensor", &data, 1e-9, false);
             assert!(rows > 1900, "{file}: {rows} rows");
+            let rows = agree!(
+                every::$name::$name, &model, "per-sensor", &data, 1e-9, false, modulating
+            );
+            assert!(rows > 1900, "{file}: {rows} rows with modulating functions");
         )*
     }};
 }

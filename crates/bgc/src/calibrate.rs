@@ -4,7 +4,7 @@
 use bondgraph::Reference;
 
 use crate::cli::Failure;
-use crate::residuals::{Data, Generator, Integration};
+use crate::residuals::{Data, Estimator, Generator, Integration};
 
 /// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
 pub(crate) const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
@@ -38,6 +38,103 @@ pub(crate) fn longest_steady_window(
         chosen = Some((window, now));
     }
     Ok(chosen.map_or(WINDOWS[0], |(w, _)| w))
+}
+
+/// The modulating functions' window when neither `--window` nor `--calibrate` gives one.
+pub(crate) const MODULATING_DEFAULT: usize = 101;
+
+/// The windows of modulating functions `--calibrate` chooses from for a healthy record, for a
+/// program that reads derivatives up to `top`: from 21 samples to a quarter of the record,
+/// each holding the function (more than twice its smoothness, `top + 1`). Longer than the
+/// polynomial fits' (a tenth): on ARRs linear in the signals they carry no fit error, only
+/// the time a fault takes to show.
+pub(crate) fn modulating_windows(healthy: &Data, top: u32) -> impl Iterator<Item = usize> {
+    let longest = healthy.time.len() / 4;
+    let shortest = 2 * (top as usize + 1) + 1;
+    [21, 51, 101, 201, 501, 1001, 2001, 5001]
+        .into_iter()
+        .filter(move |&w| w <= longest && w > shortest)
+}
+
+/// A generator with an estimator and parameters of the caller's choice.
+pub(crate) type BuildWith<'a> = dyn Fn(Estimator, &[f64]) -> Result<Generator, Failure> + 'a;
+
+/// How far a parameter is moved to see what the residuals make of a fault of it.
+const PERTURBATION: f64 = 0.2;
+
+/// The estimator of `candidates` under whose thresholds (as [`thresholds`] calibrates them,
+/// with no false alarm allowed) a fault of a fifth of a parameter moves the residuals most,
+/// for the parameter they see least, then for the parameters' geometric mean: the hardest
+/// fault decides, as it is the one an estimator can lose. A fault's move is the RMS change
+/// of the residual that shows it best, in thresholds, with the residuals evaluated on the
+/// healthy record with that parameter moved: to first order, what the fault adds. With
+/// what was measured, for the note.
+pub(crate) fn most_sensitive(
+    build: &BuildWith<'_>,
+    healthy: &Data,
+    candidates: &[Estimator],
+    params: &[f64],
+    margin: f64,
+) -> Result<(Estimator, String), Failure> {
+    let mut best: Option<((f64, f64), Estimator)> = None;
+    let mut said = Vec::new();
+    for &estimator in candidates {
+        let nominal = residuals(build(estimator, params)?, healthy);
+        let none = vec![None; nominal.len()];
+        let levels = thresholds(build(estimator, params)?, healthy, &none, 0.0, margin);
+        let mut moves = Vec::new();
+        for k in (0..params.len()).filter(|&k| params[k] != 0.0) {
+            let mut moved = params.to_vec();
+            moved[k] *= 1.0 + PERTURBATION;
+            let series = residuals(build(estimator, &moved)?, healthy);
+            // A parameter no residual reads moves none under any estimator.
+            if series == nominal {
+                continue;
+            }
+            let shown = (series.iter().zip(&nominal).zip(&levels))
+                .map(|((s, n), &level)| {
+                    let change: Vec<f64> = s.iter().zip(n).map(|(a, b)| a - b).collect();
+                    rms(&change) / level.max(f64::MIN_POSITIVE)
+                })
+                .fold(0.0, f64::max);
+            moves.push(shown);
+        }
+        let least = moves.iter().copied().fold(f64::INFINITY, f64::min);
+        let typical = (moves
+            .iter()
+            .map(|m| m.max(f64::MIN_POSITIVE).ln())
+            .sum::<f64>()
+            / moves.len().max(1) as f64)
+            .exp();
+        said.push(format!(
+            "{}: {} at least, {} typically",
+            describe(estimator),
+            significant(least),
+            significant(typical)
+        ));
+        if best.is_none_or(|(b, _)| (least, typical) > b) {
+            best = Some(((least, typical), estimator));
+        }
+    }
+    let chosen = best.map_or(candidates[0], |(_, e)| e);
+    Ok((chosen, said.join(", ")))
+}
+
+/// `x` to two significant digits.
+fn significant(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+/// An estimator as the notes name it.
+fn describe(e: Estimator) -> String {
+    match e {
+        Estimator::SavitzkyGolay { window, .. } => format!("fits over {window} samples"),
+        Estimator::Modulating { window } => format!("modulating functions over {window} samples"),
+    }
 }
 
 /// The noise of a residual integrated from the start, as white noise plus a random walk: its

@@ -12,6 +12,15 @@ use bondgraph::{Episode, Threshold};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise};
 pub use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
+/// `--estimator`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum EstimatorArg {
+    /// A least-squares polynomial over the window, for each signal.
+    SavitzkyGolay,
+    /// Integration by parts against one smooth window for every signal and order.
+    Modulating,
+}
+
 use crate::calibrate::{self, Walk};
 use crate::cli::{self, Failure};
 
@@ -40,13 +49,15 @@ pub struct ResidualArgs {
     /// noise; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
-    /// Estimate with Poisson filters `(ω/(s + ω))ⁿ` of cutoff ω = W rad/s instead of
-    /// Savitzky–Golay fits: the same filter on every signal, `n` one above the highest
-    /// derivative read, so that an ARR linear in the signals holds exactly on the filtered
-    /// signals; a lower cutoff lets less noise through and shows a fault later (about n/ω
-    /// seconds).
-    #[arg(long, value_name = "W", conflicts_with_all = ["window", "degree"])]
-    cutoff: Option<f64>,
+    /// How the signals' values and derivatives are estimated over the window:
+    /// `savitzky-golay` fits a polynomial to each; `modulating` integrates by parts against
+    /// one smooth window `sᵃ(T − s)ᵃ` for every signal and order, so that no sample is
+    /// differentiated and an ARR linear in the signals holds on the estimates at any window
+    /// [default: with `--calibrate`, for ARRs linear in the signals, the one (with its window)
+    /// under whose calibrated thresholds a fault of a fifth of a parameter shows most; else
+    /// savitzky-golay].
+    #[arg(long, value_enum, value_name = "KIND")]
+    estimator: Option<EstimatorArg>,
     /// Degree of the Savitzky–Golay polynomial [default: 3, or the highest derivative the
     /// ARRs read if higher].
     #[arg(long, value_name = "D")]
@@ -121,20 +132,6 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         return Err(Failure::Invalid);
     }
     let program = c.program();
-    if let Some(w) = args.cutoff {
-        if !(w.is_finite() && w > 0.0) {
-            eprintln!("error: --cutoff must be a positive number of rad/s, not {w}");
-            return Err(Failure::Usage);
-        }
-        if program.copy.is_some() {
-            // The copy's states are not filtered: against filtered signals they would lag.
-            eprintln!(
-                "error: --cutoff: the simulated residuals compare signals with a copy of the \
-                 model that the filter does not see; use Savitzky-Golay fits (--window) for them"
-            );
-            return Err(Failure::Usage);
-        }
-    }
     let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
     let data_name = args.data.display().to_string();
     let (_, bytes) = cli::read(&args.data)?;
@@ -146,30 +143,30 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
-    let build = |window: usize, integration: &[Integration]| {
-        let estimator = match args.cutoff {
-            Some(cutoff) => Estimator::Poisson { cutoff },
-            None => Estimator::SavitzkyGolay { window, degree },
-        };
+    let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
         let fit = Fit {
             step: data.step,
             estimator,
             integration: integration.to_vec(),
         };
-        Generator::new(&c, &program, &params, &fit).map_err(|e| {
+        Generator::new(&c, &program, params, &fit).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
         })
     };
-    // A filter's window: the samples of twice its delay, for the choices that scale with it.
-    let filter_window = |w: f64| {
-        let delay = f64::from(program.top_order() + 1) / w / data.step;
-        2 * (delay.ceil() as usize).min(data.time.len() / 4) + 1
+    // The kind of estimator, which `--calibrate` may choose with its window.
+    let kind = std::cell::Cell::new(args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay));
+    let estimator = |kind: EstimatorArg, window| match kind {
+        EstimatorArg::SavitzkyGolay => Estimator::SavitzkyGolay { window, degree },
+        EstimatorArg::Modulating => Estimator::Modulating { window },
     };
-    let mut window = match args.cutoff {
-        Some(w) => filter_window(w),
-        None => args.window.unwrap_or(calibrate::WINDOWS[0]),
+    let build = |window: usize, integration: &[Integration]| {
+        generator(estimator(kind.get(), window), integration, &params)
     };
+    let mut window = args.window.unwrap_or(match kind.get() {
+        EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
+        EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
+    });
     let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
     // Where a residual taken from the start has its threshold grow with its noise's walk.
     let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
@@ -192,12 +189,46 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             eprintln!("error: --false-alarm-rate must be in [0, 1) and --margin non-negative");
             return Err(Failure::Usage);
         }
-        if args.window.is_none() && args.cutoff.is_none() {
+        if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
             window = calibrate::longest_steady_window(&|w| build(w, &integration), &healthy)?;
             eprintln!(
                 "note: {name}: estimates over {window} samples, the longest window up to which \
                  no residual grows there"
             );
+        }
+        // Residuals linear in the signals hold on modulating functions' estimates at any
+        // window: those compete with the fits.
+        if args.window.is_none() && program.linear() {
+            let fits = std::iter::once(estimator(EstimatorArg::SavitzkyGolay, window));
+            let modulating = (calibrate::modulating_windows(&healthy, program.top_order()))
+                .map(|w| estimator(EstimatorArg::Modulating, w));
+            let candidates: Vec<Estimator> = match args.estimator {
+                None => fits.chain(modulating).collect(),
+                Some(EstimatorArg::Modulating) => modulating.collect(),
+                Some(EstimatorArg::SavitzkyGolay) => Vec::new(),
+            };
+            if !candidates.is_empty() {
+                let (best, said) = calibrate::most_sensitive(
+                    &|e, p| generator(e, &integration, p),
+                    &healthy,
+                    &candidates,
+                    &params,
+                    args.margin,
+                )?;
+                eprintln!(
+                    "note: {name}: every residual is linear in the signals: estimates with what \
+                     a fault of a fifth of a parameter moves most, in thresholds, for the \
+                     parameter that moves least ({said})"
+                );
+                let chosen;
+                (chosen, window) = match best {
+                    Estimator::SavitzkyGolay { window, .. } => {
+                        (EstimatorArg::SavitzkyGolay, window)
+                    }
+                    Estimator::Modulating { window } => (EstimatorArg::Modulating, window),
+                };
+                kind.set(chosen);
+            }
         }
         let which: Vec<bool> = (c.arrs.iter())
             .map(|a| matches!(a.realisation, Realisation::Integrated(_)))

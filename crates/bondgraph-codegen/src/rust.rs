@@ -661,6 +661,8 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
     let r = count(program.raw.len());
     let top = program.top_order();
     let top_literal = Literal::u32_unsuffixed(top);
+    // Modulating functions one smoother than the highest order read (see the runtime).
+    let smoothness = Literal::u32_unsuffixed(top + 1);
     let channels = count(program.channels.len());
     let differentiated_literal = count(program.differentiated);
     // The bank's estimates by order, bound by a slice pattern that cannot panic.
@@ -873,14 +875,14 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
             }
         }
 
-        impl ResidualGenerator<::bondgraph::Each<::bondgraph::PoissonFilter, CHANNELS>> {
-            /// A generator with the same Poisson filter `(ω/(s + ω))ⁿ` on every signal, of
-            /// cutoff `cutoff` rad/s and `n` one above the highest derivative read, for
-            /// samples every `step` seconds: no window, and an ARR linear in the signals holds
-            /// exactly on the filtered signals (see [`bondgraph::PoissonFilter`]).
-            pub fn poisson(params: Params, step: f64, cutoff: f64) -> Result<Self, ::bondgraph::EstimatorError> {
+        impl ResidualGenerator<::bondgraph::Each<::bondgraph::ModulatingFunction, CHANNELS>> {
+            /// A generator with the same modulating function on every signal, over `window`
+            /// samples (odd) taken every `step` seconds, of smoothness one above the highest
+            /// derivative read: no signal is differentiated, and an ARR linear in the signals
+            /// holds on the estimates at any window (see [`bondgraph::ModulatingFunction`]).
+            pub fn modulating(params: Params, step: f64, window: usize) -> Result<Self, ::bondgraph::EstimatorError> {
                 let bank = ::bondgraph::Each::new(CHANNEL_ORDERS, |order| {
-                    ::bondgraph::PoissonFilter::new(order, #top_literal + 1, cutoff, step)
+                    ::bondgraph::ModulatingFunction::new(order, #smoothness, window, step)
                 })?;
                 Self::with_bank(params, bank)
             }

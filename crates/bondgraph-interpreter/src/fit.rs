@@ -1,6 +1,6 @@
 //! How a generator estimates and integrates.
 
-use bondgraph::{Differentiator, EstimatorError, PoissonFilter, Reference, SavitzkyGolay};
+use bondgraph::{Differentiator, EstimatorError, ModulatingFunction, Reference, SavitzkyGolay};
 
 /// Over what residuals realised by integration are integrated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -62,12 +62,12 @@ pub enum Estimator {
         /// The polynomial's degree.
         degree: u32,
     },
-    /// Poisson filters `(ω/(s + ω))ⁿ` of cutoff `cutoff` rad/s, `n` one above the highest
-    /// derivative the program reads, the same for every channel (see
-    /// [`bondgraph::PoissonFilter`]).
-    Poisson {
-        /// The cutoff ω, in rad/s.
-        cutoff: f64,
+    /// Modulating functions `sᵃ (T − s)ᵃ` over `window` samples (odd), `a` one above the
+    /// highest derivative the program reads, the same for every channel (see
+    /// [`bondgraph::ModulatingFunction`]).
+    Modulating {
+        /// Samples in the window.
+        window: usize,
     },
 }
 
@@ -84,8 +84,8 @@ impl Estimator {
             Estimator::SavitzkyGolay { window, degree } => {
                 Box::new(SavitzkyGolay::new(order, degree, window, step, true)?)
             }
-            Estimator::Poisson { cutoff } => {
-                Box::new(PoissonFilter::new(order, top + 1, cutoff, step)?)
+            Estimator::Modulating { window } => {
+                Box::new(ModulatingFunction::new(order, top + 1, window, step)?)
             }
         })
     }

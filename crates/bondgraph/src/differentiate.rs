@@ -233,7 +233,7 @@ pub(crate) fn fit_weights(
 
 /// `Σ aᵢ bᵢ` with four running sums: independent additions keep the floating-point unit
 /// busy where one sum would wait on each addition.
-fn dot(a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
     let mut sums = [0.0f64; 4];
     let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
     let (b4, b_rest) = b.split_at(a4.len().min(b.len()));

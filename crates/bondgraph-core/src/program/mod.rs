@@ -176,3 +176,124 @@ impl Program {
         self.slots.find(|s| s.quantity == q)
     }
 }
+
+/// How a program's expression depends on the slots.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Degree {
+    /// Not at all: numbers and parameters.
+    Constant,
+    /// As `Σ cᵢ·slotᵢ + c₀` with constant `cᵢ`.
+    Affine,
+    /// Otherwise.
+    Other,
+}
+
+impl Program {
+    /// Whether every residual is affine in the estimated slots with constant coefficients,
+    /// and reads no integral of a nonlinear expression and no copy of the model: then any
+    /// linear filter applied alike to every signal leaves it exactly zero on a healthy plant.
+    pub fn linear(&self) -> bool {
+        let estimated = self
+            .slots
+            .values()
+            .all(|s| matches!(s.fill, Fill::Estimate { .. }));
+        let mut degree: std::collections::HashMap<Code, Degree> = Default::default();
+        let roots: Vec<Code> = self.residuals.iter().map(|r| r.code).collect();
+        self.code.visit_reachable(&roots, |id, node| {
+            let of = |c: Code| degree.get(&c).copied().unwrap_or(Degree::Other);
+            let d = node_degree(node, of);
+            degree.insert(id, d);
+        });
+        estimated
+            && self.copy.is_none()
+            && roots
+                .iter()
+                .all(|r| degree.get(r).is_some_and(|&d| d != Degree::Other))
+    }
+}
+
+/// A node's [`Degree`] from its children's.
+fn node_degree(node: crate::symbolic::Node<Leaf>, of: impl Fn(Code) -> Degree) -> Degree {
+    use crate::expr::BinOp;
+    use crate::symbolic::Node;
+    let max = |a: Degree, b: Degree| match (a, b) {
+        (Degree::Other, _) | (_, Degree::Other) => Degree::Other,
+        (Degree::Affine, _) | (_, Degree::Affine) => Degree::Affine,
+        _ => Degree::Constant,
+    };
+    match node {
+        Node::Num(_) | Node::Leaf(Leaf::Parameter(_)) => Degree::Constant,
+        Node::Leaf(Leaf::Slot(_)) => Degree::Affine,
+        Node::Leaf(_) | Node::Int(_) => Degree::Other,
+        Node::Neg(a) => of(a),
+        Node::Binary(BinOp::Add | BinOp::Sub, a, b) => max(of(a), of(b)),
+        Node::Binary(BinOp::Mul, a, b) => match (of(a), of(b)) {
+            (Degree::Constant, d) | (d, Degree::Constant) => d,
+            _ => Degree::Other,
+        },
+        Node::Binary(BinOp::Div, a, b) if of(b) == Degree::Constant => of(a),
+        // Powers and functions of constants are constants; of slots, not affine.
+        Node::Binary(_, a, b) => match max(of(a), of(b)) {
+            Degree::Constant => Degree::Constant,
+            _ => Degree::Other,
+        },
+        Node::Call1(_, a) => match of(a) {
+            Degree::Constant => Degree::Constant,
+            _ => Degree::Other,
+        },
+        Node::Call2(_, a, b) => match max(of(a), of(b)) {
+            Degree::Constant => Degree::Constant,
+            _ => Degree::Other,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{compile, Options, ResidualSet};
+
+    fn program(text: &str, residuals: ResidualSet) -> super::Program {
+        let options = Options {
+            residuals,
+            ..Options::default()
+        };
+        let c = compile(text, "test.bg", &options).expect("valid").compiled;
+        assert!(!c.has_errors(), "{:?}", c.diagnostics);
+        c.program()
+    }
+
+    /// A chain of masses, springs and dampers gives ARRs linear in the signals; the bench's
+    /// dead zone does not, nor does a residual that runs a copy of the model.
+    #[test]
+    fn linear_programs_are_told_from_the_others() {
+        let chain = include_str!("../../../../models/four_mass_chain.bg");
+        assert!(program(chain, ResidualSet::PerSensor).linear());
+        let bench = include_str!("../../../../models/backlash_bench.bg");
+        assert!(!program(bench, ResidualSet::PerSensor).linear());
+        assert!(!program(bench, ResidualSet::Best).linear());
+        let motor = include_str!("../../../../models/dc_motor.bg");
+        assert!(program(motor, ResidualSet::PerSensor).linear());
+    }
+
+    /// The program's slots are filled from the channels that carry their signal, and the
+    /// bank differentiates only the channels whose derivatives are read, first.
+    #[test]
+    fn channels_put_the_differentiated_signals_first() {
+        let bench = include_str!("../../../../models/backlash_bench.bg");
+        let p = program(bench, ResidualSet::PerSensor);
+        let orders: Vec<u32> = p.channels.values().map(|c| c.order).collect();
+        assert!(
+            orders[..p.differentiated].iter().all(|&n| n > 0),
+            "{orders:?}"
+        );
+        assert!(
+            orders[p.differentiated..].iter().all(|&n| n == 0),
+            "{orders:?}"
+        );
+        for slot in p.slots.values() {
+            if let super::Fill::Estimate { channel, order } = slot.fill {
+                assert!(order <= p.channels[channel].order);
+            }
+        }
+    }
+}
