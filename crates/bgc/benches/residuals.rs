@@ -1,6 +1,7 @@
 //! `bgc residuals` on a million rows of the bench (1,000 s at 1 kHz, noise on both
 //! encoders), as a user runs it: the whole command, reading the CSV and writing the residuals,
-//! with each realisation and with the windows `--calibrate` chooses.
+//! with each realisation, with modulating functions, and with the windows `--calibrate`
+//! chooses.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -44,8 +45,12 @@ fn residuals(c: &mut Criterion) {
     let mut group = c.benchmark_group("bgc_residuals");
     group.sample_size(10);
     group.throughput(Throughput::Elements(ROWS));
-    let runs: [(&str, Vec<&str>); 3] = [
+    let runs: [(&str, Vec<&str>); 4] = [
         ("integrated_window_201", vec!["--window", "201"]),
+        (
+            "integrated_modulating_201",
+            vec!["--window", "201", "--estimator", "modulating"],
+        ),
         (
             "direct_window_201",
             vec!["--window", "201", "--realise", "direct"],

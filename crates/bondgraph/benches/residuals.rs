@@ -99,6 +99,16 @@ fn generator(c: &mut Criterion) {
                 }
             })
         });
+        group.bench_function(format!("integrated_modulating_{window}"), |b| {
+            b.iter(|| {
+                let params = lowest::Params::default();
+                let mut g = lowest::ResidualGenerator::modulating(params, h, window)
+                    .expect("valid estimator");
+                for &(t, s) in &samples {
+                    black_box(g.push(t, black_box(s)));
+                }
+            })
+        });
     }
     group.finish();
 }
