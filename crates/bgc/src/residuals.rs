@@ -9,7 +9,8 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use bondgraph::{Episode, Threshold};
-use bondgraph_core::{Compiled, Derive, Realisation, Realise};
+use bondgraph_core::program::Stability;
+use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 pub use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
 /// `--estimator`.
@@ -133,6 +134,21 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     }
     let program = c.program();
     let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
+    let values: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    match program.copy_stability(&values) {
+        Some(stability) if stability != Stability::Decays => {
+            let simulated: Vec<&str> = (c.arrs.iter())
+                .filter(|a| a.form == ResidualForm::Simulated)
+                .map(|a| a.name.as_str())
+                .collect();
+            eprintln!(
+                "note: {} (simulated): {}",
+                simulated.join(", "),
+                stability.meaning()
+            );
+        }
+        _ => {}
+    }
     let data_name = args.data.display().to_string();
     let (_, bytes) = cli::read(&args.data)?;
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);

@@ -318,6 +318,10 @@ fn arrs(out: &mut String, c: &Compiled) {
             "  none: no detector makes an equation redundant (see the warnings on standard error)"
         );
     }
+    let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let stability = (c.arrs.iter().any(|a| a.form == ResidualForm::Simulated))
+        .then(|| c.program().copy_stability(&params))
+        .flatten();
     for arr in &c.arrs {
         let sensor = arr.sensor.map_or("-", |s| c.sensors[s].name.as_str());
         let without = if arr.without.is_empty() {
@@ -345,6 +349,9 @@ fn arrs(out: &mut String, c: &Compiled) {
                 "    where the states are those of a copy of the model: the state equations above, \
                  driven by the inputs as commanded, from the model's initial state"
             );
+            if let Some(stability) = stability {
+                let _ = writeln!(out, "    ({})", stability.meaning());
+            }
         }
         realisation(out, &printer, arr);
         for &a in &arr.auxiliaries {

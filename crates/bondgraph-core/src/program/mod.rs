@@ -18,6 +18,9 @@
 //! its definition.
 
 mod lower;
+mod stability;
+
+pub use stability::Stability;
 
 use crate::product::{Arena, Handle, Parameter, Quantity, Signal};
 use crate::symbolic::{ExprId, Pool};

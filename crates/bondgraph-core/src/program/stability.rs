@@ -1,0 +1,195 @@
+//! Whether the copy of the model that simulated residuals run forgets where it started: its
+//! linearisation at rest, and the Routh–Hurwitz test of its characteristic polynomial.
+//!
+//! A simulated residual compares a measured signal with a copy of the model run from rest on
+//! the recorded inputs. If the record does not start at rest, or the copy's parameters are not
+//! exactly the plant's, the copy starts off; where every mode of the copy decays, that error
+//! dies out, and the residual holds after a transient. Where one does not (a free inertia, an
+//! integrator, an unstable mode), the error stays or grows, and the residual is only right on
+//! records that start at rest.
+
+use super::{Leaf, Program};
+use crate::symbolic::{Derivatives, Evaluator};
+
+/// What the test says of the copy, linearised at rest (states and inputs zero).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stability {
+    /// Every mode decays: an initial error dies out.
+    Decays,
+    /// Some mode does not decay (an eigenvalue with a real part of zero or more).
+    Persists,
+    /// The linearisation could not be evaluated (a value that is not finite at rest).
+    Unknown,
+}
+
+impl Stability {
+    /// What it means for a simulated residual, as the outputs say it.
+    pub fn meaning(self) -> &'static str {
+        match self {
+            Stability::Decays => {
+                "linearised at rest, every mode of the copy decays: an error in its start dies out"
+            }
+            Stability::Persists => {
+                "linearised at rest, a mode of the copy does not decay: an error in its start \
+                 stays, and the residual holds only on records that start as the model does, at \
+                 rest with every integral at zero"
+            }
+            Stability::Unknown => {
+                "the copy cannot be linearised at rest, where a derivative is not finite: \
+                 whether an error in its start dies out is not known"
+            }
+        }
+    }
+}
+
+impl Program {
+    /// Whether the copy of the model forgets its initial error, linearised at rest with the
+    /// parameters `params` (in the model's order); `None` when no residual runs a copy.
+    pub fn copy_stability(&self, params: &[f64]) -> Option<Stability> {
+        let copy = self.copy.as_ref()?;
+        let n = copy.rates.len();
+        let mut pool = self.code.clone();
+        let mut jacobian = vec![vec![0.0; n]; n];
+        for (j, column) in (0..n).map(|j| (j, j as u32)) {
+            let mut partial = Derivatives::partial(|p: &mut crate::Pool<Leaf>, leaf| {
+                Some(p.num(if leaf == Leaf::State(column) {
+                    1.0
+                } else {
+                    0.0
+                }))
+            });
+            for (i, &rate) in copy.rates.iter().enumerate() {
+                let Some(d) = partial.of(&mut pool, rate) else {
+                    return Some(Stability::Unknown);
+                };
+                jacobian[i][j] = Evaluator::new(&pool, |leaf| match leaf {
+                    Leaf::Parameter(p) => params.get(p.index()).copied().unwrap_or(f64::NAN),
+                    _ => 0.0,
+                })
+                .value(d);
+            }
+        }
+        if jacobian.iter().flatten().any(|v| !v.is_finite()) {
+            return Some(Stability::Unknown);
+        }
+        Some(match hurwitz(&characteristic(&jacobian)) {
+            true => Stability::Decays,
+            false => Stability::Persists,
+        })
+    }
+}
+
+/// The characteristic polynomial `det(λI − A)` of a square matrix, as `[c₀, …, cₙ = 1]`
+/// (Faddeev–LeVerrier: exact in exact arithmetic, and well enough for the few states of a
+/// model).
+fn characteristic(a: &[Vec<f64>]) -> Vec<f64> {
+    let n = a.len();
+    let mut c = vec![0.0; n + 1];
+    c[n] = 1.0;
+    let mut m = vec![vec![0.0; n]; n];
+    for k in 1..=n {
+        // M_k = A M_{k−1} + c_{n−k+1} I, then c_{n−k} = −tr(A M_k)/k.
+        let mut next = vec![vec![0.0; n]; n];
+        for (i, row) in next.iter_mut().enumerate() {
+            for (j, v) in row.iter_mut().enumerate() {
+                *v = (0..n).map(|l| a[i][l] * m[l][j]).sum::<f64>();
+            }
+            row[i] += c[n - k + 1];
+        }
+        m = next;
+        let trace: f64 = (0..n)
+            .map(|i| (0..n).map(|l| a[i][l] * m[l][i]).sum::<f64>())
+            .sum();
+        c[n - k] = -trace / k as f64;
+    }
+    c
+}
+
+/// Whether every root of `c₀ + c₁ λ + … + cₙ λⁿ` (with `cₙ > 0`) has a negative real part: the
+/// first column of the Routh array is positive. Coefficients below a millionth of the largest
+/// count as zero, so that a mode at zero (a free integrator) is not taken for a slow decay.
+fn hurwitz(c: &[f64]) -> bool {
+    let scale = c.iter().map(|v| v.abs()).fold(0.0, f64::max);
+    let tiny = 1e-9 * scale.max(f64::MIN_POSITIVE);
+    // Highest power first.
+    let coefficients: Vec<f64> = c.iter().rev().copied().collect();
+    if coefficients.iter().any(|&v| v <= tiny) {
+        return false;
+    }
+    let mut rows: [Vec<f64>; 2] = [
+        coefficients.iter().step_by(2).copied().collect(),
+        coefficients.iter().skip(1).step_by(2).copied().collect(),
+    ];
+    for _ in 2..coefficients.len() {
+        let (upper, lower) = (&rows[0], &rows[1]);
+        let Some(&pivot) = lower.first() else { break };
+        if pivot <= tiny {
+            return false;
+        }
+        let next: Vec<f64> = (0..upper.len().saturating_sub(1))
+            .map(|k| {
+                let below = lower.get(k + 1).copied().unwrap_or(0.0);
+                upper[k + 1] - upper[0] * below / pivot
+            })
+            .collect();
+        rows = [rows[1].clone(), next];
+    }
+    rows[1].first().is_none_or(|&v| v > tiny) && rows[0].first().is_some_and(|&v| v > tiny)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{compile, Options, ResidualSet};
+
+    fn stability(text: &str) -> Option<Stability> {
+        let options = Options {
+            residuals: ResidualSet::Best,
+            ..Options::default()
+        };
+        let c = compile(text, "test.bg", &options).expect("valid").compiled;
+        let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+        c.program().copy_stability(&params)
+    }
+
+    /// The bench's copy holds the twist twice, as the link's state and as `int(y1) − N
+    /// int(y2)` in the dead zone: their difference is a mode that never decays. The two
+    /// tanks' orifices, `sqrt` at rest, have no finite slope there. A model whose residuals
+    /// need no copy has none.
+    #[test]
+    fn the_copies_of_the_models_are_told_apart() {
+        let bench = include_str!("../../../../models/backlash_bench.bg");
+        assert_eq!(stability(bench), Some(Stability::Persists));
+        let tanks = include_str!("../../../../models/two_tank.bg");
+        assert_eq!(stability(tanks), Some(Stability::Unknown));
+        let motor = include_str!("../../../../models/dc_motor.bg");
+        assert_eq!(stability(motor), None);
+    }
+
+    /// Hand-checked polynomials: (λ+1)(λ+2)(λ+3) decays; λ(λ+1) and (λ−1)(λ+2) do not;
+    /// λ² + 1 (an undamped oscillator) does not.
+    #[test]
+    fn the_routh_test_tells_decaying_polynomials() {
+        assert!(hurwitz(&[6.0, 11.0, 6.0, 1.0]));
+        assert!(!hurwitz(&[0.0, 1.0, 1.0]));
+        assert!(!hurwitz(&[-2.0, 1.0, 1.0]));
+        assert!(!hurwitz(&[1.0, 0.0, 1.0]));
+        // λ⁴ + λ³ + λ² + λ + 1: all coefficients positive, roots on the right of the axis.
+        assert!(!hurwitz(&[1.0, 1.0, 1.0, 1.0, 1.0]));
+        assert!(hurwitz(&[2.0, 3.0, 1.0]));
+    }
+
+    /// The characteristic polynomial of a companion matrix is the one it was built from.
+    #[test]
+    fn the_characteristic_polynomial_of_a_companion_matrix() {
+        let a = vec![
+            vec![0.0, 1.0, 0.0],
+            vec![0.0, 0.0, 1.0],
+            vec![-6.0, -11.0, -6.0],
+        ];
+        let c = characteristic(&a);
+        for (got, want) in c.iter().zip([6.0, 11.0, 6.0, 1.0]) {
+            assert!((got - want).abs() < 1e-12, "{c:?}");
+        }
+    }
+}
