@@ -324,3 +324,122 @@ impl Lowering<'_> {
         self.code.signed_sum(&signed)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::super::Leaf;
+    use crate::product::{Compiled, Expr, Quantity, Signal, Symbol};
+    use crate::symbolic::{Evaluator, Node};
+    use crate::{compile, Options, ResidualSet};
+
+    /// An arbitrary value for slot `k`, away from 0 and from the values of the others.
+    fn arbitrary(k: usize) -> f64 {
+        0.3 + ((k as f64 * 0.618_033_988_7) % 1.0) * 1.7
+    }
+
+    /// The product's evaluated ARR `e` with every quantity at the value of its slot, each
+    /// `int(..)` as the combination of integral slots it is (or its own slot), each auxiliary
+    /// signal at its definition's value: what the program must compute, by the product's
+    /// expressions and evaluator rather than the lowering.
+    fn product_value(c: &Compiled, e: Expr, slot: &dyn Fn(Quantity) -> f64) -> f64 {
+        let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+        let param = |p: crate::product::Handle<crate::product::Parameter>| params[p.index()];
+        let mut auxiliary: HashMap<(usize, u32), f64> = HashMap::new();
+        let readings = c.readings();
+        let leaf = |aux: &HashMap<(usize, u32), f64>, s: Symbol| match s {
+            Symbol::Parameter(p) => param(p),
+            Symbol::Input(u, n) => slot(Quantity::Derivative(Signal::Input(u), n)),
+            Symbol::Sensor(h, n) => slot(Quantity::Derivative(Signal::Sensor(h), n)),
+            Symbol::State(k) => slot(Quantity::Simulated(k)),
+            Symbol::Auxiliary(a, n) => aux.get(&(a.index(), n)).copied().unwrap_or(f64::NAN),
+            Symbol::Time | Symbol::Loop(_) => f64::NAN,
+        };
+        let integrals = |root: Expr| {
+            let mut values = HashMap::new();
+            c.exprs.visit_reachable(&[root], |id, node| {
+                let Node::Int(arg) = node else { return };
+                let value = match readings.nonlinear.iter().position(|&e| e == arg) {
+                    Some(k) => slot(Quantity::Nonlinear(k)),
+                    None => (c.linear_terms(arg).unwrap_or_default().into_iter())
+                        .map(|(plus, k, s)| {
+                            let k = k.map_or(1.0, |k| {
+                                Evaluator::new(&c.exprs, |s| match s {
+                                    Symbol::Parameter(p) => param(p),
+                                    _ => f64::NAN,
+                                })
+                                .value(k)
+                            });
+                            let v = k * slot(Quantity::Integral(s));
+                            if plus {
+                                v
+                            } else {
+                                -v
+                            }
+                        })
+                        .sum(),
+                };
+                values.insert(id, value);
+            });
+            values
+        };
+        for (a, aux) in c.auxiliaries.iter() {
+            for (n, &d) in (0u32..).zip(&aux.derivatives) {
+                let v = Evaluator::new(&c.exprs, |s| leaf(&auxiliary, s))
+                    .with_integrals(integrals(d))
+                    .value(d);
+                auxiliary.insert((a.index(), n), v);
+            }
+        }
+        Evaluator::new(&c.exprs, |s| leaf(&auxiliary, s))
+            .with_integrals(integrals(e))
+            .value(e)
+    }
+
+    /// On every model, with one residual per detector and with `best`, each residual (and
+    /// each sensitivity) of the program takes the value of the product's evaluated ARR (and
+    /// sensitivity) at arbitrary values of what it reads: the lowering (slots for integrals, auxiliaries inlined, shared nodes) changes
+    /// nothing.
+    #[test]
+    fn the_program_computes_the_products_residuals() {
+        let mut checked = 0;
+        for entry in std::fs::read_dir("../../models").expect("models") {
+            let path = entry.expect("entry").path();
+            let text = std::fs::read_to_string(&path).expect("model");
+            for residuals in [ResidualSet::PerSensor, ResidualSet::Best] {
+                let options = Options {
+                    residuals,
+                    ..Options::default()
+                };
+                let c = compile(&text, "m.bg", &options).expect("valid").compiled;
+                let program = c.program();
+                let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+                let slot = |q: Quantity| program.slot(q).map_or(f64::NAN, |h| arbitrary(h.index()));
+                let sensitivities = (c.arrs.iter())
+                    .flat_map(|a| a.sensitivities.iter().flatten().map(move |&(_, e)| (a, e)));
+                let pairs = (c.arrs.iter().map(|a| (a, a.evaluated())))
+                    .zip(program.residuals.iter().map(|r| r.code))
+                    .chain(sensitivities.zip(program.sensitivities.iter().map(|s| s.code)));
+                for ((arr, e), code) in pairs {
+                    let want = product_value(&c, e, &slot);
+                    let got = Evaluator::new(&program.code, |l| match l {
+                        Leaf::Slot(h) => arbitrary(h.index()),
+                        Leaf::Parameter(p) => params[p.index()],
+                        _ => f64::NAN,
+                    })
+                    .value(code);
+                    let scale = want.abs().max(1.0);
+                    assert!(
+                        (got - want).abs() <= 1e-9 * scale,
+                        "{}: {}: program {got}, product {want}",
+                        path.display(),
+                        arr.name
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 40, "{checked} residuals");
+    }
+}
