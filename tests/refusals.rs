@@ -216,3 +216,43 @@ fn twenty_runs_of_the_bench_are_byte_identical_under_any_limits() {
         }
     }
 }
+
+/// A hardening spring written as the physics gives it, `e = k1 q + k3 q³`, with a speed
+/// sensor on the mass: the law cannot be read the other way, so the spring keeps integral
+/// causality in diagnosis. That is a warning saying what the ARR assumes (it reads `int(v)`
+/// from the start of the record), not an error: exit 0, residual code, and `bgc verify`
+/// passes (its runs start the spring where the integral does, at zero).
+const HARDENING: &str = "model hardening\nparam m = 1.0\nparam k1 = 40\nparam k3 = 400\n\
+    param b = 0.5\ninput F\nSe force = F\nI mass = m\nC spring : e = k1*q + k3*q^3\n\
+    R damp = b\nDf v on v1\nforce -> 1:v1 -> mass, spring, damp\n";
+
+#[test]
+fn a_storage_law_diagnosis_cannot_invert_is_a_note_not_an_error() {
+    let out = bgc_stdin(&["-"], HARDENING.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("bg::mixed-causality") && err.contains("int(..)"), "{err}");
+    assert!(stdout(&out).contains("k3 * int(v) ^ 3"), "{}", stdout(&out));
+    let rust = bgc_stdin(&["-", "--emit", "rust"], HARDENING.as_bytes());
+    assert_eq!(code(&rust), 0, "{}", stderr(&rust));
+    assert!(stdout(&rust).contains("pub fn residuals"));
+    let verify = bgc_stdin(&["verify", "-"], HARDENING.as_bytes());
+    assert_eq!(code(&verify), 0, "{}", stdout(&verify));
+}
+
+/// A gas accumulator written as the physics gives it, `q = V0 (1 − p0/e)`: the state
+/// equations cannot hold its state `q` (refused, exit 1), but its ARR needs only the law as
+/// written, and the residual code is written all the same.
+const ACCUMULATOR: &str = "model accumulator\nparam V0 = 1e-3\nparam p0 = 1e5\n\
+    param R1 = 1e8\ninput Q\nSf pump = Q\nC acc : q = V0*(1 - p0/e)\nR valve = R1\n\
+    De p on n\npump -> 0:n -> acc, valve\n";
+
+#[test]
+fn refused_state_equations_leave_the_residual_code() {
+    let out = bgc_stdin(&["-", "--emit", "rust"], ACCUMULATOR.as_bytes());
+    assert_eq!(code(&out), 1, "the state equations are refused");
+    assert!(stderr(&out).contains("bg::not-invertible"), "{}", stderr(&out));
+    let rust = stdout(&out);
+    assert!(rust.contains("pub fn residuals") && rust.contains("p.V0"), "{rust}");
+    assert_plausible(&rust);
+}

@@ -357,8 +357,9 @@ pub fn run(args: Args) -> Result<(), Failure> {
                 Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
                 Target::State => bondgraph_codegen::text::state(&c),
                 Target::Dot => bondgraph_codegen::dot::emit(&c),
-                // Code that misses an ARR or reads a refused one would run and mislead.
-                Target::Rust if c.has_errors() => return succeeded(&c),
+                // Code that misses an ARR or reads a refused one would run and mislead; refused
+                // state equations alone leave the ARRs, and their code, as they are.
+                Target::Rust if c.residual_code_refused() => return succeeded(&c),
                 Target::Rust => bondgraph_codegen::rust::emit(&c),
             };
             write(args.output.as_deref(), &text)?;

@@ -128,7 +128,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         Some(bondgraph_core::Limits::default()),
         (args.residuals.set(), realise),
     )?;
-    if c.has_errors() || c.arrs.is_empty() {
+    if c.residual_code_refused() {
         eprintln!("error: {}: no ARRs to evaluate", c.file_name);
         return Err(Failure::Invalid);
     }

@@ -107,6 +107,9 @@ pub enum Code {
     Causality,
     /// A law that cannot be inverted in the direction causality needs.
     NotInvertible,
+    /// A storage element kept in integral causality in diagnosis: the ARRs read the integrals
+    /// of the signals that set it (a warning).
+    MixedCausality,
     /// A detector that yields no ARR, or ARRs that could not be written.
     NoArr,
     /// An output bgc refuses to write because it could not be derived.
@@ -144,6 +147,7 @@ impl Code {
             Code::Underdetermined => "bg::under-determined",
             Code::Causality => "bg::causality",
             Code::NotInvertible => "bg::not-invertible",
+            Code::MixedCausality => "bg::mixed-causality",
             Code::NoArr => "bg::no-arr",
             Code::Refused => "bg::refused",
             Code::TooLarge => "bg::too-large",

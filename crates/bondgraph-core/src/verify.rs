@@ -28,7 +28,9 @@
 use std::collections::{BTreeSet, HashMap};
 
 use crate::expr::BinOp;
-use crate::product::{Auxiliary, Realisation, ResidualForm, Sensor, Symbol};
+use crate::product::{
+    Auxiliary, Mode, Realisation, ResidualForm, Sensor, StorageCausality, Symbol,
+};
 use crate::product::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
 use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
 
@@ -252,10 +254,14 @@ fn verify_with(
 ) -> Result<Verification, VerifyError> {
     let nominal: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let n = plant.states;
+    let held = held_in_diagnosis(c);
     let initial: Vec<Vec<f64>> = (0..options.runs.max(1))
         .map(|seed| {
             (0..n)
-                .map(|i| options.state_scale * (0.4 + 0.37 * ((i * 7 + seed * 3) % 5) as f64))
+                .map(|i| match held.get(i) {
+                    Some(true) => 0.0,
+                    _ => options.state_scale * (0.4 + 0.37 * ((i * 7 + seed * 3) % 5) as f64),
+                })
                 .collect()
         })
         .collect();
@@ -389,6 +395,19 @@ fn verify_with(
 
 /// The input a source applies, when it applies exactly one that no other component applies:
 /// a fault of that actuator is then a fault of the input as the plant receives it.
+/// Whether each state's element keeps integral causality in diagnosis: the ARRs then read its
+/// state as integrals of signals from the start of the record, so they hold from a start where
+/// that state is zero, and the runs start it there.
+fn held_in_diagnosis(c: &Compiled) -> Vec<bool> {
+    let diagnosis = c.causality.iter().find(|r| r.mode == Mode::Diagnosis);
+    let held = |element: &str| {
+        diagnosis.is_some_and(|r| {
+            (r.storage.iter()).any(|(name, k)| name == element && *k == StorageCausality::Integral)
+        })
+    };
+    c.states.values().map(|s| held(&s.element)).collect()
+}
+
 fn actuator(c: &Compiled, comp: &Component) -> Option<Handle<Input>> {
     let [signal] = comp.signals.as_slice() else {
         return None;

@@ -71,7 +71,9 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     };
     let out = compile(&source.text, &source.name, &options).map_err(|d| refuse(&d))?;
     let c = out.compiled;
-    if c.has_errors() {
+    // Refused state equations alone leave the ARRs and their code as they are; anything else
+    // refused would make code that misleads.
+    if c.residual_code_refused() {
         return Err(refuse(&c.diagnostics));
     }
     let module = bondgraph_codegen::rust::ident(&c.name);

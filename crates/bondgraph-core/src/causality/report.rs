@@ -55,18 +55,29 @@ pub fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
         .iter()
         .map(|r| {
             let name = &model.node(r.element).name;
-            let help = match causal.mode {
-                Mode::Integral => "write the law in the direction that gives the energy variable's co-variable from it (`e = ...q` for a C, `f = ...p` for an I), or give its linear parameter",
-                Mode::Diagnosis => "write the law so that it can be read the other way (`q = ...e` for a C, `p = ...f` for an I), or give its linear parameter",
-            };
-            at_nodes(
-                model,
-                Severity::Error,
-                Code::NotInvertible,
-                &[r.element],
-                format!("`{name}`: {}", r.reason),
-            )
-            .with_help(help)
+            match causal.mode {
+                Mode::Integral => at_nodes(
+                    model,
+                    Severity::Error,
+                    Code::NotInvertible,
+                    &[r.element],
+                    format!("`{name}`: {}", r.reason),
+                )
+                .with_help("write the law in the direction that gives the energy variable's co-variable from it (`e = ...q` for a C, `f = ...p` for an I), or give its linear parameter"),
+                // The element keeps integral causality and the ARRs are derived all the same:
+                // what they assume is worth saying, not refusing.
+                Mode::Diagnosis => at_nodes(
+                    model,
+                    Severity::Warning,
+                    Code::MixedCausality,
+                    &[r.element],
+                    format!(
+                        "`{name}`: {}; it keeps integral causality in diagnosis, so the ARRs read the integrals (`int(..)`) of the signals that set it, taken from the start of the record",
+                        r.reason
+                    ),
+                )
+                .with_help("they hold on a record that starts where those integrals are zero (the plant at rest); writing the law the other way (`q = ...e` for a C, `p = ...f` for an I) would spare the integrals"),
+            }
         })
         .collect()
 }

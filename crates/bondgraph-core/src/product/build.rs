@@ -57,6 +57,7 @@ pub(crate) fn build(
         causality: Vec::new(),
         graph: Graph::default(),
         diagnostics: Diagnostics::default(),
+        state_errors: 0,
         lines: LineIndex::new(source),
         source: source.to_string(),
     };
@@ -73,6 +74,7 @@ pub(crate) fn build(
             &a.state.problems,
         ));
         b.state_space(&mut c, a, &mut stage);
+        let of_state_equations: Vec<Diagnostic> = stage.iter().cloned().collect();
         if let Some(dd) = &a.diagnosis {
             let d = dd.base();
             for p in &d.problems {
@@ -85,6 +87,7 @@ pub(crate) fn build(
             c.diagnosed = true;
         }
         for d in dedup(stage) {
+            c.state_errors += usize::from(d.is_error() && of_state_equations.contains(&d));
             diagnostics.push(d);
         }
     }

@@ -574,6 +574,9 @@ pub struct Compiled {
     pub graph: Graph,
     /// Every diagnostic, from the parser to the product.
     pub diagnostics: Diagnostics,
+    /// How many of the errors concern only the state equations (a storage law they cannot
+    /// use, a conflict, a loop): the ARRs and their residual code do not depend on those.
+    state_errors: usize,
     lines: LineIndex,
     source: String,
 }
@@ -612,6 +615,16 @@ impl Compiled {
     /// The line and column of a span's start.
     pub fn line_col(&self, span: Span) -> LineCol {
         self.lines.line_col(&self.source, span.start)
+    }
+
+    /// Whether residual code must be refused: an error other than the state equations',
+    /// no ARR, or a simulated residual whose copy of the model needs the state equations that
+    /// were refused.
+    pub fn residual_code_refused(&self) -> bool {
+        let others = self.diagnostics.error_count() > self.state_errors;
+        let copy_missing = self.state_space.is_none()
+            && self.arrs.iter().any(|a| a.form == ResidualForm::Simulated);
+        others || self.arrs.is_empty() || copy_missing
     }
 
     /// Whether any diagnostic is an error: some output was refused.
