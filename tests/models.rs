@@ -15,10 +15,17 @@ fn emit(model: &str, args: &[&str]) -> String {
     let out = bgc(&full);
     assert_eq!(code(&out), 0, "{model} {args:?}: {}", stderr(&out));
     // No warning either: every expression of the models is simplified within the limits.
+    // The one diagnostic a model may carry on purpose says what its ARRs assume (a storage
+    // law kept in integral causality in diagnosis: `hardening_spring.bg`).
+    let err = stderr(&out);
+    let unexpected = err.lines().any(|l| {
+        let l = l.trim_start();
+        (l.starts_with("bg::") && l != "bg::mixed-causality") || l.starts_with("warning:")
+    });
+    assert!(!unexpected, "{model} {args:?}: {err}");
     assert!(
-        stderr(&out).is_empty(),
-        "{model} {args:?}: {}",
-        stderr(&out)
+        err.is_empty() || model.ends_with("hardening_spring.bg"),
+        "{model} {args:?}: {err}"
     );
     let again = bgc(&full);
     assert_eq!(
@@ -99,7 +106,11 @@ fn schema(model: &str, text: &str) {
     for o in v["outputs"].as_array().expect("outputs") {
         assert!(o["sensor"].is_string() && o["expr"].is_string());
     }
-    assert!(v["diagnostics"].as_array().expect("diagnostics").is_empty());
+    // Only the warning a model carries on purpose (see `emit`).
+    for d in v["diagnostics"].as_array().expect("diagnostics") {
+        assert_eq!(d["code"], "bg::mixed-causality", "{model}: {d}");
+        assert_eq!(d["severity"], "warning", "{model}: {d}");
+    }
     let residuals = v["fsm"]["residuals"].as_array().expect("residuals");
     assert_eq!(residuals.len(), arrs.len());
     for (i, arr) in arrs.iter().enumerate() {

@@ -231,7 +231,10 @@ fn a_storage_law_diagnosis_cannot_invert_is_a_note_not_an_error() {
     let out = bgc_stdin(&["-"], HARDENING.as_bytes());
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let err = stderr(&out);
-    assert!(err.contains("bg::mixed-causality") && err.contains("int(..)"), "{err}");
+    assert!(
+        err.contains("bg::mixed-causality") && err.contains("int(..)"),
+        "{err}"
+    );
     assert!(stdout(&out).contains("k3 * int(v) ^ 3"), "{}", stdout(&out));
     let rust = bgc_stdin(&["-", "--emit", "rust"], HARDENING.as_bytes());
     assert_eq!(code(&rust), 0, "{}", stderr(&rust));
@@ -251,8 +254,15 @@ const ACCUMULATOR: &str = "model accumulator\nparam V0 = 1e-3\nparam p0 = 1e5\n\
 fn refused_state_equations_leave_the_residual_code() {
     let out = bgc_stdin(&["-", "--emit", "rust"], ACCUMULATOR.as_bytes());
     assert_eq!(code(&out), 1, "the state equations are refused");
-    assert!(stderr(&out).contains("bg::not-invertible"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("bg::not-invertible"),
+        "{}",
+        stderr(&out)
+    );
     let rust = stdout(&out);
-    assert!(rust.contains("pub fn residuals") && rust.contains("p.V0"), "{rust}");
+    assert!(
+        rust.contains("pub fn residuals") && rust.contains("p.V0"),
+        "{rust}"
+    );
     assert_plausible(&rust);
 }

@@ -646,6 +646,9 @@ mod every {
     pub mod four_mass_chain {
         bondgraph::bond_graph!("../../models/four_mass_chain.bg");
     }
+    pub mod hardening_spring {
+        bondgraph::bond_graph!("../../models/hardening_spring.bg");
+    }
     pub mod hydraulic_cylinder {
         bondgraph::bond_graph!("../../models/hydraulic_cylinder.bg");
     }
@@ -766,7 +769,8 @@ fn bgc_residuals_computes_what_the_generated_code_computes_on_every_model() {
     let dir = std::env::temp_dir().join(format!("bgc-every-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     same_numbers!(&dir;
-        backlash_bench_table3, coulomb_friction, dc_motor, four_mass_chain, hydraulic_cylinder,
+        backlash_bench_table3, coulomb_friction, dc_motor, four_mass_chain, hardening_spring,
+        hydraulic_cylinder,
         loudspeaker, parallel_rlc, quarter_car, resistive_loop, rigid_gear_drive, rlc_series,
         thermal_two_zone, three_tank, torque_sensor_drive, two_tank, varistor_loop,
         wheatstone_bridge);

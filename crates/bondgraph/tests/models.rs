@@ -12,6 +12,7 @@ bondgraph::bond_graph!("../../models/backlash_bench_table3.bg");
 bondgraph::bond_graph!("../../models/coulomb_friction.bg");
 bondgraph::bond_graph!("../../models/dc_motor.bg");
 bondgraph::bond_graph!("../../models/four_mass_chain.bg");
+bondgraph::bond_graph!("../../models/hardening_spring.bg");
 bondgraph::bond_graph!("../../models/hydraulic_cylinder.bg");
 bondgraph::bond_graph!("../../models/loudspeaker.bg");
 bondgraph::bond_graph!("../../models/parallel_rlc.bg");
@@ -160,6 +161,7 @@ fn generated_residuals_equal_the_products_arrs_for_every_model() {
     check!(coulomb_friction);
     check!(dc_motor);
     check!(four_mass_chain);
+    check!(hardening_spring);
     check!(hydraulic_cylinder);
     check!(loudspeaker);
     check!(parallel_rlc);
