@@ -77,6 +77,24 @@ fn let_parameters(model: &BondGraph) -> Vec<BTreeSet<ParamId>> {
     deep
 }
 
+/// Whether each `let` is a constant: it reads parameters and numbers only, through other
+/// `let`s too (in dependency order, so each is decided after those it reads).
+fn constant_lets(model: &BondGraph) -> Vec<bool> {
+    let mut constant = vec![false; model.lets.len()];
+    for &l in &model.let_order {
+        let mut only_parameters = true;
+        model.lets[l.0 as usize]
+            .value
+            .for_each_leaf(&mut |s| match *s {
+                Signal::Param(_) => {}
+                Signal::Let(m) => only_parameters &= constant[m.0 as usize],
+                _ => only_parameters = false,
+            });
+        constant[l.0 as usize] = only_parameters;
+    }
+    constant
+}
+
 /// The parameters `expr` names, and with `deep` those of the `let`s it uses.
 fn params_of(expr: &SignalExpr, deep: Option<&[BTreeSet<ParamId>]>, out: &mut BTreeSet<ParamId>) {
     expr.for_each_leaf(&mut |s| match *s {
@@ -124,14 +142,24 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
     let mut element_params = BTreeSet::new();
     let mut modulating = BTreeSet::new();
     let deep = let_parameters(model);
+    let constant = constant_lets(model);
     for id in model.nodes() {
         let node = model.node(id);
         if let NodeKind::Element(kind, law) = &node.kind {
             let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
             params_of(law.expr(), None, &mut direct);
             params_of(law.expr(), Some(&deep), &mut all);
+            // A constant `let` the law reads is its modulus written apart (`let Ctank =
+            // A/(rho*g)`, `C tank = Ctank`): its parameters are the element's.
+            for l in lets_of(law.expr())
+                .into_iter()
+                .filter(|l| constant[l.0 as usize])
+            {
+                direct.extend(deep[l.0 as usize].iter().copied());
+            }
             element_params.extend(direct.iter().copied());
-            modulating.extend(deep_lets(model, law.expr()));
+            let read = deep_lets(model, law.expr()).into_iter();
+            modulating.extend(read.filter(|l| !constant[l.0 as usize]));
             let signals = if kind.is_source() || matches!(kind, ElementKind::MTF | ElementKind::MGY)
             {
                 signal_names(model, law.expr())
@@ -334,5 +362,34 @@ impl Fsm {
             rows,
             possible,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `let` that is a constant written apart (`let Ctank = A/(rho*g)`, `C tank =
+    /// Ctank`) is the element's modulus: its parameters are the tank's and it is no row of its
+    /// own. A `let` that reads a signal (the bench's backlash torque `w`) stays a modulation.
+    #[test]
+    fn a_constant_let_belongs_to_the_element_that_reads_it() {
+        let text = "model tank\nparam A = 0.01\nparam rho = 1000\nparam g = 9.81\n\
+            param R1 = 1e7\ninput Q\nlet Ctank = A/(rho*g)\nSf pump = Q\nC tank = Ctank\n\
+            R valve = R1\nDe p on n\npump -> 0:n -> tank, valve\n";
+        let (model, diagnostics) = crate::load(text);
+        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
+        let rows = components(&model);
+        let names: Vec<&str> = rows.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["pump", "tank", "valve", "p"]);
+        let tank = &rows[1];
+        let params: Vec<&str> = (tank.parameters.iter())
+            .map(|p| model.params[p.0 as usize].name.as_str())
+            .collect();
+        assert_eq!(params, ["A", "rho", "g"]);
+        let bench = include_str!("../../../../models/backlash_bench.bg");
+        let (model, _) = crate::load(bench);
+        let rows = components(&model.expect("the bench"));
+        assert!(rows.iter().any(|c| c.name == "w" && c.modulation.is_some()));
     }
 }
