@@ -13,6 +13,9 @@ use bondgraph_core::program::Stability;
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 pub use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
+use crate::calibrate::{self, Walk};
+use crate::cli::{self, Failure};
+
 /// `--estimator`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub(crate) enum EstimatorArg {
@@ -21,9 +24,6 @@ pub(crate) enum EstimatorArg {
     /// Integration by parts against one smooth window for every signal and order.
     Modulating,
 }
-
-use crate::calibrate::{self, Walk};
-use crate::cli::{self, Failure};
 
 /// What `bgc residuals` takes.
 #[derive(clap::Args, Debug)]
@@ -35,9 +35,11 @@ pub struct ResidualArgs {
     /// column per input and measured signal the ARRs read, named as in the model.
     #[arg(value_name = "DATA")]
     data: PathBuf,
-    /// Samples in the Savitzky–Golay window (odd) [default: with `--calibrate`, the longest
-    /// of 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy record) up
-    /// to which no residual's RMS on the healthy record grows; else 11].
+    /// Samples in the estimators' window (odd) [default: with `--calibrate`, for fits the
+    /// longest of 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy
+    /// record) up to which no residual's RMS on the healthy record grows, for modulating
+    /// functions the window chosen with them (see `--estimator`); else 11 for fits, 101 for
+    /// modulating functions].
     #[arg(long, value_name = "N")]
     window: Option<usize>,
     /// Residuals realised by integration (`integrated` in the model's output) are the
@@ -134,8 +136,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     }
     let program = c.program();
     let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
-    let values: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
-    match program.copy_stability(&values) {
+    let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    match program.copy_stability(&params) {
         Some(stability) if stability != Stability::Decays => {
             let simulated: Vec<&str> = (c.arrs.iter())
                 .filter(|a| a.form == ResidualForm::Simulated)
@@ -158,7 +160,6 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     })?;
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
-    let params: Vec<f64> = c.parameters.iter().map(|(_, p)| p.value).collect();
     let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
         let fit = Fit {
             step: data.step,
