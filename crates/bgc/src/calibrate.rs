@@ -99,13 +99,19 @@ pub(crate) fn most_sensitive(
                 .fold(0.0, f64::max);
             moves.push(shown);
         }
-        let least = moves.iter().copied().fold(f64::INFINITY, f64::min);
-        let typical = (moves
-            .iter()
-            .map(|m| m.max(f64::MIN_POSITIVE).ln())
-            .sum::<f64>()
-            / moves.len().max(1) as f64)
-            .exp();
+        // No parameter read: nothing to tell the candidates apart by, the first stays.
+        let (least, typical) = match moves.is_empty() {
+            true => (0.0, 0.0),
+            false => (
+                moves.iter().copied().fold(f64::INFINITY, f64::min),
+                (moves
+                    .iter()
+                    .map(|m| m.max(f64::MIN_POSITIVE).ln())
+                    .sum::<f64>()
+                    / moves.len() as f64)
+                    .exp(),
+            ),
+        };
         said.push(format!(
             "{}: {} at least, {} typically",
             describe(estimator),
