@@ -366,6 +366,24 @@ fn dead_zone(path: &str, extra: &[&str]) {
     simulate_bench(&args, path);
 }
 
+/// The healthy record thresholds are calibrated on: the dead-zone scenario up to just before
+/// its fault, with noise of another seed.
+fn dead_zone_healthy(path: &str) {
+    dead_zone(path, &["--seed", "7", "--duration", "9.5"]);
+}
+
+/// A temporary directory named after `test` with the dead-zone scenario's faulty record and
+/// its healthy record in it: (directory, record, healthy).
+fn dead_zone_records(test: &str) -> (std::path::PathBuf, String, String) {
+    let dir = std::env::temp_dir().join(format!("bgc-{test}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("dz.csv").display().to_string();
+    let healthy = dir.join("h.csv").display().to_string();
+    dead_zone(&record, &[]);
+    dead_zone_healthy(&healthy);
+    (dir, record, healthy)
+}
+
 /// Adaptive thresholds: the bench's plant with every uncertain parameter moved by its stated
 /// 5 % raises alarms against fixed thresholds, none against adaptive ones, and the dead-zone
 /// fault still raises ARR2's.
@@ -375,7 +393,7 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
     std::fs::create_dir_all(&dir).expect("temp dir");
     let healthy = dir.join("healthy.csv").display().to_string();
     let moved = dir.join("moved.csv").display().to_string();
-    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
+    dead_zone_healthy(&healthy);
     let mut extra = vec!["--duration", "14"];
     for fault in [
         "fault Re = 1.05*Re at 0",
@@ -522,12 +540,7 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
 /// least noise on the healthy record (501 samples) had ARR1 alarm at the load's stalls.
 #[test]
 fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
-    let dir = std::env::temp_dir().join(format!("bgc-calibrate-alone-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let record = dir.join("dz.csv").display().to_string();
-    let healthy = dir.join("h.csv").display().to_string();
-    dead_zone(&record, &[]);
-    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
+    let (dir, record, healthy) = dead_zone_records("calibrate-alone");
     let out = bgc(&[
         "residuals",
         "models/backlash_bench.bg",
@@ -784,12 +797,7 @@ fn bgc_residuals_computes_what_the_generated_code_computes_on_every_model() {
 /// link and its dead zone, and to no more than the relations of one residual per sensor give.
 #[test]
 fn the_episode_narrows_the_candidates_to_the_dead_zone() {
-    let dir = std::env::temp_dir().join(format!("bgc-episode-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let record = dir.join("dz.csv").display().to_string();
-    let healthy = dir.join("h.csv").display().to_string();
-    dead_zone(&record, &[]);
-    dead_zone(&healthy, &["--seed", "7", "--duration", "9.5"]);
+    let (dir, record, healthy) = dead_zone_records("episode");
     // Per row after the fault: (instant candidates, episode candidates); and the ranking.
     let run = |residuals: &str| {
         let out = bgc(&[
