@@ -25,6 +25,9 @@ struct Excitation {
     factor: f64,
     /// Initial states, where the model is watched around an operating point.
     initial: &'static [&'static str],
+    /// The inputs, where the generic ones do not fit: inputs of several physical kinds (a
+    /// flow, a temperature, a power) that no one amplitude serves.
+    inputs: &'static [&'static str],
 }
 
 /// Each model's excitation: its time constants and operating range, from its parameters.
@@ -40,6 +43,36 @@ fn excitation(file: &str) -> Excitation {
             "initial q_tank1 = 0.0077",
             "initial q_tank3 = 0.0062",
             "initial q_tank2 = 0.0046",
+        ],
+        // Half a litre of liquid in the accumulator (33 bar).
+        "gas_accumulator.bg" => &["initial q_acc = 0.8"],
+        // Half a metre of water, where a tenth of a litre per second drains.
+        "orifice_tank.bg" => &["initial q_tank = 0.0089"],
+        // Half a metre of water at 30 degC.
+        "heated_tank.bg" => &["initial q_tank = 0.025", "initial q_heat = 3.1e6"],
+        // Streams at 62 degC and 24 degC, the wall between them.
+        "heat_exchanger.bg" => &[
+            "initial q_hot = 1.3e6",
+            "initial q_wall = 1.6e5",
+            "initial q_cold = 5e5",
+        ],
+        "coulomb_friction.bg" => &["initial p_slide = 2.4"],
+        _ => &[],
+    };
+    let inputs: &[&str] = match file {
+        // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
+        "coulomb_friction.bg" => &["input F = 60*t + 2*sin(3*t)"],
+        "heated_tank.bg" => &[
+            "input Qin = 1e-4*(1 - cos(0.0043*t) + 0.3*sin(0.0097*t)^2)",
+            "input Tin = 15 + 3*sin(0.006*t)",
+            "input Qh = 6000*(1 - cos(0.008*t))",
+            "input Tamb = 20 + 2*sin(0.002*t)",
+        ],
+        "heat_exchanger.bg" => &[
+            "input wh = 0.2*(1.5 - cos(0.13*t))",
+            "input wc = 0.2*(1.5 - cos(0.2*t) + 0.3*sin(0.29*t)^2)",
+            "input Thin = 70 + 10*sin(0.36*t)",
+            "input Tcin = 15 + 5*sin(0.43*t)",
         ],
         _ => &[],
     };
@@ -59,6 +92,16 @@ fn excitation(file: &str) -> Excitation {
         // A 21 Hz shaft resonance. The shaft's internal damping moves ARR1 by a thousandth of
         // its stiffness' share here: only a tenfold change of it shows.
         "torque_sensor_drive.bg" => (0.1, 1.0, 10.0),
+        // The gas spring and the valve: 2 s; a pump of half a litre per second.
+        "gas_accumulator.bg" => (2.0, 0.5, 2.0),
+        // A 3-minute tank.
+        "orifice_tank.bg" => (100.0, 1e-4, 2.0),
+        // An 8-minute level, a 4-minute temperature.
+        "heated_tank.bg" => (300.0, 1.0, 2.0),
+        // Streams of 17 s, a wall of 3 s. The films move the residual without the wall by a
+        // fraction of the wall's own share, through the second derivative of the hot
+        // temperature: only a fivefold change of a film shows.
+        "heat_exchanger.bg" => (10.0, 1.0, 5.0),
         _ => (1.0, 1.0, 2.0),
     };
     Excitation {
@@ -66,6 +109,7 @@ fn excitation(file: &str) -> Excitation {
         amplitude,
         factor,
         initial,
+        inputs,
     }
 }
 
@@ -91,10 +135,8 @@ impl Case {
             format!("step {}", 1e-3 * scale),
         ];
         scenario.extend(excitation.initial.iter().map(|s| s.to_string()));
-        if file == "coulomb_friction.bg" {
-            // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
-            scenario.push("input F = 60*t + 2*sin(3*t)".into());
-            scenario.push("initial p_slide = 2.4".into());
+        if !excitation.inputs.is_empty() {
+            scenario.extend(excitation.inputs.iter().map(|s| s.to_string()));
         } else {
             // Smooth from rest: no start-up transient for the estimators to straddle.
             for (k, u) in json["inputs"]

@@ -243,25 +243,121 @@ fn a_storage_law_diagnosis_cannot_invert_is_a_note_not_an_error() {
     assert_eq!(code(&verify), 0, "{}", stdout(&verify));
 }
 
-/// A gas accumulator written as the physics gives it, `q = V0 (1 − p0/e)`: the state
-/// equations cannot hold its state `q` (refused, exit 1), but its ARR needs only the law as
-/// written, and the residual code is written all the same.
+/// A gas accumulator written as the physics gives it, `q = V0 (1 − p0/e)`: the law serves
+/// both causalities, as written for the ARR and through its closed-form inverse for the
+/// state equations, whose state is the liquid volume `q`; the output states the inverse and
+/// where it holds.
 const ACCUMULATOR: &str = "model accumulator\nparam V0 = 1e-3\nparam p0 = 1e5\n\
     param R1 = 1e8\ninput Q\nSf pump = Q\nC acc : q = V0*(1 - p0/e)\nR valve = R1\n\
     De p on n\npump -> 0:n -> acc, valve\n";
 
 #[test]
+fn a_storage_law_given_from_its_effort_serves_both_causalities() {
+    let out = bgc_stdin(&["-"], ACCUMULATOR.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    for expected in [
+        "der(q_acc) =",
+        "acc        law read the other way: e = p0 / (1 - q / V0), where 1 - q / V0 != 0",
+        "Q - V0 * p0 * der(p) / p ^ 2 - p / R1 = 0",
+    ] {
+        assert!(text.contains(expected), "{expected}:\n{text}");
+    }
+    let verify = bgc_stdin(
+        &["verify", "-", "--state-scale", "1e-4"],
+        ACCUMULATOR.as_bytes(),
+    );
+    assert_eq!(code(&verify), 0, "{}", stdout(&verify));
+}
+
+/// A capacitor whose charge follows its voltage with no closed-form inverse,
+/// `q = C0 e + C1 e³`: the state equations hold its voltage, `de/dt = f / (C0 + 3 C1 e²)`.
+const VARACTOR: &str = "model varactor\nparam C0 = 1e-3\nparam C1 = 1e-4\nparam R1 = 10\n\
+    input U\nSe src = U\nR res = R1\nC cap : q = C0*e + C1*e^3\nDf i on j\n\
+    src -> 1:j -> res, cap\n";
+
+#[test]
+fn a_storage_law_without_inverse_holds_its_co_energy_variable() {
+    let out = bgc_stdin(&["-"], VARACTOR.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(
+        text.contains("der(e_cap) = 0.3333333333333333 * (U - e_cap) / R1 / (e_cap ^ 2 * C1 + 0.3333333333333333 * C0)"),
+        "{text}"
+    );
+    let verify = bgc_stdin(&["verify", "-"], VARACTOR.as_bytes());
+    assert_eq!(code(&verify), 0, "{}", stdout(&verify));
+}
+
+/// The orifice law as the language reference writes it, `f = c sqrt(e)`, with only a flow
+/// meter: its inverse `e = (f/c)^2` (for `f/c >= 0`) gives the tank's ARR, which was missing.
+const ORIFICE: &str = "model orifice\nparam A = 0.01\nparam rho = 1000\nparam g = 9.81\n\
+    param c = 1e-5\ninput Q\nSf pump = Q\nC tank = A/(rho*g)\nR drain : f = c*sqrt(e)\n\
+    Df q on d\npump -> 0:a -> tank\na -> 1:d -> drain\n";
+
+#[test]
+fn the_orifice_law_as_written_gives_the_flow_meters_arr() {
+    let out = bgc_stdin(&["-"], ORIFICE.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    for expected in [
+        "der(q_tank) = Q - c * sqrt(q_tank * rho * g / A)",
+        "drain      law read the other way: e = (f / c) ^ 2, where f / c >= 0",
+        "Q - q * 2 * A * der(q) / rho / c ^ 2 / g - q = 0",
+    ] {
+        assert!(text.contains(expected), "{expected}:\n{text}");
+    }
+    assert!(!stderr(&out).contains("bg::no-arr"), "{}", stderr(&out));
+}
+
+/// Enthalpy leaving a volume with an input mass flow, `f = cp w e`: a plain `R` may not read
+/// the input (and says to write `MR`), an `MR` may.
+#[test]
+fn a_law_that_reads_an_input_is_a_modulated_element() {
+    let model = |kind: &str| {
+        format!(
+            "model outflow\nparam cp = 4186\nparam M = 5\ninput w\ninput Qh\nSf heater = Qh\n\
+             C water = M*cp\n{kind} out : f = cp*w*e\nDe T on th\nheater -> 0:th -> water, out\n"
+        )
+    };
+    let plain = bgc_stdin(&["-"], model("R").as_bytes());
+    assert_eq!(code(&plain), 1);
+    assert!(
+        stderr(&plain).contains("write MR instead of"),
+        "{}",
+        stderr(&plain)
+    );
+    let modulated = bgc_stdin(&["-"], model("MR").as_bytes());
+    assert_eq!(code(&modulated), 0, "{}", stderr(&modulated));
+    let text = stdout(&modulated);
+    assert!(
+        text.contains("der(q_water) = Qh - q_water * w / M"),
+        "{text}"
+    );
+    assert!(
+        text.contains("Qh - cp * (w * T + M * der(T)) = 0"),
+        "{text}"
+    );
+}
+
+/// A modulated resistor that reads its own junction's flow meter is no state-space model
+/// (the reading depends on itself): the state equations are refused, exit 1, and the ARR and
+/// its residual code are written all the same.
+const SELF_READING: &str = "model selfread\nparam k = 2\nparam C1 = 1\ninput U\nSe src = U\n\
+    MR r : f = k*i*e\nC c = C1\nDf i on j\nsrc -> 1:j -> r, c\n";
+
+#[test]
 fn refused_state_equations_leave_the_residual_code() {
-    let out = bgc_stdin(&["-", "--emit", "rust"], ACCUMULATOR.as_bytes());
+    let out = bgc_stdin(&["-", "--emit", "rust"], SELF_READING.as_bytes());
     assert_eq!(code(&out), 1, "the state equations are refused");
     assert!(
-        stderr(&out).contains("bg::not-invertible"),
+        stderr(&out).contains("bg::refused") && stderr(&out).contains("signal(s) `i`, which"),
         "{}",
         stderr(&out)
     );
     let rust = stdout(&out);
     assert!(
-        rust.contains("pub fn residuals") && rust.contains("p.V0"),
+        rust.contains("pub fn residuals") && rust.contains("p.C1"),
         "{rust}"
     );
     assert_plausible(&rust);

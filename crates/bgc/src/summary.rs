@@ -68,6 +68,13 @@ pub fn verification(c: &Compiled, v: &Verification) -> String {
         "model {}: ARRs on the healthy plant (relative |residual|)",
         c.name
     );
+    if v.scalings > 0 {
+        let _ = writeln!(
+            out,
+            "  (initial states at scale {:e}: larger ones left the model's domain on the first step)",
+            v.state_scale
+        );
+    }
     for a in &v.arrs {
         let _ = writeln!(
             out,

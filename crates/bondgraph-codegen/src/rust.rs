@@ -219,6 +219,7 @@ impl<'p> Lowering<'p> {
                     Func::Tan => quote!(#x.tan()),
                     Func::Tanh => quote!(#x.tanh()),
                     Func::Atan => quote!(#x.atan()),
+                    Func::Atanh => quote!(#x.atanh()),
                     _ => {
                         let (arg, _) = self.expr(a);
                         quote!(::bondgraph::sign(#arg))

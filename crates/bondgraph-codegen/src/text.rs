@@ -51,6 +51,18 @@ fn report(out: &mut String, r: &CausalityReport) {
         };
         let _ = writeln!(out, "  junction {junction} set by {what}");
     }
+    for law in &r.inverted {
+        let domain = if law.domain.is_empty() {
+            String::new()
+        } else {
+            format!(", where {}", law.domain.join(" and "))
+        };
+        let _ = writeln!(
+            out,
+            "  {:<10} law read the other way: {}{domain}",
+            law.element, law.law
+        );
+    }
     for p in &r.problems {
         let _ = writeln!(out, "  problem: {p}");
     }

@@ -98,6 +98,8 @@ pub enum Func {
     Tanh,
     /// `atan(x)`
     Atan,
+    /// `atanh(x)`, the inverse of `tanh`, defined on (-1, 1).
+    Atanh,
     /// `min(x, y)`
     Min,
     /// `max(x, y)`
@@ -106,7 +108,7 @@ pub enum Func {
 
 impl Func {
     /// Every function, in the order the documentation lists them.
-    pub const ALL: [Func; 12] = [
+    pub const ALL: [Func; 13] = [
         Func::Exp,
         Func::Log,
         Func::Sqrt,
@@ -117,6 +119,7 @@ impl Func {
         Func::Tan,
         Func::Tanh,
         Func::Atan,
+        Func::Atanh,
         Func::Min,
         Func::Max,
     ];
@@ -134,6 +137,7 @@ impl Func {
             Func::Tan => "tan",
             Func::Tanh => "tanh",
             Func::Atan => "atan",
+            Func::Atanh => "atanh",
             Func::Min => "min",
             Func::Max => "max",
         }
@@ -174,6 +178,7 @@ impl Func {
             Func::Tan => x.tan(),
             Func::Tanh => x.tanh(),
             Func::Atan => x.atan(),
+            Func::Atanh => x.atanh(),
             Func::Min => x.min(args.get(1).copied().unwrap_or(f64::NAN)),
             Func::Max => x.max(args.get(1).copied().unwrap_or(f64::NAN)),
         }

@@ -77,7 +77,7 @@ impl Default for VerifyOptions {
 }
 
 /// Why a model cannot be verified at all.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum VerifyError {
     /// The state equations were not derived, so there is no plant to simulate.
     NoStateEquations,
@@ -88,7 +88,7 @@ pub enum VerifyError {
     /// and each loop's unknown implicitly from its own equation only.
     ImplicitLoops(Vec<String>),
     /// The simulation left the finite numbers (at this time, in seconds).
-    Diverged(String),
+    Diverged(f64),
 }
 
 impl std::fmt::Display for VerifyError {
@@ -152,6 +152,11 @@ pub struct Verification {
     /// The RK4 step used: the one asked for, or a tenth of it for each time the simulation
     /// of a stiff model left the finite numbers.
     pub step: f64,
+    /// The scale of the initial states: the one asked for, or a tenth of it for each time
+    /// the simulation left the finite numbers on its first step.
+    pub state_scale: f64,
+    /// How many times the initial states were shrunk tenfold to get there.
+    pub scalings: u32,
 }
 
 impl Verification {
@@ -224,6 +229,9 @@ struct Plant {
 
 /// Most times the step is divided by ten for a stiff model.
 const MAX_REFINEMENTS: usize = 3;
+/// How many times the initial states may shrink tenfold: from the default 0.5 down to 5e-7,
+/// half a millilitre in m^3.
+const MAX_SCALINGS: usize = 6;
 
 /// Checks every ARR and FSM entry of `c` numerically.
 pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, VerifyError> {
@@ -238,13 +246,26 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         VerifyError::ImplicitLoops(space.loops.iter().map(|l| l.name.clone()).collect())
     })?;
     let mut options = *options;
-    for _ in 0..MAX_REFINEMENTS {
+    let (mut finer, mut smaller) = (0, 0);
+    loop {
         match verify_with(c, &plant, &options) {
-            Err(VerifyError::Diverged(_)) => options.step /= 10.0,
+            // Left the numbers on the first step: the start is outside the model's domain
+            // (a liquid volume past its accumulator's gas volume), not a step too long.
+            Err(VerifyError::Diverged(t)) if t == 0.0 && smaller < MAX_SCALINGS => {
+                options.state_scale /= 10.0;
+                smaller += 1;
+            }
+            Ok(mut v) => {
+                v.scalings = smaller as u32;
+                return Ok(v);
+            }
+            Err(VerifyError::Diverged(_)) if finer < MAX_REFINEMENTS => {
+                options.step /= 10.0;
+                finer += 1;
+            }
             done => return done,
         }
     }
-    verify_with(c, &plant, &options)
 }
 
 fn verify_with(
@@ -390,6 +411,8 @@ fn verify_with(
         entries,
         unchecked,
         step: options.step,
+        state_scale: options.state_scale,
+        scalings: 0,
     })
 }
 
@@ -856,7 +879,7 @@ impl Run<'_> {
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
             }
             if x.iter().any(|v| !v.is_finite()) {
-                return Err(VerifyError::Diverged(format!("{t}")));
+                return Err(VerifyError::Diverged(t));
             }
         }
         Ok(())

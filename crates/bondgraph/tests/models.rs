@@ -25,10 +25,15 @@ bondgraph::bond_graph!("../../models/three_tank.bg");
 bondgraph::bond_graph!("../../models/torque_sensor_drive.bg");
 bondgraph::bond_graph!("../../models/two_tank.bg");
 bondgraph::bond_graph!("../../models/varistor_loop.bg");
+bondgraph::bond_graph!("../../models/gas_accumulator.bg");
+bondgraph::bond_graph!("../../models/heat_exchanger.bg");
+bondgraph::bond_graph!("../../models/heated_tank.bg");
+bondgraph::bond_graph!("../../models/orifice_tank.bg");
 bondgraph::bond_graph!("../../models/wheatstone_bridge.bg");
 
-/// The residuals `best` keeps, simulated ones among them: the bench (one per encoder) and the
-/// two tanks (the first level).
+/// The residuals `best` keeps: the bench's, two of them simulated (one per encoder), and the
+/// two tanks', whose residual without the first level reads the valve's law the other way
+/// (no simulated one).
 mod best {
     pub mod bench {
         bondgraph::bond_graph!("../../models/backlash_bench.bg", residuals = best);
@@ -126,6 +131,7 @@ macro_rules! check {
             "no model of models/ needs an auxiliary signal"
         );
         let p = $m::Params::default();
+        let mut finite = vec![0usize; $m::RESIDUALS.len()];
         for point in 0..20u64 {
             let values: Vec<f64> = $m::Signals::NAMES
                 .iter()
@@ -143,13 +149,34 @@ macro_rules! check {
             let want = expected(&c, &by_name);
             assert_eq!(got.len(), want.len());
             for (k, (g, w)) in got.iter().zip(&want).enumerate() {
+                // Outside a law's domain (the square root of a negative pressure) both
+                // evaluations leave the numbers.
+                if !w.is_finite() {
+                    assert!(
+                        !g.is_finite(),
+                        "{}: {} at point {point}: generated {g}, core {w}",
+                        stringify!($m),
+                        $m::RESIDUALS[k]
+                    );
+                    continue;
+                }
+                finite[k] += 1;
                 assert!(
-                    (g - w).abs() <= 1e-9 * w.abs() + 1e-300 && w.is_finite(),
+                    (g - w).abs() <= 1e-9 * w.abs() + 1e-300,
                     "{}: {} at point {point}: generated {g}, core {w}",
                     stringify!($m),
                     $m::RESIDUALS[k]
                 );
             }
+        }
+        // Most points are within every law's domain: the comparison is not vacuous.
+        for (k, n) in finite.iter().enumerate() {
+            assert!(
+                *n >= 5,
+                "{}: {} finite at {n} points of 20",
+                stringify!($m),
+                $m::RESIDUALS[k]
+            );
         }
     }};
 }
@@ -174,9 +201,13 @@ fn generated_residuals_equal_the_products_arrs_for_every_model() {
     check!(torque_sensor_drive);
     check!(two_tank);
     check!(varistor_loop);
+    check!(gas_accumulator);
+    check!(heat_exchanger);
+    check!(heated_tank);
+    check!(orifice_tank);
     check!(wheatstone_bridge);
     check!(best_bench, "backlash_bench", ResidualSet::Best);
     check!(best_tanks, "two_tank", ResidualSet::Best);
     assert!(best_bench::SIMULATED.iter().filter(|&&s| s).count() == 2);
-    assert!(best_tanks::SIMULATED.contains(&true));
+    assert!(!best_tanks::SIMULATED.contains(&true));
 }

@@ -11,7 +11,9 @@ use crate::graph::{
     BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,
     Signal, SignalExpr,
 };
-use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool};
+use crate::symbolic::{
+    invert, known_signal_rule, Condition, Derivatives, ExprId, Leaf, Node, Pool,
+};
 
 /// An unknown of the system, by index into [`System::vars`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -111,12 +113,15 @@ pub enum Relation {
         /// The factor, over knowns.
         k: ExprId,
     },
-    /// `out = rhs`, `rhs` over a `Var` leaf: solvable for `out` only (a nonlinear law).
+    /// `out = rhs`, `rhs` over a `Var` leaf: solvable for `out`, and for that leaf's unknown
+    /// when the law has a closed-form inverse (a nonlinear law).
     Law {
         /// The unknown defined.
         out: VarId,
         /// Its definition.
         rhs: ExprId,
+        /// The input's unknown and its value over `out`'s leaf, when the law can be inverted.
+        inverse: Option<(VarId, ExprId)>,
     },
     /// `Σ ± var = 0` (a junction's balance), solvable for any term.
     Sum {
@@ -149,13 +154,40 @@ pub struct Equation {
 /// A state variable of the integral-causality model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State {
-    /// `p_NAME` for an `I`, `q_NAME` for a `C`.
+    /// `p_NAME` for an `I`, `q_NAME` for a `C`; `f_NAME` or `e_NAME` for a co-energy state.
     pub name: String,
     /// The storage element.
     pub element: NodeId,
-    /// The unknown whose value is the state's derivative (effort of an `I`, flow of a `C`).
+    /// The unknown whose value, times [`State::scale`], is the state's derivative (effort of
+    /// an `I`, flow of a `C`).
     pub rate: VarId,
+    /// `1/Φ'(x)` over the state's leaf, for a co-energy state `x` of a law `q = Φ(e)` or
+    /// `p = Φ(f)` that has no closed-form inverse; `None` for an energy state.
+    pub scale: Option<ExprId>,
 }
+
+/// A law read the other way: its closed-form inverse, and where that holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Inversion {
+    /// The element whose law it is.
+    pub element: NodeId,
+    /// The variable the law gives, now the inverse's argument.
+    pub given: PortVar,
+    /// The variable the inverse gives.
+    pub solved: PortVar,
+    /// Its value, over [`ARGUMENT`].
+    pub value: ExprId,
+    /// Where `value` is the solution, over [`ARGUMENT`].
+    pub domain: Vec<Condition>,
+    /// The unknowns whose computation reads the inverse: the inversion is used when the
+    /// element's equation solves one of them.
+    pub needed_for: Vec<VarId>,
+}
+
+/// The leaf standing for an inverse's argument in [`Inversion::value`].
+pub const ARGUMENT: Leaf = Leaf::Tear(u32::MAX, 1);
+/// The leaf standing for a law's input while it is inverted.
+const INPUT: Leaf = Leaf::Tear(u32::MAX, 0);
 
 /// A storage element that cannot take the causality its mode requires, and why.
 #[derive(Clone, Debug, PartialEq)]
@@ -177,6 +209,8 @@ pub struct System {
     pub states: Vec<State>,
     /// Storage elements whose law cannot be used in the mode's causality.
     pub refusals: Vec<Refusal>,
+    /// The laws that can be read the other way, with their domains.
+    pub inversions: Vec<Inversion>,
     /// The expressions.
     pub pool: Pool,
     index: HashMap<Var, VarId>,
@@ -213,6 +247,7 @@ pub fn build_in(model: &BondGraph, mode: Mode, free: &[LetId], scope: Option<&[N
             equations: Vec::new(),
             states: Vec::new(),
             refusals: Vec::new(),
+            inversions: Vec::new(),
             pool: Pool::default(),
             index: HashMap::new(),
         },
@@ -422,7 +457,7 @@ impl Builder<'_> {
                 vars.extend([*a, *b]);
                 exprs.push(*k);
             }
-            Relation::Law { out, rhs } => {
+            Relation::Law { out, rhs, .. } => {
                 vars.push(*out);
                 exprs.push(*rhs);
             }
@@ -542,7 +577,7 @@ impl Builder<'_> {
                 let value = self.expr(law.expr(), &mut |_| None, &mut used);
                 self.push(node, Relation::Assign { var, value }, used);
             }
-            ElementKind::R => {
+            ElementKind::R | ElementKind::MR => {
                 let Some(&b) = incoming.first() else { return };
                 let (e, f) = (self.var(Var::Effort(b)), self.var(Var::Flow(b)));
                 let relation = match law {
@@ -557,8 +592,19 @@ impl Builder<'_> {
                             (f, e, PortVar::E)
                         };
                         let leaf = self.leaf(input);
-                        let rhs = self.expr(rhs, &mut |v| (v == port).then_some(leaf), &mut used);
-                        Relation::Law { out, rhs }
+                        let forward =
+                            self.expr(rhs, &mut |v| (v == port).then_some(leaf), &mut used);
+                        let inverse = self
+                            .invert(node, rhs, *output, port, &[input], &mut used)
+                            .map(|v| {
+                                let out_leaf = self.leaf(out);
+                                (input, self.argument(v, out_leaf))
+                            });
+                        Relation::Law {
+                            out,
+                            rhs: forward,
+                            inverse,
+                        }
                     }
                     _ => return,
                 };
@@ -599,13 +645,52 @@ impl Builder<'_> {
                     used,
                 );
             }
-            ElementKind::I | ElementKind::C => {
-                self.storage(node, kind, law, incoming.first().copied())
+            ElementKind::I | ElementKind::C | ElementKind::MI | ElementKind::MC => {
+                self.storage(node, kind.base(), law, incoming.first().copied())
             }
         }
     }
 
-    /// `I`: f = φ(p), dp/dt = e. `C`: e = φ(q), dq/dt = f.
+    /// The closed-form inverse of `node`'s law `given = rhs(solved)`, over [`ARGUMENT`],
+    /// recorded with its domain as needed to compute `needed_for`.
+    fn invert(
+        &mut self,
+        node: NodeId,
+        rhs: &SignalExpr,
+        given: PortVar,
+        solved: PortVar,
+        needed_for: &[VarId],
+        used: &mut Vec<LetId>,
+    ) -> Option<ExprId> {
+        if let Some(known) = self.sys.inversions.iter_mut().find(|i| i.element == node) {
+            known.needed_for.extend_from_slice(needed_for);
+            return Some(known.value);
+        }
+        let input = self.sys.pool.leaf(INPUT);
+        let forward = self.expr(rhs, &mut |v| (v == solved).then_some(input), used);
+        let argument = self.sys.pool.leaf(ARGUMENT);
+        let inverse = invert(&mut self.sys.pool, forward, INPUT, argument)?;
+        self.sys.inversions.push(Inversion {
+            element: node,
+            given,
+            solved,
+            value: inverse.value,
+            domain: inverse.domain,
+            needed_for: needed_for.to_vec(),
+        });
+        Some(inverse.value)
+    }
+
+    /// An inverse's value at `y`.
+    fn argument(&mut self, value: ExprId, y: ExprId) -> ExprId {
+        self.sys
+            .pool
+            .substitute(value, &mut |_, l| (l == ARGUMENT).then_some(y))
+    }
+
+    /// `I`: f = φ(p), dp/dt = e. `C`: e = φ(q), dq/dt = f. A law given the other way
+    /// (`q = Φ(e)`) serves through its closed-form inverse, or, where it has none, through a
+    /// co-energy state in integral causality.
     fn storage(&mut self, node: NodeId, kind: ElementKind, law: &Law, bond: Option<BondId>) {
         let Some(b) = bond else { return };
         let (e, f) = (self.var(Var::Effort(b)), self.var(Var::Flow(b)));
@@ -632,6 +717,10 @@ impl Builder<'_> {
                 Law::Explicit { output, rhs } if *output == co_port => {
                     Some(this.expr(rhs, &mut |v| (v == energy).then_some(x), used))
                 }
+                Law::Explicit { rhs, .. } => {
+                    let v = this.invert(node, rhs, energy, co_port, &[co], used)?;
+                    Some(this.argument(v, x))
+                }
                 _ => None,
             }
         };
@@ -645,6 +734,10 @@ impl Builder<'_> {
                 Law::Explicit { output, rhs } if *output == energy => {
                     Some(this.expr(rhs, &mut |v| (v == co_port).then_some(y), used))
                 }
+                Law::Explicit { rhs, .. } => {
+                    let v = this.invert(node, rhs, co_port, energy, &[rate], used)?;
+                    Some(this.argument(v, y))
+                }
                 _ => None,
             }
         };
@@ -652,35 +745,49 @@ impl Builder<'_> {
             Mode::Integral => {
                 let index = self.sys.states.len() as u32;
                 let state = self.sys.pool.leaf(Leaf::State(index));
-                match phi(self, state, &mut used) {
-                    Some(value) => {
-                        // The derivative form too: an element that another storage element
-                        // drives through a rigid path (a gear between inertias, capacitors
-                        // in parallel) takes derivative causality and holds no state.
-                        let co_leaf = self.leaf(co);
-                        let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
-                        self.sys.states.push(State { name, element: node, rate });
-                        used.sort();
-                        used.dedup();
-                        self.push(
-                            node,
-                            Relation::Storage {
-                                derivative,
-                                integral: Some((co, value)),
-                            },
-                            used,
-                        );
-                    }
-                    None => self.sys.refusals.push(Refusal {
-                        element: node,
-                        reason: format!(
-                            "its law gives `{}` from `{}`, so it cannot hold the state `{}` (integral causality)",
-                            energy.name(),
-                            co_port.name(),
-                            energy.name()
-                        ),
-                    }),
-                }
+                let co_leaf = self.leaf(co);
+                // The derivative form too: an element that another storage element drives
+                // through a rigid path (a gear between inertias, capacitors in parallel)
+                // takes derivative causality and holds no state.
+                let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
+                let (name, value, scale) = match phi(self, state, &mut used) {
+                    Some(value) => (name, value, None),
+                    None => match self.co_energy_scale(law, co_port, state, &mut used) {
+                        Some(scale) => {
+                            let name = format!("{}_{}", co_port.name(), self.model.node(node).name);
+                            (name, state, Some(scale))
+                        }
+                        None => {
+                            self.sys.refusals.push(Refusal {
+                                element: node,
+                                reason: format!(
+                                    "its law gives neither `{}` from `{}` nor a usable `{}` from `{}`, so it cannot hold a state (integral causality)",
+                                    co_port.name(),
+                                    energy.name(),
+                                    energy.name(),
+                                    co_port.name()
+                                ),
+                            });
+                            return;
+                        }
+                    },
+                };
+                self.sys.states.push(State {
+                    name,
+                    element: node,
+                    rate,
+                    scale,
+                });
+                used.sort();
+                used.dedup();
+                self.push(
+                    node,
+                    Relation::Storage {
+                        derivative,
+                        integral: Some((co, value)),
+                    },
+                    used,
+                );
             }
             Mode::Diagnosis => {
                 let co_leaf = self.leaf(co);
@@ -692,7 +799,7 @@ impl Builder<'_> {
                     self.sys.refusals.push(Refusal {
                         element: node,
                         reason: format!(
-                            "its law gives `{}` from `{}`, so it cannot take derivative causality",
+                            "its law gives `{}` from `{}` and has no closed-form inverse, so it cannot take derivative causality",
                             co_port.name(),
                             energy.name()
                         ),
@@ -710,6 +817,36 @@ impl Builder<'_> {
                 );
             }
         }
+    }
+
+    /// For a law `q = Φ(e)` (or `p = Φ(f)`) held through its co-energy variable `x` (the
+    /// state's leaf): `dx/dt = rate / Φ'(x)`, and this is `1/Φ'(x)`.
+    fn co_energy_scale(
+        &mut self,
+        law: &Law,
+        co_port: PortVar,
+        state: ExprId,
+        used: &mut Vec<LetId>,
+    ) -> Option<ExprId> {
+        let Law::Explicit { output, rhs } = law else {
+            return None;
+        };
+        if *output == co_port {
+            return None;
+        }
+        let phi = self.expr(rhs, &mut |v| (v == co_port).then_some(state), used);
+        let Node::Leaf(x) = self.sys.pool.node(state) else {
+            return None;
+        };
+        // d/dx: the state's leaf moves at unit rate, parameters do not move.
+        let mut d = Derivatives::new(move |p: &mut Pool, leaf: Leaf| match leaf {
+            l if l == x => Some(p.num(1.0)),
+            Leaf::Param(_) => Some(p.num(0.0)),
+            _ => None,
+        });
+        let slope = d.of(&mut self.sys.pool, phi)?;
+        let one = self.sys.pool.num(1.0);
+        Some(self.sys.pool.div(one, slope))
     }
 }
 

@@ -118,10 +118,7 @@ impl Causal {
             let NodeKind::Element(kind, _) = model.node(eq.owner).kind else {
                 continue;
             };
-            if !matches!(
-                kind,
-                crate::graph::ElementKind::I | crate::graph::ElementKind::C
-            ) {
+            if !kind.is_storage() {
                 continue;
             }
             let causality = match (&eq.relation, self.solved.uses[i]) {

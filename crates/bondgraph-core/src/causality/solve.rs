@@ -16,7 +16,7 @@ use std::collections::VecDeque;
 use super::equations::{Equation, Relation, System, VarId};
 use super::Mode;
 use crate::graph::{BondGraph, ElementKind, NodeKind};
-use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool, Simplifier};
+use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Leaf, Pool};
 
 /// Why an equation was used to compute an unknown (lower is preferred).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -29,8 +29,12 @@ pub enum Class {
     Resistor = 2,
     /// The balance of a junction that carries a detector (diagnosis).
     SensorBalance = 3,
+    /// A nonlinear law read through its closed-form inverse: after every way of using it
+    /// as written, whose conditioning the user chose (`f = Kv e^3` stays a cube, not a
+    /// cube root of a signal near zero).
+    Inverted = 4,
     /// Storage in the other causality (integral in diagnosis).
-    Fallback = 4,
+    Fallback = 5,
 }
 
 /// What became of an equation.
@@ -102,7 +106,7 @@ fn class_of(
 ) -> Option<Class> {
     let is_resistor = matches!(
         model.node(eq.owner).kind,
-        NodeKind::Element(ElementKind::R, _)
+        NodeKind::Element(ElementKind::R | ElementKind::MR, _)
     );
     match &eq.relation {
         Relation::Assign { var, .. } => (*var == v).then_some(Class::Structural),
@@ -112,7 +116,10 @@ fn class_of(
             Class::Structural
         }),
         Relation::Scale { .. } => None,
-        Relation::Law { out, .. } => (*out == v).then_some(Class::Resistor),
+        Relation::Law { out, .. } if *out == v => Some(Class::Resistor),
+        Relation::Law { inverse, .. } => {
+            inverse.is_some_and(|i| i.0 == v).then_some(Class::Inverted)
+        }
         Relation::Sum { terms } => terms.iter().any(|t| t.1 == v).then_some(
             if mode == Mode::Diagnosis && sensed[eq.owner.0.index()] {
                 Class::SensorBalance
@@ -197,7 +204,7 @@ struct Solver<'a> {
     solved_by: Vec<Option<usize>>,
     torn: Vec<Torn>,
     implicit: Vec<Implicit>,
-    queues: [VecDeque<usize>; 5],
+    queues: [VecDeque<usize>; 6],
     derivatives: Derivatives<Leaf, Rule>,
     /// While a tear is tried: the unknowns and equations it touched, to undo it.
     journal: Option<(Vec<usize>, Vec<usize>)>,
@@ -480,34 +487,6 @@ fn linear_root(pool: &mut Pool, r: ExprId, v: VarId) -> Option<ExprId> {
     linear_root_of(pool, r, Leaf::Var(v.0))
 }
 
-/// The root of `r` in the leaf `x`, if `r` is linear in it (see [`linear_root`]).
-pub(crate) fn linear_root_of(pool: &mut Pool, r: ExprId, x: Leaf) -> Option<ExprId> {
-    let at = |pool: &mut Pool, value: f64| {
-        let n = pool.num(value);
-        let e = pool.substitute(r, &mut |_, leaf| (leaf == x).then_some(n));
-        Simplifier::default().simplify(pool, e)
-    };
-    let (a, one, two) = (at(pool, 0.0), at(pool, 1.0), at(pool, 2.0));
-    // (`value` above is the number put for `x`.)
-    let b = pool.sub(one, a);
-    let b = Simplifier::default().simplify(pool, b);
-    if pool.as_num(b) == Some(0.0) {
-        return None;
-    }
-    let two_b = {
-        let k = pool.num(2.0);
-        pool.mul(k, b)
-    };
-    let predicted = pool.add(a, two_b);
-    let predicted = Simplifier::default().simplify(pool, predicted);
-    if predicted != two {
-        return None;
-    }
-    let na = pool.neg(a);
-    let root = pool.div(na, b);
-    Some(Simplifier::default().simplify(pool, root))
-}
-
 /// `e` with every unknown replaced by its value.
 fn known(pool: &mut Pool, e: ExprId, values: &[Option<ExprId>]) -> ExprId {
     pool.substitute(e, &mut |p, leaf| match leaf {
@@ -529,9 +508,17 @@ fn rule(sys: &System, mode: Mode) -> Rule {
     match mode {
         Mode::Diagnosis => Box::new(known_signal_rule),
         Mode::Integral => {
-            let rates: Vec<u32> = sys.states.iter().map(|s| s.rate.0).collect();
+            let rates: Vec<(u32, Option<ExprId>)> =
+                sys.states.iter().map(|s| (s.rate.0, s.scale)).collect();
             Box::new(move |p: &mut Pool, leaf: Leaf| match leaf {
-                Leaf::State(k) => rates.get(k as usize).map(|&r| p.leaf(Leaf::Tear(r, 0))),
+                Leaf::State(k) => rates.get(k as usize).map(|&(r, scale)| {
+                    let rate = p.leaf(Leaf::Tear(r, 0));
+                    // A co-energy state moves at rate/Φ'(x).
+                    match scale {
+                        Some(s) => p.mul(rate, s),
+                        None => rate,
+                    }
+                }),
                 Leaf::Tear(v, n) => Some(p.leaf(Leaf::Tear(v, n + 1))),
                 other => known_signal_rule(p, other),
             })
@@ -564,7 +551,10 @@ fn solve_for(
                 p.div(a, k)
             }
         }
-        Relation::Law { rhs, .. } => known(p, rhs, values),
+        Relation::Law { out, rhs, inverse } => match inverse {
+            Some((input, value)) if input == v && out != v => known(p, value, values),
+            _ => known(p, rhs, values),
+        },
         Relation::Sum { terms } => {
             let own = terms.iter().find(|t| t.1 == v).is_none_or(|t| t.0);
             // own·v + Σ others = 0  ⇒  v = Σ (−sign) others, with own's sign folded in.
@@ -610,7 +600,7 @@ fn residual(
             let kb = p.mul(k, b);
             p.sub(a, kb)
         }
-        Relation::Law { out, rhs } => {
+        Relation::Law { out, rhs, .. } => {
             let out = value_of(p, out, values);
             let rhs = known(p, rhs, values);
             p.sub(out, rhs)

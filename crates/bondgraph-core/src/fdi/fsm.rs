@@ -160,8 +160,7 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
             element_params.extend(direct.iter().copied());
             let read = deep_lets(model, law.expr()).into_iter();
             modulating.extend(read.filter(|l| !constant[l.0 as usize]));
-            let signals = if kind.is_source() || matches!(kind, ElementKind::MTF | ElementKind::MGY)
-            {
+            let signals = if kind.is_source() || kind.is_modulated() {
                 signal_names(model, law.expr())
             } else {
                 Vec::new()

@@ -228,6 +228,7 @@ fn outer(f: Func, x: f64) -> f64 {
         Func::Tan => 1.0 + v * v,
         Func::Tanh => 1.0 - v * v,
         Func::Atan => 1.0 / (1.0 + x * x),
+        Func::Atanh => 1.0 / (1.0 - x * x),
         Func::Min | Func::Max => 1.0,
     }
 }

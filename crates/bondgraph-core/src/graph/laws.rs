@@ -34,7 +34,8 @@ pub(crate) enum Context<'k> {
     Source(ElementKind),
     /// A constant modulus or coefficient: parameters and numbers.
     Constant(ElementKind, &'k str),
-    /// An explicit law `output = f(input)` of a one-port.
+    /// An explicit law `output = f(input)` of a one-port (which may read inputs and
+    /// measured signals too when the element is modulated).
     Law {
         kind: ElementKind,
         output: PortVar,
@@ -47,6 +48,7 @@ impl Context<'_> {
         match self {
             Context::Let | Context::Modulated => Variability::Measured,
             Context::Source(_) => Variability::Known,
+            Context::Law { kind, .. } if kind.is_modulated() => Variability::Measured,
             Context::Constant(..) | Context::Law { .. } => Variability::Constant,
         }
     }
@@ -80,7 +82,12 @@ impl Resolver<'_> {
             input,
         } = context
         {
-            if let Some(var) = PortVar::from_name(&ident.name) {
+            // A port-variable name that is not this element's (`p` in a C's law) may name a
+            // signal of the model; the law's own output never can.
+            let declared = !matches!(self.scope.signal(&ident.name), Lookup::Missing);
+            if let Some(var) =
+                PortVar::from_name(&ident.name).filter(|v| *v == output || *v == input || !declared)
+            {
                 if var == input {
                     return Some(Signal::Port(var));
                 }
@@ -205,10 +212,16 @@ fn misplaced(
                 _ => d.with_help("use parameters and numbers only"),
             }
         }
-        Context::Law { input, .. } => d.with_label(format!(
-            "expected an expression in `{}` and parameters",
-            input.name()
-        )),
+        Context::Law { kind, input, .. } => d
+            .with_label(format!(
+                "expected an expression in `{}` and parameters",
+                input.name()
+            ))
+            .with_help(format!(
+                "a law that follows inputs or measured signals is a modulated element: write M{} instead of {}",
+                kind.name(),
+                kind.name()
+            )),
         Context::Let | Context::Modulated => d,
     }
 }
@@ -247,7 +260,14 @@ pub(crate) fn element_law(
         (ElementBody::Value(x), K::I) => resolver
             .expr(x, constant("inertia"))
             .map(|m| Law::Linear(reciprocal(m))),
-        (ElementBody::Law(var, rhs), K::R | K::C | K::I) => explicit_law(kind, var, rhs, resolver),
+        (ElementBody::Value(x), K::MR) => resolver.expr(x, Context::Modulated).map(Law::Linear),
+        (ElementBody::Value(x), K::MC | K::MI) => resolver
+            .expr(x, Context::Modulated)
+            .map(|c| Law::Linear(reciprocal(c))),
+        (ElementBody::Stiffness(k), K::MC) => resolver.expr(k, Context::Modulated).map(Law::Linear),
+        (ElementBody::Law(var, rhs), K::R | K::C | K::I | K::MR | K::MC | K::MI) => {
+            explicit_law(kind, var, rhs, resolver)
+        }
         (ElementBody::None, _) => {
             resolver.diagnostics.push(missing_law(kind, decl));
             None
@@ -265,7 +285,7 @@ fn explicit_law(
     rhs: &AstExpr,
     resolver: &mut Resolver<'_>,
 ) -> Option<Law> {
-    let pairs: &[(PortVar, PortVar)] = match kind {
+    let pairs: &[(PortVar, PortVar)] = match kind.base() {
         ElementKind::R => &[(PortVar::E, PortVar::F), (PortVar::F, PortVar::E)],
         ElementKind::C => &[(PortVar::E, PortVar::Q), (PortVar::Q, PortVar::E)],
         _ => &[(PortVar::F, PortVar::P), (PortVar::P, PortVar::F)],
@@ -313,6 +333,9 @@ pub(crate) fn accepted_bodies(kind: ElementKind) -> &'static str {
         ElementKind::TF => "`= MODULUS` or `ratio N`",
         ElementKind::GY => "`= MODULUS`",
         ElementKind::MTF | ElementKind::MGY => "`= EXPR`",
+        ElementKind::MR => "`= EXPR`, `: e = EXPR(f)` or `: f = EXPR(e)`",
+        ElementKind::MC => "`= EXPR`, `stiffness EXPR`, `: e = EXPR(q)` or `: q = EXPR(e)`",
+        ElementKind::MI => "`= EXPR`, `: f = EXPR(p)` or `: p = EXPR(f)`",
     }
 }
 

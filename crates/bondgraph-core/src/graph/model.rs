@@ -154,11 +154,17 @@ pub enum ElementKind {
     MTF,
     /// Modulated gyrator.
     MGY,
+    /// Modulated resistor: its law may read inputs, measured signals and `t`.
+    MR,
+    /// Modulated capacitor: its law may read inputs, measured signals and `t`.
+    MC,
+    /// Modulated inertia: its law may read inputs, measured signals and `t`.
+    MI,
 }
 
 impl ElementKind {
     /// Every kind, in the order the docs list them.
-    pub const ALL: [ElementKind; 11] = [
+    pub const ALL: [ElementKind; 14] = [
         ElementKind::Se,
         ElementKind::Sf,
         ElementKind::MSe,
@@ -170,6 +176,9 @@ impl ElementKind {
         ElementKind::GY,
         ElementKind::MTF,
         ElementKind::MGY,
+        ElementKind::MR,
+        ElementKind::MC,
+        ElementKind::MI,
     ];
 
     /// The name as written.
@@ -186,7 +195,40 @@ impl ElementKind {
             ElementKind::GY => "GY",
             ElementKind::MTF => "MTF",
             ElementKind::MGY => "MGY",
+            ElementKind::MR => "MR",
+            ElementKind::MC => "MC",
+            ElementKind::MI => "MI",
         }
+    }
+
+    /// The kind whose equations this one has: `R` for `MR`, `C` for `MC`, `I` for `MI`,
+    /// itself otherwise (a modulated source or two-port keeps its own kind).
+    pub fn base(self) -> ElementKind {
+        match self {
+            ElementKind::MR => ElementKind::R,
+            ElementKind::MC => ElementKind::C,
+            ElementKind::MI => ElementKind::I,
+            k => k,
+        }
+    }
+
+    /// Whether its law may read inputs, measured signals and `t`.
+    pub fn is_modulated(self) -> bool {
+        matches!(
+            self,
+            ElementKind::MSe
+                | ElementKind::MSf
+                | ElementKind::MTF
+                | ElementKind::MGY
+                | ElementKind::MR
+                | ElementKind::MC
+                | ElementKind::MI
+        )
+    }
+
+    /// `C`, `I` and their modulated forms: elements that store energy.
+    pub fn is_storage(self) -> bool {
+        matches!(self.base(), ElementKind::C | ElementKind::I)
     }
 
     /// The kind called `name`, if any.

@@ -4,13 +4,14 @@
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 
 use super::*;
+use crate::causality::equations::{Inversion, ARGUMENT};
 use crate::causality::{self, Causal, Strong};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Severity};
 use crate::fdi;
 use crate::fdi::candidates::{Candidate, Origin};
-use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
+use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind, PortVar};
 use crate::pipeline::{Analysis, Diagnosed};
-use crate::symbolic::{Leaf, Node, Pool};
+use crate::symbolic::{Leaf, Node, Pool, Printer};
 
 /// Why an expression cannot enter the product.
 #[derive(Clone, Copy)]
@@ -264,9 +265,12 @@ impl<'m> Builder<'m> {
             .map(|(k, l)| (l.var, Handle::new(k)))
             .collect();
         for s in &a.state.states {
-            let kind = match m.node(s.element).kind {
-                NodeKind::Element(ElementKind::C, _) => StateKind::Displacement,
-                _ => StateKind::Momentum,
+            let capacitor = matches!(&m.node(s.element).kind, NodeKind::Element(k, _) if k.base() == ElementKind::C);
+            let kind = match (capacitor, s.co_energy) {
+                (true, false) => StateKind::Displacement,
+                (true, true) => StateKind::Effort,
+                (_, false) => StateKind::Momentum,
+                (_, true) => StateKind::Flow,
             };
             c.states.push(State {
                 name: s.name.clone(),
@@ -688,7 +692,45 @@ fn report(
         storage,
         junctions,
         problems: messages,
+        inverted: inverted_laws(model, causal),
     }
+}
+
+/// The inversions `causal` used: those whose element's equation solves an unknown that
+/// needs them.
+fn inverted_laws(model: &BondGraph, causal: &Causal) -> Vec<InvertedLaw> {
+    let sys = &causal.system;
+    let used = |inv: &Inversion| {
+        sys.equations.iter().enumerate().any(|(i, eq)| {
+            eq.owner == inv.element
+                && matches!(causal.solved.uses[i], causality::solve::Use::Solves { var, .. } if inv.needed_for.contains(&var))
+        })
+    };
+    let name = |leaf: Leaf, given: PortVar| match leaf {
+        l if l == ARGUMENT => given.name().to_string(),
+        Leaf::Param(id) => model.params[id.0 as usize].name.clone(),
+        Leaf::Input(id, _) => model.inputs[id.0 as usize].name.clone(),
+        Leaf::Sensor(id, _) => model.node(id).name.clone(),
+        Leaf::Time => "t".to_string(),
+        // Laws read parameters and their own port only.
+        _ => "?".to_string(),
+    };
+    sys.inversions
+        .iter()
+        .filter(|inv| used(inv))
+        .map(|inv| {
+            let printer = Printer::new(&sys.pool, |l| name(l, inv.given));
+            InvertedLaw {
+                element: model.node(inv.element).name.clone(),
+                law: format!("{} = {}", inv.solved.name(), printer.text(inv.value)),
+                domain: inv
+                    .domain
+                    .iter()
+                    .map(|c| c.bound.describe(&printer.text(c.expr)))
+                    .collect(),
+            }
+        })
+        .collect()
 }
 
 /// The bond graph for drawings, with the strokes of `causal` when it is known.

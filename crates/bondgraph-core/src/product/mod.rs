@@ -119,16 +119,20 @@ pub enum StateKind {
     Momentum,
     /// The displacement `q` of a `C`.
     Displacement,
+    /// The effort `e` of a `C` whose law gives `q` from `e` with no closed-form inverse.
+    Effort,
+    /// The flow `f` of an `I` whose law gives `p` from `f` with no closed-form inverse.
+    Flow,
 }
 
 /// A state variable of the simulation model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State {
-    /// `p_NAME` or `q_NAME`.
+    /// `p_NAME` or `q_NAME`; `e_NAME` or `f_NAME` for a co-energy state.
     pub name: String,
     /// The storage element's name.
     pub element: String,
-    /// Momentum or displacement.
+    /// Which variable of the element it is.
     pub kind: StateKind,
 }
 
@@ -480,6 +484,19 @@ pub struct CausalityReport {
     pub junctions: Vec<(String, Setter)>,
     /// The messages of this mode's diagnostics, each once.
     pub problems: Vec<String>,
+    /// The laws this causality reads the other way, through their closed-form inverses.
+    pub inverted: Vec<InvertedLaw>,
+}
+
+/// A law read the other way, as the output states it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InvertedLaw {
+    /// The element's name.
+    pub element: String,
+    /// The inverse as an equation in the element's port variables: `e = (f/c)^2`.
+    pub law: String,
+    /// The conditions under which it is the law's solution (`f/c >= 0`); empty when always.
+    pub domain: Vec<String>,
 }
 
 /// What a node of the drawing is.

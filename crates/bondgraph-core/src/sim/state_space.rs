@@ -12,10 +12,13 @@ use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
 /// One state equation, `d(name)/dt = rhs`.
 #[derive(Clone, Debug)]
 pub struct StateEquation {
-    /// `p_NAME` or `q_NAME`.
+    /// `p_NAME` or `q_NAME`; `e_NAME` or `f_NAME` for a co-energy state.
     pub name: String,
     /// The storage element.
     pub element: NodeId,
+    /// Whether the state is the element's co-energy variable (its law gives `q` from `e`
+    /// or `p` from `f`, with no closed-form inverse).
+    pub co_energy: bool,
     /// The right-hand side, over states (`Leaf::State`), parameters, inputs and time.
     pub rhs: ExprId,
 }
@@ -98,6 +101,7 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         states.push(StateEquation {
             name: s.name.clone(),
             element: s.element,
+            co_energy: s.scale.is_some(),
             rhs: measured(pool, rhs, &map),
         });
     }
@@ -143,6 +147,13 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             ),
         ));
     }
+    // A co-energy state x of `q = Φ(x)` moves at dq/dt / Φ'(x).
+    let scales = causal.system.states.iter().zip(&kept).filter(|(_, k)| **k);
+    for (s, (state, _)) in states.iter_mut().zip(scales) {
+        if let Some(scale) = state.scale {
+            s.rhs = pool.mul(s.rhs, scale);
+        }
+    }
     renumber(pool, &mut states, &mut outputs, &mut implicit, &kept);
     for s in &mut states {
         s.rhs = simplifier.simplify(pool, s.rhs);
@@ -167,6 +178,8 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             }
         }
     }
+    readers.sort();
+    readers.dedup();
     if !readers.is_empty() {
         let names: Vec<String> = readers
             .iter()
@@ -241,8 +254,7 @@ fn solve_rates(
         let own = pool.leaf(x);
         let equation = pool.sub(own, states[k].rhs);
         let equation = simplifier.simplify(pool, equation);
-        let root =
-            crate::causality::solve::linear_root_of(pool, equation, x).ok_or(states[k].element)?;
+        let root = crate::symbolic::linear_root_of(pool, equation, x).ok_or(states[k].element)?;
         for (_, value) in &mut solved {
             *value = pool.substitute(*value, &mut |_, l| (l == x).then_some(root));
         }

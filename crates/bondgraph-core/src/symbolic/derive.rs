@@ -180,6 +180,11 @@ fn outer_derivative<L: LeafKind>(
             let d = p.add(one, a2);
             p.div(one, d)
         }
+        Func::Atanh => {
+            let a2 = p.pow(a, two);
+            let d = p.sub(one, a2);
+            p.div(one, d)
+        }
         // Two-argument functions are handled by the caller.
         Func::Min | Func::Max => p.num(f64::NAN),
     }
@@ -217,7 +222,12 @@ mod tests {
         let half = p.num(0.5);
         let mut exprs = Vec::new();
         for f in Func::ALL {
-            let arg = p.add(u, two); // keeps log and sqrt in their domain
+            // u + 2 keeps log and sqrt in their domain, u/2 keeps atanh in its.
+            let arg = if f == Func::Atanh {
+                p.mul(u, half)
+            } else {
+                p.add(u, two)
+            };
             let e = if f.arity() == 2 {
                 p.call(f, &[arg, half])
             } else {

@@ -8,6 +8,7 @@
 mod derive;
 mod eval;
 pub mod hash;
+mod invert;
 mod monomial;
 mod normal;
 mod pool;
@@ -17,6 +18,8 @@ pub mod rewrite;
 
 pub use derive::{known_signal_rule, Derivatives};
 pub use eval::{Evaluator, Tape};
+pub(crate) use invert::linear_root_of;
+pub use invert::{invert, Condition};
 pub use normal::{Polynomial, Simplifier};
 pub use pool::{children, ExprId, Leaf, LeafKind, Node, Pool};
 pub use print::Printer;

@@ -378,15 +378,36 @@ impl<L: LeafKind> Pool<L> {
         root: ExprId<L>,
         f: &mut impl FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>,
     ) -> ExprId<L> {
+        self.rebuild(root, &mut |pool, _, node| match node {
+            Node::Leaf(l) => f(pool, l),
+            _ => None,
+        })
+    }
+
+    /// `root` with every occurrence of the subexpression `from` replaced by `to`.
+    pub fn replace(&mut self, root: ExprId<L>, from: ExprId<L>, to: ExprId<L>) -> ExprId<L> {
+        self.rebuild(root, &mut |_, id, _| (id == from).then_some(to))
+    }
+
+    /// `root` rebuilt bottom-up: each original node is first offered to `f`, which may replace
+    /// it (whatever became of its children) or leave it to be rebuilt from its new children.
+    fn rebuild(
+        &mut self,
+        root: ExprId<L>,
+        f: &mut impl FnMut(&mut Pool<L>, ExprId<L>, Node<L>) -> Option<ExprId<L>>,
+    ) -> ExprId<L> {
         let mut order = Vec::new();
         self.visit_reachable(&[root], |id, _| order.push(id));
         let mut map: FastMap<ExprId<L>, ExprId<L>> =
             FastMap::with_capacity_and_hasher(order.len(), Default::default());
         for id in order {
+            if let Some(new) = f(self, id, self.node(id)) {
+                map.insert(id, new);
+                continue;
+            }
             let m = |x: ExprId<L>| map.get(&x).copied().unwrap_or(x);
             let new = match self.node(id) {
-                Node::Num(_) => id,
-                Node::Leaf(l) => f(self, l).unwrap_or(id),
+                Node::Num(_) | Node::Leaf(_) => id,
                 Node::Neg(a) => {
                     let a = m(a);
                     self.neg(a)

@@ -265,6 +265,7 @@ fn latex_function(f: Func) -> &'static str {
         Func::Tan => "\\tan",
         Func::Tanh => "\\tanh",
         Func::Atan => "\\arctan",
+        Func::Atanh => "\\operatorname{artanh}",
         Func::Min => "\\min",
         Func::Max => "\\max",
     }

@@ -1,0 +1,509 @@
+//! Closed-form inversion: `y = f(x)` solved for `x`, for the laws users write.
+//!
+//! A law read the other way is the same law only where the inverse holds, so every inverse
+//! comes with its domain: the conditions, over `y` and the parameters, under which the value
+//! returned is the one solution (the principal root of an even power, the real branch of a
+//! logarithm). What has no closed form here (`k1 q + k3 q^3`) gives `None`, and the caller
+//! decides what to do instead (a co-energy state, an implicit unknown, a refusal).
+
+use super::{ExprId, Leaf, Node, Pool, Simplifier};
+use crate::expr::{BinOp, Func};
+
+/// How a condition of a domain bounds its expression.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Bound {
+    /// `x ≥ 0`
+    NonNegative,
+    /// `x > 0`
+    Positive,
+    /// `x ≠ 0`
+    NonZero,
+    /// `|x| < 1`
+    BelowOne,
+    /// `|x| < π/2`
+    BelowHalfPi,
+}
+
+impl Bound {
+    /// The condition on a printed expression, in the output's plain-text notation.
+    pub fn describe(self, x: &str) -> String {
+        match self {
+            Bound::NonNegative => format!("{x} >= 0"),
+            Bound::Positive => format!("{x} > 0"),
+            Bound::NonZero => format!("{x} != 0"),
+            Bound::BelowOne => format!("abs({x}) < 1"),
+            Bound::BelowHalfPi => format!("abs({x}) < pi/2"),
+        }
+    }
+
+    /// Whether a value satisfies it.
+    pub fn holds(self, x: f64) -> bool {
+        match self {
+            Bound::NonNegative => x >= 0.0,
+            Bound::Positive => x > 0.0,
+            Bound::NonZero => x != 0.0,
+            Bound::BelowOne => x.abs() < 1.0,
+            Bound::BelowHalfPi => x.abs() < std::f64::consts::FRAC_PI_2,
+        }
+    }
+}
+
+/// One condition of an inverse's domain: `expr` within `bound`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Condition {
+    /// What is bounded, over the inverse's argument and parameters.
+    pub expr: ExprId,
+    /// How.
+    pub bound: Bound,
+}
+
+/// `x` as a function of `y`, and where that holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Inverse {
+    /// The value of `x`, over `y` and whatever else `f` read.
+    pub value: ExprId,
+    /// The conditions under which `value` is the solution; empty when it always is.
+    pub domain: Vec<Condition>,
+}
+
+/// Solves `y = f` for the leaf `x` in closed form, or `None` when this module knows no way.
+pub fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<Inverse> {
+    let mut inverter = Inverter {
+        pool,
+        domain: Vec::new(),
+        placeholders: 0,
+    };
+    // Left as built: the inverse reads as the law undone step by step (`e = (f/c)^2`), which
+    // a canonical form would obscure; later stages simplify what they derive from it.
+    let value = inverter.solve(f, x, y)?;
+    let mut domain: Vec<Condition> = Vec::new();
+    for c in std::mem::take(&mut inverter.domain) {
+        match inverter.pool.as_num(c.expr) {
+            Some(v) if c.bound.holds(v) => {}
+            // A condition that never holds leaves no domain: no inverse at all.
+            Some(_) => return None,
+            // A divisor made of parameters only is a condition on the model, not on where the
+            // inverse holds: a law that divides by a zero parameter is not the law written.
+            None if c.bound == Bound::NonZero && !inverter.holds(c.expr, y) => {}
+            None if !domain.contains(&c) => domain.push(c),
+            None => {}
+        }
+    }
+    Some(Inverse { value, domain })
+}
+
+/// Placeholder leaves stand for a subexpression (`abs(u)`) while the rest is solved for it;
+/// they never leave this module.
+const PLACEHOLDER: u32 = u32::MAX - 1;
+
+struct Inverter<'p> {
+    pool: &'p mut Pool,
+    domain: Vec<Condition>,
+    placeholders: u32,
+}
+
+impl Inverter<'_> {
+    fn holds(&self, e: ExprId, x: ExprId) -> bool {
+        if e == x {
+            return true;
+        }
+        let mut found = false;
+        self.pool.visit_reachable(&[e], |id, _| found |= id == x);
+        found
+    }
+
+    fn require(&mut self, expr: ExprId, bound: Bound) {
+        self.domain.push(Condition { expr, bound });
+    }
+
+    /// `x` from `y = f`, `x` a leaf.
+    fn solve(&mut self, f: ExprId, x: Leaf, y: ExprId) -> Option<ExprId> {
+        let target = self.pool.leaf(x);
+        if f == target {
+            return Some(y);
+        }
+        if !self.holds(f, target) {
+            return None;
+        }
+        let in_one = match self.pool.node(f) {
+            Node::Binary(_, a, b) => !(self.holds(a, target) && self.holds(b, target)),
+            Node::Call2(..) | Node::Int(_) => false,
+            _ => true,
+        };
+        if in_one {
+            self.peel(f, x, y)
+        } else {
+            self.several(f, x, y)
+        }
+    }
+
+    /// `f`'s outermost operation undone, `x` being in one operand only.
+    fn peel(&mut self, f: ExprId, x: Leaf, y: ExprId) -> Option<ExprId> {
+        let target = self.pool.leaf(x);
+        match self.pool.node(f) {
+            Node::Neg(a) => {
+                let y = self.pool.neg(y);
+                self.solve(a, x, y)
+            }
+            Node::Binary(op, a, b) => {
+                let (inner, y) = self.undo(op, a, b, self.holds(a, target), y)?;
+                self.solve(inner, x, y)
+            }
+            Node::Call1(func, a) => {
+                let y = self.function_inverse(func, y)?;
+                self.solve(a, x, y)
+            }
+            _ => None,
+        }
+    }
+
+    /// `y = a op b` with the unknown in `a` (`left`) or in `b`: the operand that holds it,
+    /// and the value that operand must take.
+    fn undo(
+        &mut self,
+        op: BinOp,
+        a: ExprId,
+        b: ExprId,
+        left: bool,
+        y: ExprId,
+    ) -> Option<(ExprId, ExprId)> {
+        let p = &mut *self.pool;
+        Some(match (op, left) {
+            (BinOp::Add, true) => (a, p.sub(y, b)),
+            (BinOp::Add, false) => (b, p.sub(y, a)),
+            (BinOp::Sub, true) => (a, p.add(y, b)),
+            (BinOp::Sub, false) => (b, p.sub(a, y)),
+            (BinOp::Mul, _) => {
+                let (inner, k) = if left { (a, b) } else { (b, a) };
+                let v = p.div(y, k);
+                self.require(k, Bound::NonZero);
+                (inner, v)
+            }
+            (BinOp::Div, true) => {
+                let v = p.mul(y, b);
+                self.require(b, Bound::NonZero);
+                (a, v)
+            }
+            (BinOp::Div, false) => {
+                let v = p.div(a, y);
+                self.require(y, Bound::NonZero);
+                (b, v)
+            }
+            (BinOp::Pow, true) => (a, self.root(y, b)?),
+            (BinOp::Pow, false) => {
+                let (ly, la) = (p.call(Func::Log, &[y]), p.call(Func::Log, &[a]));
+                let v = p.div(ly, la);
+                self.require(y, Bound::Positive);
+                self.require(a, Bound::Positive);
+                (b, v)
+            }
+        })
+    }
+
+    /// `a` from `y = a^k`: the real odd root of an odd integer power, the principal root of
+    /// any other.
+    fn root(&mut self, y: ExprId, k: ExprId) -> Option<ExprId> {
+        let p = &mut *self.pool;
+        let one = p.num(1.0);
+        let inv_k = p.div(one, k);
+        match p.as_num(k) {
+            Some(0.0) => None,
+            Some(n) if n.fract() == 0.0 && (n as i64) % 2 != 0 => {
+                // sign(y)·|y|^(1/k): `y^(1/3)` of a negative y is not a number in f64.
+                let s = p.call(Func::Sign, &[y]);
+                let m = p.call(Func::Abs, &[y]);
+                let r = p.pow(m, inv_k);
+                Some(p.mul(s, r))
+            }
+            Some(n) => {
+                let bound = if n > 0.0 {
+                    Bound::NonNegative
+                } else {
+                    Bound::Positive
+                };
+                let r = p.pow(y, inv_k);
+                self.require(y, bound);
+                Some(r)
+            }
+            None => {
+                let r = p.pow(y, inv_k);
+                self.require(y, Bound::Positive);
+                Some(r)
+            }
+        }
+    }
+
+    /// `a` from `y = func(a)`, on the branch the language's functions take.
+    fn function_inverse(&mut self, func: Func, y: ExprId) -> Option<ExprId> {
+        let p = &mut *self.pool;
+        let (value, bound) = match func {
+            Func::Sqrt => {
+                let two = p.num(2.0);
+                (p.pow(y, two), Some(Bound::NonNegative))
+            }
+            Func::Exp => (p.call(Func::Log, &[y]), Some(Bound::Positive)),
+            Func::Log => (p.call(Func::Exp, &[y]), None),
+            Func::Tanh => (p.call(Func::Atanh, &[y]), Some(Bound::BelowOne)),
+            Func::Atanh => (p.call(Func::Tanh, &[y]), None),
+            Func::Atan => (p.call(Func::Tan, &[y]), Some(Bound::BelowHalfPi)),
+            Func::Tan => (p.call(Func::Atan, &[y]), None),
+            Func::Abs | Func::Sign | Func::Sin | Func::Cos | Func::Min | Func::Max => return None,
+        };
+        if let Some(bound) = bound {
+            self.require(y, bound);
+        }
+        Some(value)
+    }
+
+    /// `x` from `y = f` where `x` is in several operands: an odd law `sign(u)·g(|u|)`, a law
+    /// affine in `x`, or a linear-fractional one.
+    fn several(&mut self, f: ExprId, x: Leaf, y: ExprId) -> Option<ExprId> {
+        if let Some(v) = self.odd(f, x, y) {
+            return Some(v);
+        }
+        let target = self.pool.leaf(x);
+        let r = self.pool.sub(f, y);
+        if let Some(v) = linear_root_of(self.pool, r, x) {
+            return Some(v);
+        }
+        // y = n/d with n and d affine in x: y·d − n is affine in x.
+        if let Node::Binary(BinOp::Div, n, d) = self.pool.node(f) {
+            if self.holds(d, target) {
+                let yd = self.pool.mul(y, d);
+                let r = self.pool.sub(yd, n);
+                let v = linear_root_of(self.pool, r, x)?;
+                let at = self.pool.substitute(d, &mut |_, l| (l == x).then_some(v));
+                self.require(at, Bound::NonZero);
+                return Some(v);
+            }
+        }
+        None
+    }
+
+    /// `y = sign(u)·g(|u|)`, with `sign(u)` a factor of `f` and `x` elsewhere only inside
+    /// `abs(u)`: `|u| = g⁻¹(|y|)` and `u = sign(y)·|u|`, for `g ≥ 0`.
+    fn odd(&mut self, f: ExprId, x: Leaf, y: ExprId) -> Option<ExprId> {
+        let target = self.pool.leaf(x);
+        let mut signs = Vec::new();
+        self.pool.visit_reachable(&[f], |id, node| {
+            if let Node::Call1(Func::Sign, _) = node {
+                signs.push(id);
+            }
+        });
+        for s in signs {
+            let Node::Call1(_, u) = self.pool.node(s) else {
+                continue;
+            };
+            if !self.holds(u, target) || !self.is_factor(f, s) {
+                continue;
+            }
+            let one = self.pool.num(1.0);
+            let g = self.pool.replace(f, s, one);
+            let abs_u = self.pool.call(Func::Abs, &[u]);
+            let placeholder = Leaf::Tear(PLACEHOLDER, self.placeholders);
+            self.placeholders += 1;
+            let m = self.pool.leaf(placeholder);
+            let g = self.pool.replace(g, abs_u, m);
+            if self.holds(g, target) {
+                continue;
+            }
+            let abs_y = self.pool.call(Func::Abs, &[y]);
+            let magnitude = self.solve(g, placeholder, abs_y)?;
+            self.require(g, Bound::NonNegative);
+            let g_index = self.domain.len() - 1;
+            // g ≥ 0 is a condition on g at the solution, not at the placeholder.
+            let at = self
+                .pool
+                .substitute(g, &mut |_, l| (l == placeholder).then_some(magnitude));
+            self.domain[g_index].expr = at;
+            let sign_y = self.pool.call(Func::Sign, &[y]);
+            let u_value = self.pool.mul(sign_y, magnitude);
+            return self.solve(u, x, u_value);
+        }
+        None
+    }
+
+    /// Whether `f = s·rest` with `s` in `rest` nowhere: `s` reached from the root through
+    /// products, numerators and negations only.
+    fn is_factor(&self, f: ExprId, s: ExprId) -> bool {
+        if f == s {
+            return true;
+        }
+        match self.pool.node(f) {
+            Node::Neg(a) => self.is_factor(a, s),
+            Node::Binary(BinOp::Mul, a, b) => match (self.holds(a, s), self.holds(b, s)) {
+                (true, false) => self.is_factor(a, s),
+                (false, true) => self.is_factor(b, s),
+                _ => false,
+            },
+            Node::Binary(BinOp::Div, a, b) => !self.holds(b, s) && self.is_factor(a, s),
+            _ => false,
+        }
+    }
+}
+
+/// The root of `r` in the leaf `x`, if `r` is affine in it: with a = r(0) and b = r(1) − a,
+/// r is affine when r(2) = a + 2b holds in canonical form, and then x = −a/b.
+pub(crate) fn linear_root_of(pool: &mut Pool, r: ExprId, x: Leaf) -> Option<ExprId> {
+    let at = |pool: &mut Pool, value: f64| {
+        let n = pool.num(value);
+        let e = pool.substitute(r, &mut |_, leaf| (leaf == x).then_some(n));
+        Simplifier::default().simplify(pool, e)
+    };
+    let (a, one, two) = (at(pool, 0.0), at(pool, 1.0), at(pool, 2.0));
+    let b = pool.sub(one, a);
+    let b = Simplifier::default().simplify(pool, b);
+    if pool.as_num(b) == Some(0.0) {
+        return None;
+    }
+    let two_b = {
+        let k = pool.num(2.0);
+        pool.mul(k, b)
+    };
+    let predicted = pool.add(a, two_b);
+    let predicted = Simplifier::default().simplify(pool, predicted);
+    if predicted != two {
+        return None;
+    }
+    let na = pool.neg(a);
+    let root = pool.div(na, b);
+    Some(Simplifier::default().simplify(pool, root))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::Evaluator;
+    use super::*;
+    use crate::graph::ParamId;
+
+    /// A parsed law over the leaf `x` (`Var(0)`) and parameters `c` = 2 (`Param(0)`), `k` = -3
+    /// (`Param(1)`).
+    fn law(p: &mut Pool, text: &str) -> ExprId {
+        let e = crate::syntax::parse_expr(text, 0).expect("law parses");
+        build(p, &e)
+    }
+
+    fn build(p: &mut Pool, e: &crate::syntax::ast::AstExpr) -> ExprId {
+        use crate::expr::Expr;
+        match e {
+            Expr::Num(v) => p.num(*v),
+            Expr::Leaf(i) => p.leaf(match i.name.as_str() {
+                "x" => Leaf::Var(0),
+                "c" => Leaf::Param(ParamId(0)),
+                _ => Leaf::Param(ParamId(1)),
+            }),
+            Expr::Neg(a) => {
+                let a = build(p, a);
+                p.neg(a)
+            }
+            Expr::Binary(op, a, b) => {
+                let (a, b) = (build(p, a), build(p, b));
+                p.binary(*op, a, b)
+            }
+            Expr::Call(f, args) => {
+                let args: Vec<ExprId> = args.iter().map(|a| build(p, a)).collect();
+                p.call(*f, &args)
+            }
+            Expr::Der(..) | Expr::Int(_) => p.num(f64::NAN),
+        }
+    }
+
+    fn value(p: &Pool, e: ExprId, x: f64) -> f64 {
+        Evaluator::new(p, |l| match l {
+            Leaf::Var(0) => x,
+            Leaf::Param(ParamId(0)) => 2.0,
+            Leaf::Param(_) => -3.0,
+            _ => f64::NAN,
+        })
+        .value(e)
+    }
+
+    /// Each law, inverted, gives back every `x` of the samples within the stated domain, and
+    /// the domain holds there.
+    #[test]
+    fn inverses_return_the_argument_on_their_domain() {
+        let cases: &[(&str, &[f64])] = &[
+            ("c*x + k", &[-2.0, 0.5, 3.0]),
+            ("c*sqrt(x)", &[0.0, 0.3, 4.0]),
+            ("x^2/c", &[0.0, 0.7, 5.0]),
+            ("c*sign(x)*sqrt(abs(x))", &[-4.0, -0.1, 0.0, 2.5]),
+            ("sign(x)*abs(x)^1.5*c", &[-2.0, 0.25, 3.0]),
+            ("c*x^3", &[-2.0, 0.0, 1.5]),
+            ("c*(1 - 4/x)", &[0.5, 3.0, 10.0]),
+            ("(c*x + 1)/(x - k)", &[-1.0, 0.0, 2.0]),
+            ("c*exp(x/c)", &[-1.0, 0.0, 2.0]),
+            ("log(x) + c", &[0.1, 1.0, 7.0]),
+            ("c*tanh(x)", &[-2.0, 0.0, 1.0]),
+            ("atanh(x/c)", &[-1.5, 0.0, 1.9]),
+            ("atan(x)*c", &[-5.0, 0.0, 5.0]),
+            ("c^x", &[-1.0, 0.0, 2.0]),
+            ("-(c*x)", &[-1.0, 3.0]),
+        ];
+        for (text, xs) in cases {
+            let mut p = Pool::default();
+            let f = law(&mut p, text);
+            let y = p.leaf(Leaf::Var(1));
+            let inv = invert(&mut p, f, Leaf::Var(0), y).unwrap_or_else(|| panic!("{text}"));
+            for &x in *xs {
+                let fy = value(&p, f, x);
+                let at = |p: &Pool, e: ExprId| {
+                    Evaluator::new(p, |l| match l {
+                        Leaf::Var(1) => fy,
+                        Leaf::Param(ParamId(0)) => 2.0,
+                        Leaf::Param(_) => -3.0,
+                        _ => f64::NAN,
+                    })
+                    .value(e)
+                };
+                let back = at(&p, inv.value);
+                assert!(
+                    (back - x).abs() < 1e-9 * (1.0 + x.abs()),
+                    "{text} at {x}: {back}"
+                );
+                for c in &inv.domain {
+                    assert!(c.bound.holds(at(&p, c.expr)), "{text} at {x}: {c:?}");
+                }
+            }
+        }
+    }
+
+    /// A law the module cannot invert is refused rather than guessed; so is a domain that is
+    /// empty.
+    #[test]
+    fn laws_without_a_closed_form_are_refused() {
+        for text in [
+            "c*x + k*x^3",
+            "sin(x)",
+            "abs(x)",
+            "x*exp(x)",
+            "sign(x)*abs(x) + x^2",
+        ] {
+            let mut p = Pool::default();
+            let f = law(&mut p, text);
+            let y = p.leaf(Leaf::Var(1));
+            assert_eq!(invert(&mut p, f, Leaf::Var(0), y), None, "{text}");
+        }
+    }
+
+    /// The orifice's `f = c·sqrt(e)` read backwards holds where `f/c ≥ 0`: the domain says so.
+    #[test]
+    fn the_square_root_states_its_domain() {
+        let mut p = Pool::default();
+        let f = law(&mut p, "c*sqrt(x)");
+        let y = p.leaf(Leaf::Var(1));
+        let inv = invert(&mut p, f, Leaf::Var(0), y).expect("invertible");
+        let bounds: Vec<Bound> = inv.domain.iter().map(|c| c.bound).collect();
+        assert!(bounds.contains(&Bound::NonNegative), "{bounds:?}");
+        // At y = -1 (c = 2) the inverse would give 1/4, which c·sqrt does not map to -1.
+        let negative = inv.domain.iter().any(|c| {
+            let v = Evaluator::new(&p, |l| match l {
+                Leaf::Var(1) => -1.0,
+                Leaf::Param(_) => 2.0,
+                _ => f64::NAN,
+            })
+            .value(c.expr);
+            !c.bound.holds(v)
+        });
+        assert!(negative);
+    }
+}
