@@ -362,3 +362,33 @@ fn refused_state_equations_leave_the_residual_code() {
     );
     assert_plausible(&rust);
 }
+
+/// One mass `m` in two inertias (a cart and the pendulum's bob moving with it) and the weight:
+/// a change of `m` faults all three at once, which no FSM row shows. A warning names them, and
+/// the output lists where a change of `m` can show: the union of their rows.
+const SHARED: &str = "model shared\nparam m = 2\nparam b = 0.5\nparam g = 9.81\ninput F\n\
+    Se push = F\nSe weight = m*g\nI cart = m\nI bob = m\nR damp = b\nDf v on v1\nDf w on v2\n\
+    push -> 1:v1 -> cart, damp\nv1 -> 0:n\nn -> 1:v2 -> bob\nweight -> v2\n";
+
+#[test]
+fn a_parameter_several_components_read_is_named_with_where_it_can_show() {
+    let out = bgc_stdin(&["-"], SHARED.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("bg::shared-parameter")
+            && err.contains("`m` is a parameter of `weight`, `cart` and `bob`"),
+        "{err}"
+    );
+    let text = stdout(&out);
+    assert!(text.contains("shared parameters"), "{text}");
+    assert!(text.contains("  m  weight cart bob  ->  "), "{text}");
+    let json = bgc_stdin(&["-", "--emit", "json"], SHARED.as_bytes());
+    assert!(
+        stdout(&json).contains(
+            "\"shared\": [{\"parameter\": \"m\", \"components\": [\"weight\", \"cart\", \"bob\"]"
+        ),
+        "{}",
+        stdout(&json)
+    );
+}

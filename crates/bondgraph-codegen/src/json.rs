@@ -244,11 +244,20 @@ fn fsm(out: &mut String, c: &Compiled, form: FsmForm) {
             )
         })
         .collect();
+    let shared = list(c.shared_parameters().iter().map(|s| {
+        format!(
+            "{{\"parameter\": {}, \"components\": {}, \"arrs\": {}}}",
+            string(&c.parameters[s.parameter].name),
+            list(s.components.iter().map(|&h| string(&c.components[h].name))),
+            list(s.marks.iter().map(|&k| string(&c.arrs[k].name)))
+        )
+    }));
     let _ = writeln!(
         out,
-        "  \"fsm\": {{\n    \"residuals\": {},\n    \"rows\": [{}\n    ]\n  }},",
+        "  \"fsm\": {{\n    \"residuals\": {},\n    \"rows\": [{}\n    ],\n    \"shared\": {}\n  }},",
         list(c.arrs.iter().map(|a| string(&a.name))),
-        rows.join(",")
+        rows.join(","),
+        shared
     );
 }
 

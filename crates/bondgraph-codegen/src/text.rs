@@ -390,6 +390,7 @@ fn fsm_table(out: &mut String, c: &Compiled) {
     }
     if c.arrs.len() > DENSE_FSM_LIMIT {
         fsm_rows(out, c);
+        shared_parameters(out, c);
         return;
     }
     let width = c
@@ -426,6 +427,43 @@ fn fsm_table(out: &mut String, c: &Compiled) {
             out,
             "{}",
             format!("{line}  {}", params.join(" ")).trim_end()
+        );
+    }
+    shared_parameters(out, c);
+}
+
+/// The parameters several rows read, with the ARRs a change of each can show in.
+fn shared_parameters(out: &mut String, c: &Compiled) {
+    let shared = c.shared_parameters();
+    if shared.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "shared parameters (a change of one faults every component that reads it: it can show in the ARRs of any of them)"
+    );
+    let width = shared
+        .iter()
+        .map(|s| c.parameters[s.parameter].name.len())
+        .max()
+        .unwrap_or(0);
+    for s in &shared {
+        let components: Vec<&str> = s
+            .components
+            .iter()
+            .map(|&h| c.components[h].name.as_str())
+            .collect();
+        let arrs: Vec<&str> = s.marks.iter().map(|&k| c.arrs[k].name.as_str()).collect();
+        let _ = writeln!(
+            out,
+            "  {:<width$}  {}  ->  {}",
+            c.parameters[s.parameter].name,
+            components.join(" "),
+            if arrs.is_empty() {
+                "-".to_string()
+            } else {
+                arrs.join(" ")
+            }
         );
     }
 }

@@ -110,6 +110,8 @@ pub enum Code {
     /// A storage element kept in integral causality in diagnosis: the ARRs read the integrals
     /// of the signals that set it (a warning).
     MixedCausality,
+    /// A parameter that several components read: a change of it faults them all at once.
+    SharedParameter,
     /// A detector that yields no ARR, or ARRs that could not be written.
     NoArr,
     /// An output bgc refuses to write because it could not be derived.
@@ -148,6 +150,7 @@ impl Code {
             Code::Causality => "bg::causality",
             Code::NotInvertible => "bg::not-invertible",
             Code::MixedCausality => "bg::mixed-causality",
+            Code::SharedParameter => "bg::shared-parameter",
             Code::NoArr => "bg::no-arr",
             Code::Refused => "bg::refused",
             Code::TooLarge => "bg::too-large",

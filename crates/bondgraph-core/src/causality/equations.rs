@@ -845,6 +845,15 @@ impl Builder<'_> {
             _ => None,
         });
         let slope = d.of(&mut self.sys.pool, phi)?;
+        // A law that does not follow its co-energy variable cannot give it.
+        if self
+            .sys
+            .pool
+            .as_num(slope)
+            .is_some_and(|s| s == 0.0 || !s.is_finite())
+        {
+            return None;
+        }
         let one = self.sys.pool.num(1.0);
         Some(self.sys.pool.div(one, slope))
     }

@@ -63,7 +63,7 @@ pub fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
                     &[r.element],
                     format!("`{name}`: {}", r.reason),
                 )
-                .with_help("write the law in the direction that gives the energy variable's co-variable from it (`e = ...q` for a C, `f = ...p` for an I), or give its linear parameter"),
+                .with_help("a law that follows its variable in either direction serves: `e = ...q` or `q = ...e` for a C, `f = ...p` or `p = ...f` for an I"),
                 // The element keeps integral causality and the ARRs are derived all the same:
                 // what they assume is worth saying, not refusing.
                 Mode::Diagnosis => at_nodes(

@@ -447,6 +447,9 @@ impl<'m> Builder<'m> {
                 c.arrs[k].components.push(h);
             }
         }
+        for shared in c.shared_parameters() {
+            stage.push(shared_parameter(c, &shared));
+        }
         let marks: Vec<Vec<usize>> = c.components.values().map(|r| r.marks.clone()).collect();
         let selected = fdi::isolability::of_signatures(&marks);
         // `Ib`: detectable, and no other row has the same signature.
@@ -648,6 +651,29 @@ fn component_kind(kind: fdi::ComponentKind) -> ComponentKind {
         fdi::ComponentKind::Detector(k) => ComponentKind::Sensor(sensor_kind(k)),
         fdi::ComponentKind::Modulation => ComponentKind::Modulation,
     }
+}
+
+/// The warning for a parameter several components read, at its declaration.
+fn shared_parameter(c: &Compiled, shared: &SharedParameter) -> Diagnostic {
+    let parameter = &c.parameters[shared.parameter];
+    let mut names: Vec<String> = shared
+        .components
+        .iter()
+        .map(|&h| format!("`{}`", c.components[h].name))
+        .collect();
+    // At least two: the last joins with "and".
+    let last = names.pop().unwrap_or_default();
+    Diagnostic::warning(
+        Code::SharedParameter,
+        parameter.span,
+        format!(
+            "`{}` is a parameter of {} and {last}: a change of it is a fault of all of them at once, which their rows (one fault at a time) do not show",
+            parameter.name,
+            names.join(", ")
+        ),
+    )
+    .with_label("shared here")
+    .with_help("the output's `shared parameters` lists the ARRs a change of it can show in (the union of their rows); a parameter of each component's own keeps faults apart")
 }
 
 /// The causality of one mode in the model's names.

@@ -499,6 +499,17 @@ pub struct InvertedLaw {
     pub domain: Vec<String>,
 }
 
+/// A parameter that several components of the fault signature matrix read.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedParameter {
+    /// The parameter.
+    pub parameter: Handle<Parameter>,
+    /// The components whose rows name it, in row order.
+    pub components: Vec<Handle<Component>>,
+    /// The ARRs (by index) a change of it can show in: the union of those rows' signatures.
+    pub marks: Vec<usize>,
+}
+
 /// What a node of the drawing is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NodeClass {
@@ -642,6 +653,39 @@ impl Compiled {
         let copy_missing = self.state_space.is_none()
             && self.arrs.iter().any(|a| a.form == ResidualForm::Simulated);
         others || self.arrs.is_empty() || copy_missing
+    }
+
+    /// The parameters that several rows of the fault signature matrix read, each with those
+    /// rows and the ARRs a change of it can show in: the union of their signatures. (A row
+    /// faults its component alone; a real change of a shared parameter faults them all, and
+    /// its effects may cancel in an ARR, so the union is where it can show, not where it
+    /// must.)
+    pub fn shared_parameters(&self) -> Vec<SharedParameter> {
+        self.parameters
+            .iter()
+            .filter_map(|(parameter, _)| {
+                let components: Vec<Handle<Component>> = self
+                    .components
+                    .iter()
+                    .filter(|(_, k)| k.parameters.contains(&parameter))
+                    .map(|(h, _)| h)
+                    .collect();
+                if components.len() < 2 {
+                    return None;
+                }
+                let mut marks: Vec<usize> = components
+                    .iter()
+                    .flat_map(|&h| self.components[h].marks.iter().copied())
+                    .collect();
+                marks.sort_unstable();
+                marks.dedup();
+                Some(SharedParameter {
+                    parameter,
+                    components,
+                    marks,
+                })
+            })
+            .collect()
     }
 
     /// Whether any diagnostic is an error: some output was refused.

@@ -262,6 +262,11 @@ impl Inverter<'_> {
             return Some(v);
         }
         let target = self.pool.leaf(x);
+        // The affine test samples three points, which a piecewise law (`max(x, 0)`) passes:
+        // only sums, products and quotients of `x` may be affine or linear-fractional.
+        if !self.rational(f, target) {
+            return None;
+        }
         let r = self.pool.sub(f, y);
         if let Some(v) = linear_root_of(self.pool, r, x) {
             return Some(v);
@@ -321,6 +326,22 @@ impl Inverter<'_> {
             return self.solve(u, x, u_value);
         }
         None
+    }
+
+    /// Whether `x` reaches `f` through sums, products, quotients and negations only.
+    fn rational(&self, f: ExprId, x: ExprId) -> bool {
+        let mut ok = true;
+        self.pool.visit_reachable(&[f], |_, node| {
+            let through = match node {
+                Node::Call1(_, a) | Node::Int(a) => self.holds(a, x),
+                Node::Call2(_, a, b) | Node::Binary(BinOp::Pow, a, b) => {
+                    self.holds(a, x) || self.holds(b, x)
+                }
+                _ => false,
+            };
+            ok &= !through;
+        });
+        ok
     }
 
     /// Whether `f = s·rest` with `s` in `rest` nowhere: `s` reached from the root through
@@ -477,6 +498,8 @@ mod tests {
             "abs(x)",
             "x*exp(x)",
             "sign(x)*abs(x) + x^2",
+            "max(x, 0)",
+            "min(c*x, k)",
         ] {
             let mut p = Pool::default();
             let f = law(&mut p, text);
