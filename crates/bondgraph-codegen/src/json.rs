@@ -190,7 +190,7 @@ fn arrs(out: &mut String, c: &Compiled) {
                 )
             });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"realisation\": {}, \"sensitivities\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"realisation\": {}, \"sensitivities\": {}, \"inverted\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
@@ -210,7 +210,13 @@ fn arrs(out: &mut String, c: &Compiled) {
                         .map(|&(p, e)| format!("{}: {}", string(&c.parameters[p].name), string(&printer.text(e))))
                         .collect();
                     format!("{{{}}}", entries.join(", "))
-                })
+                }),
+                list(arr.inverted.iter().map(|law| format!(
+                    "{{\"element\": {}, \"law\": {}, \"domain\": {}}}",
+                    string(&law.element),
+                    string(&law.law),
+                    list(law.domain.iter().map(|d| string(d)))
+                )))
             )
         })
         .collect();

@@ -18,6 +18,15 @@ pub fn causality(c: &Compiled) -> String {
     out
 }
 
+/// `, where C1 and C2`: the conditions an inverse holds under, or nothing.
+fn domain(conditions: &[String]) -> String {
+    if conditions.is_empty() {
+        String::new()
+    } else {
+        format!(", where {}", conditions.join(" and "))
+    }
+}
+
 fn report(out: &mut String, r: &CausalityReport) {
     let (title, preferred) = match r.mode {
         Mode::Simulation => (
@@ -52,19 +61,19 @@ fn report(out: &mut String, r: &CausalityReport) {
         let _ = writeln!(out, "  junction {junction} set by {what}");
     }
     for law in &r.inverted {
-        let domain = if law.domain.is_empty() {
-            String::new()
-        } else {
-            format!(", where {}", law.domain.join(" and "))
-        };
         let _ = writeln!(
             out,
-            "  {:<10} law read the other way: {}{domain}",
-            law.element, law.law
+            "  {:<10} law read the other way: {}{}",
+            law.element,
+            law.law,
+            domain(&law.domain)
         );
     }
     for p in &r.problems {
         let _ = writeln!(out, "  problem: {p}");
+    }
+    for n in &r.notes {
+        let _ = writeln!(out, "  note: {n}");
     }
     out.push('\n');
 }
@@ -366,6 +375,15 @@ fn arrs(out: &mut String, c: &Compiled) {
             }
         }
         realisation(out, &printer, arr);
+        for law in &arr.inverted {
+            let _ = writeln!(
+                out,
+                "    reads the law of `{}` the other way: {}{}",
+                law.element,
+                law.law,
+                domain(&law.domain)
+            );
+        }
         for &a in &arr.auxiliaries {
             let aux = &c.auxiliaries[a];
             let _ = writeln!(

@@ -405,6 +405,7 @@ impl<'m> Builder<'m> {
                             auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
                             sensitivities: None,
                             realisation: Realisation::Direct,
+                            inverted: inverted_laws(m, &d.causal, &arr.nodes),
                         });
                     }
                     Err(why) => stage.push(refusal(m, &arr.name, arr.junction, why)),
@@ -506,6 +507,9 @@ impl Builder<'_> {
             auxiliaries: Vec::new(),
             sensitivities: None,
             realisation: Realisation::Direct,
+            // The copy holds the state equations, whose inversions the simulation's
+            // causality states.
+            inverted: Vec::new(),
         })
     }
 }
@@ -707,10 +711,15 @@ fn report(
             (model.node(n).name.clone(), setter)
         })
         .collect();
-    let mut messages: Vec<String> = Vec::new();
+    let (mut messages, mut notes): (Vec<String>, Vec<String>) = (Vec::new(), Vec::new());
     for p in problems {
-        if !messages.contains(&p.message) {
-            messages.push(p.message.clone());
+        let list = if p.is_error() {
+            &mut messages
+        } else {
+            &mut notes
+        };
+        if !list.contains(&p.message) {
+            list.push(p.message.clone());
         }
     }
     CausalityReport {
@@ -718,13 +727,14 @@ fn report(
         storage,
         junctions,
         problems: messages,
-        inverted: inverted_laws(model, causal),
+        notes,
+        inverted: inverted_laws(model, causal, &model.nodes().collect()),
     }
 }
 
-/// The inversions `causal` used: those whose element's equation solves an unknown that
-/// needs them.
-fn inverted_laws(model: &BondGraph, causal: &Causal) -> Vec<InvertedLaw> {
+/// The inversions `causal` used at the elements of `nodes`: those whose element's equation
+/// solves an unknown that needs them.
+fn inverted_laws(model: &BondGraph, causal: &Causal, nodes: &BTreeSet<NodeId>) -> Vec<InvertedLaw> {
     let sys = &causal.system;
     let used = |inv: &Inversion| {
         sys.equations.iter().enumerate().any(|(i, eq)| {
@@ -743,7 +753,7 @@ fn inverted_laws(model: &BondGraph, causal: &Causal) -> Vec<InvertedLaw> {
     };
     sys.inversions
         .iter()
-        .filter(|inv| used(inv))
+        .filter(|inv| nodes.contains(&inv.element) && used(inv))
         .map(|inv| {
             let printer = Printer::new(&sys.pool, |l| name(l, inv.given));
             InvertedLaw {

@@ -239,6 +239,9 @@ pub struct Arr {
     pub sensitivities: Option<Vec<(Handle<Parameter>, Expr)>>,
     /// How a residual generator evaluates it.
     pub realisation: Realisation,
+    /// The laws its derivation read the other way, with where their inverses hold: where
+    /// the record leaves that domain, the residual no longer says the law holds.
+    pub inverted: Vec<InvertedLaw>,
 }
 
 impl Arr {
@@ -482,8 +485,10 @@ pub struct CausalityReport {
     pub storage: Vec<(String, StorageCausality)>,
     /// Each junction's name and what sets it.
     pub junctions: Vec<(String, Setter)>,
-    /// The messages of this mode's diagnostics, each once.
+    /// The messages of this mode's errors, each once.
     pub problems: Vec<String>,
+    /// The messages of this mode's warnings, each once: what its results assume.
+    pub notes: Vec<String>,
     /// The laws this causality reads the other way, through their closed-form inverses.
     pub inverted: Vec<InvertedLaw>,
 }

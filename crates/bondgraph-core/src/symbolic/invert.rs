@@ -84,12 +84,39 @@ pub fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<Inverse>
             Some(_) => return None,
             // A divisor made of parameters only is a condition on the model, not on where the
             // inverse holds: a law that divides by a zero parameter is not the law written.
-            None if c.bound == Bound::NonZero && !inverter.holds(c.expr, y) => {}
+            None if c.bound == Bound::NonZero && constant(inverter.pool, c.expr) => {}
+            // `(abs(f)/c)^2 >= 0` holds whatever f and c: not a condition worth stating.
+            None if c.bound == Bound::NonNegative && nonnegative(inverter.pool, c.expr) => {}
             None if !domain.contains(&c) => domain.push(c),
             None => {}
         }
     }
     Some(Inverse { value, domain })
+}
+
+/// Whether `e` reads parameters and numbers only.
+fn constant(pool: &Pool, e: ExprId) -> bool {
+    pool.leaves(e).iter().all(|l| matches!(l, Leaf::Param(_)))
+}
+
+/// Whether `e` is non-negative whatever its leaves: an absolute value, a square root, an
+/// exponential, an even power, or products and quotients of those and of non-negative
+/// numbers.
+fn nonnegative(pool: &Pool, e: ExprId) -> bool {
+    match pool.node(e) {
+        Node::Num(bits) => f64::from_bits(bits) >= 0.0,
+        Node::Call1(Func::Abs | Func::Sqrt | Func::Exp, _) => true,
+        Node::Binary(BinOp::Pow, a, k) => {
+            let even = pool
+                .as_num(k)
+                .is_some_and(|k| k.fract() == 0.0 && (k as i64) % 2 == 0);
+            even || nonnegative(pool, a)
+        }
+        Node::Binary(BinOp::Mul | BinOp::Div | BinOp::Add, a, b) => {
+            nonnegative(pool, a) && nonnegative(pool, b)
+        }
+        _ => false,
+    }
 }
 
 /// Placeholder leaves stand for a subexpression (`abs(u)`) while the rest is solved for it;
@@ -314,13 +341,9 @@ impl Inverter<'_> {
             }
             let abs_y = self.pool.call(Func::Abs, &[y]);
             let magnitude = self.solve(g, placeholder, abs_y)?;
-            self.require(g, Bound::NonNegative);
-            let g_index = self.domain.len() - 1;
-            // g ≥ 0 is a condition on g at the solution, not at the placeholder.
-            let at = self
-                .pool
-                .substitute(g, &mut |_, l| (l == placeholder).then_some(magnitude));
-            self.domain[g_index].expr = at;
+            // `|u| = magnitude` needs it non-negative; `g(magnitude) = |y|` then holds as
+            // solved, so sign(u) = sign(y) gives back y.
+            self.require(magnitude, Bound::NonNegative);
             let sign_y = self.pool.call(Func::Sign, &[y]);
             let u_value = self.pool.mul(sign_y, magnitude);
             return self.solve(u, x, u_value);
