@@ -741,36 +741,39 @@ impl Builder<'_> {
                 _ => None,
             }
         };
-        match self.mode {
-            Mode::Integral => {
-                let index = self.sys.states.len() as u32;
-                let state = self.sys.pool.leaf(Leaf::State(index));
-                let co_leaf = self.leaf(co);
-                // The derivative form too: an element that another storage element drives
-                // through a rigid path (a gear between inertias, capacitors in parallel)
-                // takes derivative causality and holds no state.
-                let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
-                let (name, value, scale) = match phi(self, state, &mut used) {
-                    Some(value) => (name, value, None),
-                    None => match self.co_energy_scale(law, co_port, state, &mut used) {
-                        Some(scale) => {
+        // (Made first: the pool's order of creation is the printed order of equal terms.)
+        let state = (self.mode == Mode::Integral).then(|| {
+            let index = self.sys.states.len() as u32;
+            self.sys.pool.leaf(Leaf::State(index))
+        });
+        let co_leaf = self.leaf(co);
+        let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
+        let integral = match state {
+            // The derivative form too, above: an element that another storage element drives
+            // through a rigid path (a gear between inertias, capacitors in parallel) takes
+            // derivative causality and holds no state.
+            Some(state) => {
+                let held = match phi(self, state, &mut used) {
+                    Some(value) => Some((name, value, None)),
+                    None => self
+                        .co_energy_scale(law, co_port, state, &mut used)
+                        .map(|scale| {
                             let name = format!("{}_{}", co_port.name(), self.model.node(node).name);
                             (name, state, Some(scale))
-                        }
-                        None => {
-                            self.sys.refusals.push(Refusal {
-                                element: node,
-                                reason: format!(
-                                    "its law gives neither `{}` from `{}` nor a usable `{}` from `{}`, so it cannot hold a state (integral causality)",
-                                    co_port.name(),
-                                    energy.name(),
-                                    energy.name(),
-                                    co_port.name()
-                                ),
-                            });
-                            return;
-                        }
-                    },
+                        }),
+                };
+                let Some((name, value, scale)) = held else {
+                    self.sys.refusals.push(Refusal {
+                        element: node,
+                        reason: format!(
+                            "its law gives neither `{}` from `{}` nor a usable `{}` from `{}`, so it cannot hold a state (integral causality)",
+                            co_port.name(),
+                            energy.name(),
+                            energy.name(),
+                            co_port.name()
+                        ),
+                    });
+                    return;
                 };
                 self.sys.states.push(State {
                     name,
@@ -778,23 +781,9 @@ impl Builder<'_> {
                     rate,
                     scale,
                 });
-                used.sort();
-                used.dedup();
-                self.push(
-                    node,
-                    Relation::Storage {
-                        derivative,
-                        integral: Some((co, value)),
-                    },
-                    used,
-                );
+                Some((co, value))
             }
-            Mode::Diagnosis => {
-                let co_leaf = self.leaf(co);
-                let derivative = inverse(self, co_leaf, &mut used).map(|g| (rate, g));
-                let rate_leaf = self.leaf(rate);
-                let integral_of_rate = self.sys.pool.int(rate_leaf);
-                let integral = phi(self, integral_of_rate, &mut used).map(|h| (co, h));
+            None => {
                 if derivative.is_none() {
                     self.sys.refusals.push(Refusal {
                         element: node,
@@ -805,18 +794,21 @@ impl Builder<'_> {
                         ),
                     });
                 }
-                used.sort();
-                used.dedup();
-                self.push(
-                    node,
-                    Relation::Storage {
-                        derivative,
-                        integral,
-                    },
-                    used,
-                );
+                let rate_leaf = self.leaf(rate);
+                let integral_of_rate = self.sys.pool.int(rate_leaf);
+                phi(self, integral_of_rate, &mut used).map(|h| (co, h))
             }
-        }
+        };
+        used.sort();
+        used.dedup();
+        self.push(
+            node,
+            Relation::Storage {
+                derivative,
+                integral,
+            },
+            used,
+        );
     }
 
     /// For a law `q = Φ(e)` (or `p = Φ(f)`) held through its co-energy variable `x` (the

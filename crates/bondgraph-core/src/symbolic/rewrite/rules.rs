@@ -63,6 +63,10 @@ pub fn rules() -> Vec<Rewrite<Math, ConstantFold>> {
         rewrite!("factor-one"; "(+ ?a (* ?a ?c))" => "(* ?a (+ 1 ?c))"),
         rewrite!("collect"; "(+ ?a ?a)" => "(* 2 ?a)"),
         rewrite!("common-denominator"; "(+ (/ ?a ?c) (/ ?b ?c))" => "(/ (+ ?a ?b) ?c)"),
+        // Exact at zero too: odd laws read the other way (`sign(f)*(abs(f)/c)^2`) leave
+        // these in their derivatives.
+        rewrite!("sign-abs"; "(* (sign ?a) (abs ?a))" => "?a"),
+        rewrite!("abs-sign-squared"; "(* (abs ?a) (^ (sign ?a) 2))" => "(abs ?a)"),
     ];
     for pair in [
         rewrite!("add-associate"; "(+ ?a (+ ?b ?c))" <=> "(+ (+ ?a ?b) ?c)"),
