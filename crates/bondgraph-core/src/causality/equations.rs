@@ -662,7 +662,9 @@ impl Builder<'_> {
         needed_for: &[VarId],
         used: &mut Vec<LetId>,
     ) -> Option<ExprId> {
-        if let Some(known) = self.sys.inversions.iter_mut().find(|i| i.element == node) {
+        // Elements are written one at a time: an element's inversion, if any, is the last.
+        let last = self.sys.inversions.last_mut();
+        if let Some(known) = last.filter(|i| i.element == node) {
             known.needed_for.extend_from_slice(needed_for);
             return Some(known.value);
         }

@@ -6,7 +6,8 @@
 //! logarithm). What has no closed form here (`k1 q + k3 q^3`) gives `None`, and the caller
 //! decides what to do instead (a co-energy state, an implicit unknown, a refusal).
 
-use super::{ExprId, Leaf, Node, Pool, Simplifier};
+use super::hash::FastMap;
+use super::{children, ExprId, Leaf, Node, Pool, Simplifier};
 use crate::expr::{BinOp, Func};
 
 /// How a condition of a domain bounds its expression.
@@ -72,6 +73,7 @@ pub fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<Inverse>
         pool,
         domain: Vec::new(),
         placeholders: 0,
+        holding: FastMap::default(),
     };
     // Left as built: the inverse reads as the law undone step by step (`e = (f/c)^2`), which
     // a canonical form would obscure; later stages simplify what they derive from it.
@@ -100,7 +102,7 @@ fn constant(pool: &Pool, e: ExprId) -> bool {
 }
 
 /// Whether `e` is non-negative whatever its leaves: an absolute value, a square root, an
-/// exponential, an even power, or products and quotients of those and of non-negative
+/// exponential, an even power, or sums, products and quotients of those and of non-negative
 /// numbers.
 fn nonnegative(pool: &Pool, e: ExprId) -> bool {
     match pool.node(e) {
@@ -127,16 +129,29 @@ struct Inverter<'p> {
     pool: &'p mut Pool,
     domain: Vec<Condition>,
     placeholders: u32,
+    /// Whether each (expression, target) holds the target, for the nodes met so far: the
+    /// search asks it of every operand on its way down, which would otherwise cost the size
+    /// of the law at each step (a law may be a long `let` written out).
+    holding: FastMap<(ExprId, ExprId), bool>,
 }
 
 impl Inverter<'_> {
-    fn holds(&self, e: ExprId, x: ExprId) -> bool {
-        if e == x {
-            return true;
+    fn holds(&mut self, e: ExprId, x: ExprId) -> bool {
+        if let Some(&known) = self.holding.get(&(e, x)) {
+            return known;
         }
-        let mut found = false;
-        self.pool.visit_reachable(&[e], |id, _| found |= id == x);
-        found
+        let mut order = Vec::new();
+        self.pool
+            .visit_reachable(&[e], |id, node| order.push((id, node)));
+        for (id, node) in order {
+            if self.holding.contains_key(&(id, x)) {
+                continue;
+            }
+            let held = id == x
+                || children(node).any(|c| self.holding.get(&(c, x)).copied().unwrap_or(false));
+            self.holding.insert((id, x), held);
+        }
+        self.holding.get(&(e, x)).copied().unwrap_or(false)
     }
 
     fn require(&mut self, expr: ExprId, bound: Bound) {
@@ -173,7 +188,8 @@ impl Inverter<'_> {
                 self.solve(a, x, y)
             }
             Node::Binary(op, a, b) => {
-                let (inner, y) = self.undo(op, a, b, self.holds(a, target), y)?;
+                let left = self.holds(a, target);
+                let (inner, y) = self.undo(op, a, b, left, y)?;
                 self.solve(inner, x, y)
             }
             Node::Call1(func, a) => {
@@ -352,24 +368,21 @@ impl Inverter<'_> {
     }
 
     /// Whether `x` reaches `f` through sums, products, quotients and negations only.
-    fn rational(&self, f: ExprId, x: ExprId) -> bool {
-        let mut ok = true;
-        self.pool.visit_reachable(&[f], |_, node| {
-            let through = match node {
-                Node::Call1(_, a) | Node::Int(a) => self.holds(a, x),
-                Node::Call2(_, a, b) | Node::Binary(BinOp::Pow, a, b) => {
-                    self.holds(a, x) || self.holds(b, x)
-                }
-                _ => false,
-            };
-            ok &= !through;
-        });
-        ok
+    fn rational(&mut self, f: ExprId, x: ExprId) -> bool {
+        let mut nodes = Vec::new();
+        self.pool.visit_reachable(&[f], |_, node| nodes.push(node));
+        nodes.into_iter().all(|node| match node {
+            Node::Call1(_, a) | Node::Int(a) => !self.holds(a, x),
+            Node::Call2(_, a, b) | Node::Binary(BinOp::Pow, a, b) => {
+                !self.holds(a, x) && !self.holds(b, x)
+            }
+            _ => true,
+        })
     }
 
     /// Whether `f = s·rest` with `s` in `rest` nowhere: `s` reached from the root through
     /// products, numerators and negations only.
-    fn is_factor(&self, f: ExprId, s: ExprId) -> bool {
+    fn is_factor(&mut self, f: ExprId, s: ExprId) -> bool {
         if f == s {
             return true;
         }
