@@ -3,7 +3,8 @@
 //! recorded inputs (for simulated residuals), thresholds with debounce, the decision that
 //! names candidate components from the fault signature matrix and the [`Episode`] that ranks
 //! them over the alarms since the first; the [`Reference`] that turns
-//! an ARR realised by integration into its residual.
+//! an ARR realised by integration into its residual; the [`RootFinder`] that solves, sample
+//! by sample, a law an ARR reads the other way where it has no closed-form inverse.
 //!
 //! Derivatives of measured signals are what an ARR reads and what a bench does not measure:
 //! [`SavitzkyGolay`] fits a polynomial to a sliding window (any order below the polynomial's
@@ -20,6 +21,7 @@ mod integrate;
 mod modulating;
 mod reference;
 mod replay;
+mod root;
 mod threshold;
 mod window;
 
@@ -31,6 +33,7 @@ pub use integrate::{EstimatedIntegral, Trapezoid};
 pub use modulating::ModulatingFunction;
 pub use reference::Reference;
 pub use replay::Replay;
+pub use root::RootFinder;
 pub use threshold::Threshold;
 
 /// Compiles a bond-graph model at build time into its residual code (see the crate
