@@ -50,6 +50,7 @@ fn name(c: &Compiled, s: Symbol) -> String {
             .state_space
             .as_ref()
             .map_or_else(String::new, |s| s.loops[k.index()].name.clone()),
+        Symbol::Root(k, n) => der(&c.roots[k].name, n),
     }
 }
 
@@ -338,7 +339,11 @@ fn at_frequency(
         Symbol::Parameter(p) => c.parameters[p].value,
         Symbol::Input(u, k) => s.powi(k as i32) * amplitude(&c.inputs[u].name),
         Symbol::Sensor(h, k) => s.powi(k as i32) * amplitude(&c.sensors[h].name),
-        Symbol::State(_) | Symbol::Auxiliary(..) | Symbol::Time | Symbol::Loop(_) => f64::NAN,
+        Symbol::State(_)
+        | Symbol::Auxiliary(..)
+        | Symbol::Time
+        | Symbol::Loop(_)
+        | Symbol::Root(..) => f64::NAN,
     });
     eval.value(expr)
 }

@@ -218,28 +218,66 @@ fn twenty_runs_of_the_bench_are_byte_identical_under_any_limits() {
 }
 
 /// A hardening spring written as the physics gives it, `e = k1 q + k3 q³`, with a speed
-/// sensor on the mass: the law cannot be read the other way, so the spring keeps integral
-/// causality in diagnosis. That is a warning saying what the ARR assumes (it reads `int(v)`
-/// from the start of the record), not an error: exit 0, residual code, and `bgc verify`
-/// passes (its runs start the spring where the integral does, at zero).
+/// sensor on the mass: the law has no closed-form inverse, so the ARR holds the stretch as a
+/// root of the law, solved at each sample, and reads no integral (it read `int(v)` from the
+/// start of the record, with a warning, before): exit 0, residual code that solves it, and
+/// `bgc verify` passes from a start where the spring is stretched.
 const HARDENING: &str = "model hardening\nparam m = 1.0\nparam k1 = 40\nparam k3 = 400\n\
     param b = 0.5\ninput F\nSe force = F\nI mass = m\nC spring : e = k1*q + k3*q^3\n\
     R damp = b\nDf v on v1\nforce -> 1:v1 -> mass, spring, damp\n";
 
 #[test]
-fn a_storage_law_diagnosis_cannot_invert_is_a_note_not_an_error() {
+fn a_storage_law_with_no_closed_form_inverse_is_solved_as_a_root() {
     let out = bgc_stdin(&["-"], HARDENING.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(
+        !stderr(&out).contains("bg::mixed-causality"),
+        "{}",
+        stderr(&out)
+    );
+    let text = stdout(&out);
+    assert!(!text.contains("int(v)"), "{text}");
+    assert!(
+        text.contains("where q_spring is the root of k1 * q_spring + k3 * q_spring ^ 3 - (F - der(v) * m - b * v) = 0"),
+        "{text}"
+    );
+    assert!(text.contains("spring     derivative"), "{text}");
+    let rust = bgc_stdin(&["-", "--emit", "rust"], HARDENING.as_bytes());
+    assert_eq!(code(&rust), 0, "{}", stderr(&rust));
+    let rust = stdout(&rust);
+    assert!(
+        rust.contains("pub fn residuals") && rust.contains("RootFinder"),
+        "{rust}"
+    );
+    let json = stdout(&bgc_stdin(&["-", "--emit", "json"], HARDENING.as_bytes()));
+    assert!(
+        json.contains("\"roots\": [{\"name\": \"q_spring\", \"element\": \"spring\""),
+        "{json}"
+    );
+    // The spring no longer keeps integral causality in diagnosis, so verify's runs start it
+    // stretched, where an ARR that read int(v) would not hold.
+    let verify = bgc_stdin(&["verify", "-"], HARDENING.as_bytes());
+    assert_eq!(code(&verify), 0, "{}", stdout(&verify));
+}
+
+/// A law that reaches its variable through `abs` (`e = k0 q + k1 |q| q`) has flat stretches or
+/// several roots in general, so it is not solved numerically: the spring keeps integral
+/// causality in diagnosis, with a warning saying what the ARR assumes, not an error.
+const ABS_SPRING: &str = "model absspring\nparam m = 1.0\nparam k0 = 40\nparam k1 = 400\n\
+    param b = 0.5\ninput F\nSe force = F\nI mass = m\nC spring : e = k0*q + k1*abs(q)*q\n\
+    R damp = b\nDf v on v1\nforce -> 1:v1 -> mass, spring, damp\n";
+
+#[test]
+fn a_storage_law_diagnosis_cannot_solve_is_a_note_not_an_error() {
+    let out = bgc_stdin(&["-"], ABS_SPRING.as_bytes());
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let err = stderr(&out);
     assert!(
         err.contains("bg::mixed-causality") && err.contains("int(..)"),
         "{err}"
     );
-    assert!(stdout(&out).contains("k3 * int(v) ^ 3"), "{}", stdout(&out));
-    let rust = bgc_stdin(&["-", "--emit", "rust"], HARDENING.as_bytes());
-    assert_eq!(code(&rust), 0, "{}", stderr(&rust));
-    assert!(stdout(&rust).contains("pub fn residuals"));
-    let verify = bgc_stdin(&["verify", "-"], HARDENING.as_bytes());
+    assert!(stdout(&out).contains("int(v)"), "{}", stdout(&out));
+    let verify = bgc_stdin(&["verify", "-"], ABS_SPRING.as_bytes());
     assert_eq!(code(&verify), 0, "{}", stdout(&verify));
 }
 
@@ -394,20 +432,21 @@ fn a_parameter_several_components_read_is_named_with_where_it_can_show() {
 }
 
 /// A load whose inertia law is nonlinear, `f = p/Jl + a3 p³`: the state equations hold `p`
-/// as written; diagnosis cannot solve it for `p` in closed form, so the load keeps integral
-/// causality there (a warning saying what the ARR assumes), not an error.
+/// as written; diagnosis solves it for `p` numerically, as a root of the law, where it fell
+/// back to integral causality (and `int(w)`) before.
 const CUBIC_INERTIA: &str = "model cubic\nparam Jl = 0.1\nparam a3 = 0.01\nparam b = 0.05\n\
     input T\nSe motor = T\nI load : f = p/Jl + a3*p^3\nR fric = b\nDf w on s\n\
     motor -> 1:s -> load, fric\n";
 
 #[test]
-fn a_nonlinear_inertia_is_a_note_not_an_error() {
+fn a_nonlinear_inertia_is_solved_for_its_momentum() {
     let out = bgc_stdin(&["-"], CUBIC_INERTIA.as_bytes());
     assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(stderr(&out).is_empty(), "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("bg::mixed-causality"),
+        stdout(&out).contains("where p_load is the root of p_load / Jl + a3 * p_load ^ 3 - w = 0"),
         "{}",
-        stderr(&out)
+        stdout(&out)
     );
     let text = stdout(&out);
     assert!(

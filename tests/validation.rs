@@ -124,6 +124,7 @@ fn arr_texts(c: &Compiled) -> Vec<String> {
         Symbol::Time => "t".to_string(),
         // Only state equations hold the loops' unknowns.
         Symbol::Loop(_) => "loop".to_string(),
+        Symbol::Root(k, n) => der(&c.roots[k].name, n),
     });
     c.arrs
         .iter()
@@ -132,6 +133,10 @@ fn arr_texts(c: &Compiled) -> Vec<String> {
             for &a in &arr.auxiliaries {
                 let aux = &c.auxiliaries[a];
                 text += &format!("\n{} = {}", aux.name, printer.text(aux.definition()));
+            }
+            for &k in &arr.roots {
+                let root = &c.roots[k];
+                text += &format!("\n{} solves {} = 0", root.name, printer.text(root.residual));
             }
             text
         })

@@ -321,17 +321,26 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut now: Vec<Option<f64>> = vec![None; n];
     let mut on = vec![false; n];
     let mut drawn = Drawn::new(n, args.plot.is_some());
+    // The roots the residuals read, by slot: a sample where one is not found is flagged.
+    let roots: Vec<(usize, String)> = (program.slots.iter())
+        .filter_map(|(h, s)| match s.quantity {
+            bondgraph_core::Quantity::Root(r) => Some((h.index(), c.roots[r].name.clone())),
+            _ => None,
+        })
+        .collect();
+    let mut unsolved: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
     // The rows are computed here and written as text by a second thread, chunk by chunk:
     // writing numbers costs about what computing them does.
     let out = std::thread::scope(|scope| {
         let (send, receive) = std::sync::mpsc::sync_channel::<Chunk>(4);
         let rows = &rows;
-        let head = header(&c);
+        let head = header(&c, &roots);
+        let roots = &roots;
         let writer = scope.spawn(move || {
             let mut out = head;
             let mut named = Named::default();
             for chunk in receive {
-                chunk.write(&mut out, rows, &mut named);
+                chunk.write(&mut out, rows, &mut named, roots);
             }
             (out, named)
         });
@@ -358,6 +367,11 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                 };
             }
             chunk.push(e.at, e.residuals, &now, &on);
+            chunk.unsolved.push(e.unsolved);
+            if let Some(slot) = e.unsolved {
+                let entry = unsolved.entry(slot).or_insert((0, e.at));
+                entry.0 += 1;
+            }
             estimates += 1;
             drawn.push(e.at, e.residuals, &now, &on);
             if chunk.time.len() == CHUNK_ROWS {
@@ -371,6 +385,13 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     });
     let (out, named) = out;
     named.report(&rows, &c);
+    for (slot, (count, first)) in &unsolved {
+        if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
+            eprintln!(
+                "warning: {data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are not numbers there, and the `unsolved` column names it"
+            );
+        }
+    }
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(|e| {
             eprintln!("error: {e}");
@@ -469,7 +490,7 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
     Ok(levels)
 }
 
-fn header(c: &Compiled) -> String {
+fn header(c: &Compiled, roots: &[(usize, String)]) -> String {
     let mut h = String::from("t");
     for a in &c.arrs {
         let _ = write!(h, ",{}", a.name);
@@ -480,7 +501,11 @@ fn header(c: &Compiled) -> String {
     for a in &c.arrs {
         let _ = write!(h, ",alarm_{}", a.name);
     }
-    h.push_str(",candidates,suspects,episode\n");
+    h.push_str(",candidates,suspects,episode");
+    if !roots.is_empty() {
+        h.push_str(",unsolved");
+    }
+    h.push('\n');
     h
 }
 
@@ -495,6 +520,8 @@ struct Chunk {
     residuals: Vec<f64>,
     levels: Vec<Option<f64>>,
     on: Vec<bool>,
+    /// Per row, when the model's ARRs read roots: the name of the first not found, if any.
+    unsolved: Vec<Option<usize>>,
 }
 
 impl Chunk {
@@ -506,7 +533,13 @@ impl Chunk {
     }
 
     /// Appends the rows as CSV, with the candidates and the suspects of each row's alarms.
-    fn write(&self, out: &mut String, rows: &[(&str, Vec<bool>)], named: &mut Named) {
+    fn write(
+        &self,
+        out: &mut String,
+        rows: &[(&str, Vec<bool>)],
+        named: &mut Named,
+        roots: &[(usize, String)],
+    ) {
         let n = self.residuals.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
             let span = k * n..(k + 1) * n;
@@ -526,6 +559,13 @@ impl Chunk {
                 out.push_str(if a { ",1" } else { ",0" });
             }
             named.cells(rows, t, on, out);
+            if !roots.is_empty() {
+                out.push(',');
+                let unsolved = self.unsolved.get(k).copied().flatten();
+                if let Some((_, name)) = unsolved.and_then(|s| roots.iter().find(|r| r.0 == s)) {
+                    out.push_str(name);
+                }
+            }
             out.push('\n');
         }
     }

@@ -189,8 +189,18 @@ fn arrs(out: &mut String, c: &Compiled) {
                     string(&printer.text(aux.definition()))
                 )
             });
+            let roots = arr.roots.iter().map(|&k| {
+                let root = &c.roots[k];
+                format!(
+                    "{{\"name\": {}, \"element\": {}, \"residual\": {}, \"slope\": {}}}",
+                    string(&root.name),
+                    string(&root.element),
+                    string(&printer.text(root.residual)),
+                    string(&printer.text(root.slope))
+                )
+            });
             format!(
-                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"realisation\": {}, \"sensitivities\": {}, \"inverted\": {}}}",
+                "\n    {{\"name\": {}, \"junction\": {}, \"sensor\": {}, \"form\": {}, \"expr\": {}, \"auxiliaries\": {}, \"roots\": {}, \"components\": {}, \"without\": {}, \"reads\": {}, \"realisation\": {}, \"sensitivities\": {}, \"inverted\": {}}}",
                 string(&arr.name),
                 string(&arr.junction),
                 arr.sensor.map_or("null".to_string(), |s| string(&c.sensors[s].name)),
@@ -200,6 +210,7 @@ fn arrs(out: &mut String, c: &Compiled) {
                 }),
                 string(&printer.text(arr.expr)),
                 list(auxiliaries),
+                list(roots),
                 list(components),
                 list(arr.without.iter().map(|h| string(&c.components[*h].name))),
                 reads,

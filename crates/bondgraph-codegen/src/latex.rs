@@ -79,6 +79,14 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
                     );
                     lines.push(writer.equation(&head, aux.definition(), ""));
                 }
+                for &k in &arr.roots {
+                    let root = &c.roots[k];
+                    let head = format!(
+                        "  \\text{{where}}\\quad & {} \\text{{ solves }} ",
+                        names::latex_name(&root.name)
+                    );
+                    lines.push(writer.equation(&head, root.residual, " = 0"));
+                }
                 lines.join(" \\\\\n")
             })
             .collect();

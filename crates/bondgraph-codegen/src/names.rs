@@ -30,6 +30,7 @@ pub fn text(c: &Compiled, symbol: Symbol) -> String {
         Symbol::State(k) => c.states[k].name.clone(),
         Symbol::Time => "t".to_string(),
         Symbol::Loop(k) => loop_name(c, k),
+        Symbol::Root(k, n) => derivative(&c.roots[k].name, n),
     }
 }
 
@@ -96,6 +97,7 @@ pub fn latex(c: &Compiled, symbol: Symbol) -> String {
         Symbol::State(k) => latex_name(&c.states[k].name),
         Symbol::Time => "t".to_string(),
         Symbol::Loop(k) => latex_name(&loop_name(c, k)),
+        Symbol::Root(k, n) => latex_derivative(&c.roots[k].name, n),
     }
 }
 

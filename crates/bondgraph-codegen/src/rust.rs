@@ -109,6 +109,17 @@ fn fields(c: &Compiled, program: &Program, readings: &Readings) -> Vec<Field> {
                         format!("The state `{name}` of the copy of the model that simulated residuals run."),
                     )
                 }
+                Quantity::Root(k) => {
+                    let root = &c.roots[k];
+                    (
+                        root.name.clone(),
+                        format!(
+                            "The root of `{} = 0`: the law of `{}`, which has no closed-form inverse, solved at each estimate.",
+                            printer.text(root.residual),
+                            root.element
+                        ),
+                    )
+                }
             };
             Field { name, slot, doc }
         })
@@ -690,6 +701,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
     // How each field is filled, in the program's order: from the estimates (`e{order}[channel]`),
     // from the copy, or by integrating an expression of the fields before it.
     let mut others = 0usize;
+    let mut roots = 0usize;
     let fill: Vec<TokenStream> = fields
         .iter()
         .map(|f| {
@@ -710,10 +722,55 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                     let (integrand, _) = lower.expr(integrand);
                     quote!(s.#name = self.others[#k].push(at, { #integrand });)
                 }
+                Fill::Root { residual, slope } => {
+                    let k = count(roots);
+                    roots += 1;
+                    let (residual, _) = lower.expr(residual);
+                    let (slope, _) = lower.expr(slope);
+                    let label = &f.name;
+                    quote! {
+                        s.#name = match self.roots[#k].solve(|z| {
+                            s.#name = z;
+                            ({ #residual }, { #slope })
+                        }) {
+                            Some(z) => z,
+                            None => {
+                                self.unsolved = self.unsolved.or(Some(#label));
+                                ::bondgraph::RootFinder::NO_ROOT
+                            }
+                        };
+                    }
+                }
             }
         })
         .collect();
     let o = count(others);
+    // Only a program that solves roots carries their finders and says which failed.
+    let root_count = count(roots);
+    let (roots_field, roots_init, roots_reset, roots_method) = if roots == 0 {
+        Default::default()
+    } else {
+        (
+            quote! {
+                roots: [::bondgraph::RootFinder; #root_count],
+                unsolved: Option<&'static str>,
+            },
+            quote! {
+                roots: [::bondgraph::RootFinder::new(); #root_count],
+                unsolved: None,
+            },
+            quote!(self.unsolved = None;),
+            quote! {
+                /// The root (a field of [`Signals`]) that had no solution at the last
+                /// estimate, if any: the residuals that read it are not numbers there, and
+                /// say nothing.
+                #[must_use]
+                pub fn unsolved(&self) -> Option<&'static str> {
+                    self.unsolved
+                }
+            },
+        )
+    };
     let channel_orders: Vec<Literal> = (program.channels.values())
         .map(|c| Literal::u32_unsuffixed(c.order))
         .collect();
@@ -770,6 +827,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
             bank: B,
             integrals: [::bondgraph::Trapezoid; #i],
             others: [::bondgraph::Trapezoid; #o],
+            #roots_field
             references: [::bondgraph::Reference; #references],
             #copy_field
             last: Signals,
@@ -790,6 +848,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                     bank,
                     integrals: [::bondgraph::Trapezoid::new(); #i],
                     others: [::bondgraph::Trapezoid::new(); #o],
+                    #roots_init
                     references: ::core::array::from_fn(|_| ::bondgraph::Reference::default()),
                     #copy_init
                     last: Signals::default(),
@@ -826,6 +885,8 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                 self.bank.delay()
             }
 
+            #roots_method
+
             /// The estimates the last residuals were computed from.
             #[must_use]
             pub fn signals(&self) -> &Signals {
@@ -853,6 +914,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                 };
                 #copy_read
                 let p = &self.params;
+                #roots_reset
                 let mut s = Signals::default();
                 #(#fill)*
                 let mut r = residuals(p, &s);

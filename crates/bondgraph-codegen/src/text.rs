@@ -393,6 +393,16 @@ fn arrs(out: &mut String, c: &Compiled) {
                 printer.text(aux.definition())
             );
         }
+        for &k in &arr.roots {
+            let root = &c.roots[k];
+            let _ = writeln!(
+                out,
+                "    where {} is the root of {} = 0 (the law of `{}`, which has no closed-form inverse: solved numerically at each sample)",
+                root.name,
+                printer.text(root.residual),
+                root.element
+            );
+        }
     }
 }
 

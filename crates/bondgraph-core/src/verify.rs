@@ -186,6 +186,8 @@ enum V {
     /// An unknown of a nonlinear algebraic loop of the plant, solved by Newton's method
     /// wherever the plant is evaluated.
     Loop(Handle<crate::product::LoopUnknown>),
+    /// A root an ARR reads, solved by Newton's method wherever the residuals are evaluated.
+    Root(Handle<crate::product::Root>),
 }
 
 type VId = ExprId<V>;
@@ -195,6 +197,10 @@ type VId = ExprId<V>;
 enum Root {
     /// An auxiliary signal's derivative.
     Auxiliary(Handle<Auxiliary>, u32),
+    /// A root's law.
+    Law,
+    /// A root's n-th derivative (n ≥ 1), in terms of the roots.
+    Derivative(Handle<crate::product::Root>, u32),
     /// A residual evaluated as written.
     Residual,
     /// The level of an integrated residual; its rate comes next.
@@ -225,6 +231,10 @@ struct Plant {
     loop_tape: Tape<V>,
     /// How many loop unknowns there are.
     loops: usize,
+    /// The laws of the roots the ARRs read, `g = 0` at each root.
+    root_tape: Tape<V>,
+    /// How many roots there are.
+    roots: usize,
 }
 
 /// Most times the step is divided by ten for a stiff model.
@@ -295,6 +305,7 @@ fn verify_with(
         fault_size: 0.0,
         options,
         guess: std::cell::RefCell::new(vec![0.0; plant.loops]),
+        root_guess: std::cell::RefCell::new(vec![0.0; plant.roots]),
     };
     // A sensor fault is a fifth of the signal's peak on the healthy plant: a fixed size would
     // be lost in a pressure of megapascals and swamp a temperature of a few kelvin.
@@ -468,7 +479,9 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
         }
         Symbol::State(k) => p.leaf(V::State(k)),
         // State equations and outputs read no measured signal.
-        Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
+        Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time | Symbol::Root(..) => {
+            p.leaf(V::Time)
+        }
         Symbol::Loop(k) => p.leaf(V::Loop(k)),
     };
     let n = c.states.len();
@@ -482,7 +495,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
             Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
             Symbol::State(k) => p.leaf(V::Estimate(k)),
             Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
-            Symbol::Loop(_) => p.num(f64::NAN),
+            Symbol::Loop(_) | Symbol::Root(..) => p.num(f64::NAN),
         };
         let mut copy = vec![pool.num(0.0); n];
         for (k, e) in &space.equations {
@@ -502,6 +515,8 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
     // Auxiliary signals in definition order: each reads earlier ones only.
     let mut auxiliary: HashMap<(Handle<Auxiliary>, u32), VId> = HashMap::new();
     let mut residuals = Vec::new();
+    let mut laws = Vec::new();
+    let mut root_derivatives: HashMap<(Handle<crate::product::Root>, u32), VId> = HashMap::new();
     let roots = c
         .auxiliaries
         .iter()
@@ -510,6 +525,12 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
                 .zip(&aux.derivatives)
                 .map(move |(n, &e)| (Root::Auxiliary(a, n), e))
         })
+        .chain(c.roots.values().map(|r| (Root::Law, r.residual)))
+        .chain(c.roots.iter().flat_map(|(h, r)| {
+            (1u32..)
+                .zip(r.derivatives.iter().skip(1))
+                .map(move |(n, &e)| (Root::Derivative(h, n), e))
+        }))
         .chain(c.arrs.iter().flat_map(|arr| match &arr.realisation {
             Realisation::Direct => vec![(Root::Residual, arr.expr)],
             Realisation::Integrated(i) => vec![(Root::Level, i.level), (Root::Rate, i.rate)],
@@ -532,11 +553,19 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
             Symbol::State(k) => p.leaf(V::Estimate(k)),
             Symbol::Time => p.leaf(V::Time),
             Symbol::Loop(_) => p.num(f64::NAN),
+            Symbol::Root(h, 0) => p.leaf(V::Root(h)),
+            Symbol::Root(h, n) => {
+                (root_derivatives.get(&(h, n)).copied()).unwrap_or_else(|| p.num(f64::NAN))
+            }
         };
         let e = pool.import_from(&c.exprs, root, &mut signal);
         match key {
             Root::Auxiliary(a, n) => {
                 auxiliary.insert((a, n), e);
+            }
+            Root::Law => laws.push(e),
+            Root::Derivative(h, n) => {
+                root_derivatives.insert((h, n), e);
             }
             Root::Residual => residuals.push(e),
             Root::Level => level = Some(e),
@@ -546,6 +575,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
             Root::Rate => {
                 let mut along = Derivatives::new(|p: &mut Pool<V>, leaf: V| match leaf {
                     V::Loop(k) => loop_rates.get(k.index()).copied(),
+                    V::Root(k) => root_derivatives.get(&(k, 1)).copied(),
                     other => plant_rate(p, &rhs, other),
                 });
                 let d = level.take().and_then(|l| along.of(&mut pool, l));
@@ -557,6 +587,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
     let mut roots = rhs.clone();
     roots.extend(&residuals);
     roots.extend(&loops);
+    roots.extend(&laws);
     let mut integrals = Vec::new();
     pool.visit_reachable(&roots, |id, node| {
         if let Node::Int(_) = node {
@@ -587,6 +618,8 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
         output_tape: Tape::new(&pool, &output_roots),
         loop_tape: Tape::new(&pool, &loops),
         loops: loops.len(),
+        root_tape: Tape::new(&pool, &laws),
+        roots: laws.len(),
         rhs,
         states: n,
         outputs,
@@ -640,6 +673,7 @@ fn arbitrary_value(pool: &Pool<Symbol>, e: ExprId<Symbol>, seed: f64) -> f64 {
             Symbol::Auxiliary(a, n) => 3e3 + 31.0 * a.index() as f64 + f64::from(n),
             Symbol::State(k) => 4e3 + k.index() as f64,
             Symbol::Loop(k) => 5e3 + k.index() as f64,
+            Symbol::Root(k, n) => 8e3 + 31.0 * k.index() as f64 + f64::from(n),
             Symbol::Time => 6e3,
         };
         spread(key)
@@ -690,9 +724,9 @@ fn plant_rate(p: &mut Pool<V>, rhs: &[VId], leaf: V) -> Option<VId> {
         V::InputFault(u, m) => Some(p.leaf(V::InputFault(u, m + 1))),
         V::Plant(_) | V::Nominal(_) => Some(p.num(0.0)),
         V::Time => Some(p.num(1.0)),
-        // Simulated residuals read the copy's states undifferentiated, and loops are the
-        // caller's: neither is differentiated here.
-        V::Estimate(_) | V::Loop(_) => None,
+        // Simulated residuals read the copy's states undifferentiated, loops are the
+        // caller's, and ARRs read roots undifferentiated: none is differentiated here.
+        V::Estimate(_) | V::Loop(_) | V::Root(_) => None,
     }
 }
 
@@ -762,13 +796,22 @@ struct Run<'a> {
     options: &'a VerifyOptions,
     /// The loops' unknowns last solved: Newton's next guess.
     guess: std::cell::RefCell<Vec<f64>>,
+    /// The roots last solved: Newton's next guess for them.
+    root_guess: std::cell::RefCell<Vec<f64>>,
 }
 
 impl Run<'_> {
-    fn leaf<'r>(&'r self, x: &'r [f64], t: f64, z: &'r [f64]) -> impl Fn(V) -> f64 + 'r {
+    fn leaf<'r>(
+        &'r self,
+        x: &'r [f64],
+        t: f64,
+        z: &'r [f64],
+        roots: &'r [f64],
+    ) -> impl Fn(V) -> f64 + 'r {
         move |leaf| match leaf {
             V::State(k) => x[k.index()],
             V::Loop(k) => z.get(k.index()).copied().unwrap_or(f64::NAN),
+            V::Root(k) => roots.get(k.index()).copied().unwrap_or(f64::NAN),
             V::Estimate(k) => x[self.plant.states + k.index()],
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
@@ -801,7 +844,33 @@ impl Run<'_> {
         let integrals = self.integrals(x);
         let integral = |id: VId| integrals.get(&id).copied().unwrap_or(f64::NAN);
         let z = self.loops(x, t, &integral);
-        tape.values(self.leaf(x, t, &z), integral, &mut Vec::new())
+        // Only the residuals read roots.
+        let roots = if std::ptr::eq(tape, &self.plant.residual_tape) {
+            self.roots(x, t, &z, &integral)
+        } else {
+            Vec::new()
+        };
+        tape.values(self.leaf(x, t, &z, &roots), integral, &mut Vec::new())
+    }
+
+    /// The roots the ARRs read in state `x` at time `t`, by Newton's method from the last
+    /// ones, as a residual generator finds them (NaN where it finds none: the residuals then
+    /// fail, never pass).
+    fn roots(&self, x: &[f64], t: f64, z: &[f64], integral: &dyn Fn(VId) -> f64) -> Vec<f64> {
+        if self.plant.roots == 0 {
+            return Vec::new();
+        }
+        let mut r = self.root_guess.borrow().clone();
+        let solved = crate::sim::newton::solve(&mut r, |r, out| {
+            *out = (self.plant.root_tape).values(self.leaf(x, t, z, r), integral, &mut Vec::new());
+        });
+        match solved {
+            Ok(()) => {
+                self.root_guess.borrow_mut().clone_from(&r);
+                r
+            }
+            Err(_) => vec![f64::NAN; self.plant.roots],
+        }
     }
 
     /// The loops' unknowns in state `x` at time `t`, by Newton's method from the last
@@ -812,7 +881,8 @@ impl Run<'_> {
         }
         let mut z = self.guess.borrow().clone();
         let solved = crate::sim::newton::solve(&mut z, |z, out| {
-            *out = (self.plant.loop_tape).values(self.leaf(x, t, z), integral, &mut Vec::new());
+            *out =
+                (self.plant.loop_tape).values(self.leaf(x, t, z, &[]), integral, &mut Vec::new());
         });
         match solved {
             Ok(()) => {

@@ -1,6 +1,6 @@
 //! The residual generator of a program, run sample by sample.
 
-use bondgraph::{Differentiator, EstimatorError, Reference, Trapezoid};
+use bondgraph::{Differentiator, EstimatorError, Reference, RootFinder, Trapezoid};
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Source};
 use bondgraph_core::{Compiled, Pool, Tape};
 
@@ -13,11 +13,20 @@ enum Feed {
     Integral(usize, Trapezoid),
 }
 
-/// A slot filled by integrating an expression at the estimates' instant.
-struct Integral {
-    slot: usize,
-    integrand: Tape<Leaf>,
-    rule: Trapezoid,
+/// A slot filled at the estimates' instant from the slots before it.
+enum Step {
+    /// By integrating an expression.
+    Integral {
+        slot: usize,
+        integrand: Tape<Leaf>,
+        rule: Trapezoid,
+    },
+    /// As the root of a law (its residual and slope, in one tape).
+    Root {
+        slot: usize,
+        law: Tape<Leaf>,
+        finder: RootFinder,
+    },
 }
 
 /// The residual generator of a program, run at run time: the same estimators, in the same
@@ -28,7 +37,9 @@ pub struct Generator {
     feeds: Vec<Feed>,
     /// For each channel, the slots of the derivatives read, by order.
     scatter: Vec<Vec<(usize, usize)>>,
-    integrals: Vec<Integral>,
+    steps: Vec<Step>,
+    /// The slot of the first root not found at the last estimate, if any.
+    unsolved: Option<usize>,
     residuals: Tape<Leaf>,
     /// Every sensitivity `∂r/∂θ` of every residual, in order.
     sensitivities: Tape<Leaf>,
@@ -55,6 +66,9 @@ pub struct Estimate<'g> {
     pub residuals: &'g [f64],
     /// Each residual's bound from parameter uncertainty (zeros when not asked for).
     pub bounds: &'g [f64],
+    /// The slot of the first root not found at this instant (the residuals that read it are
+    /// not numbers), if any.
+    pub unsolved: Option<usize>,
 }
 
 /// `roots` of `code` in a pool of their own, with the parameters folded to `params`.
@@ -99,16 +113,21 @@ impl Generator {
             });
         }
         let mut scatter = vec![Vec::new(); program.channels.len()];
-        let mut integrals = Vec::new();
+        let mut steps = Vec::new();
         for (h, slot) in program.slots.iter() {
             match slot.fill {
                 Fill::Estimate { channel, order } => {
                     scatter[channel.index()].push((order as usize, h.index()));
                 }
-                Fill::Integral(integrand) => integrals.push(Integral {
+                Fill::Integral(integrand) => steps.push(Step::Integral {
                     slot: h.index(),
                     integrand: tape(&program.code, &[integrand], params),
                     rule: Trapezoid::new(),
+                }),
+                Fill::Root { residual, slope } => steps.push(Step::Root {
+                    slot: h.index(),
+                    law: tape(&program.code, &[residual, slope], params),
+                    finder: RootFinder::new(),
                 }),
                 Fill::Simulated(_) => {}
             }
@@ -141,7 +160,8 @@ impl Generator {
             estimators,
             feeds,
             scatter,
-            integrals,
+            steps,
+            unsolved: None,
             residuals: tape(&program.code, &residuals, params),
             sensitivities: tape(&program.code, &sensitivities, params),
             weights,
@@ -175,18 +195,36 @@ impl Generator {
         }
         let mut scratch = std::mem::take(&mut self.scratch);
         let mut buffer = std::mem::take(&mut self.buffer);
-        for k in 0..self.integrals.len() {
-            let Integral { integrand, .. } = &self.integrals[k];
-            integrand.values_into(
-                |l| self.leaf(l, at),
-                |_| f64::NAN,
-                &mut scratch,
-                &mut buffer,
-            );
-            let v = buffer.first().copied().unwrap_or(f64::NAN);
-            let Integral { slot, rule, .. } = &mut self.integrals[k];
-            self.values[*slot] = rule.push(at, v);
+        self.unsolved = None;
+        let mut steps = std::mem::take(&mut self.steps);
+        for step in &mut steps {
+            match step {
+                Step::Integral {
+                    slot,
+                    integrand,
+                    rule,
+                } => {
+                    let leaf = |l| self.leaf(l, at);
+                    integrand.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
+                    let v = buffer.first().copied().unwrap_or(f64::NAN);
+                    self.values[*slot] = rule.push(at, v);
+                }
+                Step::Root { slot, law, finder } => {
+                    let root = finder.solve(|z| {
+                        self.values[*slot] = z;
+                        let leaf = |l| self.leaf(l, at);
+                        law.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
+                        let at = |k: usize| buffer.get(k).copied().unwrap_or(f64::NAN);
+                        (at(0), at(1))
+                    });
+                    if root.is_none() {
+                        self.unsolved = self.unsolved.or(Some(*slot));
+                    }
+                    self.values[*slot] = root.unwrap_or(f64::NAN);
+                }
+            }
         }
+        self.steps = steps;
         let mut out = std::mem::take(&mut self.out);
         (self.residuals).values_into(|l| self.leaf(l, at), |_| f64::NAN, &mut scratch, &mut out);
         for (k, reference) in &mut self.references {
@@ -210,6 +248,7 @@ impl Generator {
             at,
             residuals: &self.out,
             bounds: &self.bounds,
+            unsolved: self.unsolved,
         })
     }
 

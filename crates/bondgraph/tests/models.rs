@@ -86,6 +86,7 @@ fn field(c: &Compiled, s: Symbol) -> Option<String> {
         Symbol::Sensor(h, n) => Some(named(&c.sensors[h].name, n)),
         // A simulated residual reads the copy's states.
         Symbol::State(k) => Some(format!("{}_hat", c.states[k].name)),
+        Symbol::Root(k, 0) => Some(c.roots[k].name.clone()),
         _ => None,
     }
 }
@@ -95,11 +96,21 @@ fn field(c: &Compiled, s: Symbol) -> Option<String> {
 /// model's values; an integral of a signal reads `NAME_int`, an integral of a linear
 /// combination the same combination of those, and the k-th other integral `int{k}`.
 fn expected(c: &Compiled, values: &HashMap<String, f64>) -> Vec<f64> {
-    let leaf = |s: Symbol, suffix: &str| match s {
+    let plain = |s: Symbol, suffix: &str| match s {
         Symbol::Parameter(p) => c.parameters[p].value,
         other => field(c, other)
             .and_then(|f| values.get(&format!("{f}{suffix}")).copied())
             .unwrap_or(f64::NAN),
+    };
+    // A root's derivative is an expression of the roots and the signals.
+    let leaf = |s: Symbol, suffix: &str| match s {
+        Symbol::Root(k, n) if n > 0 => c.roots[k]
+            .derivatives
+            .get(n as usize)
+            .map_or(f64::NAN, |&d| {
+                Evaluator::new(&c.exprs, |s| plain(s, "")).value(d)
+            }),
+        other => plain(other, suffix),
     };
     let mut integrals = HashMap::new();
     let roots: Vec<Expr> = c.arrs.iter().map(|a| a.evaluated()).collect();

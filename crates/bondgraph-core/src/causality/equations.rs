@@ -135,6 +135,11 @@ pub enum Relation {
         derivative: Option<(VarId, ExprId)>,
         /// Integral form: the co-energy variable, and h over the integral of the rate.
         integral: Option<(VarId, ExprId)>,
+        /// Derivative form through a root, in diagnosis, for a law `co = φ(x)` with no
+        /// closed-form inverse: the rate, and φ over [`ARGUMENT`]. The energy variable `x`
+        /// is then the root of `φ(x) − co`, found numerically at run time, and the rate is
+        /// its derivative.
+        implicit: Option<(VarId, ExprId)>,
     },
 }
 
@@ -465,8 +470,9 @@ impl Builder<'_> {
             Relation::Storage {
                 derivative,
                 integral,
+                implicit,
             } => {
-                for (out, g) in derivative.iter().chain(integral) {
+                for (out, g) in derivative.iter().chain(integral).chain(implicit) {
                     vars.push(*out);
                     exprs.push(*g);
                 }
@@ -786,21 +792,28 @@ impl Builder<'_> {
                 Some((co, value))
             }
             None => {
-                if derivative.is_none() {
-                    self.sys.refusals.push(Refusal {
-                        element: node,
-                        reason: format!(
-                            "its law gives `{}` from `{}` and has no closed-form inverse, so it cannot take derivative causality",
-                            co_port.name(),
-                            energy.name()
-                        ),
-                    });
-                }
                 let rate_leaf = self.leaf(rate);
                 let integral_of_rate = self.sys.pool.int(rate_leaf);
                 phi(self, integral_of_rate, &mut used).map(|h| (co, h))
             }
         };
+        let implicit = match (&derivative, state) {
+            (None, None) => {
+                let x = self.sys.pool.leaf(ARGUMENT);
+                phi(self, x, &mut used).map(|phi| (rate, phi))
+            }
+            _ => None,
+        };
+        if state.is_none() && derivative.is_none() && implicit.is_none() {
+            self.sys.refusals.push(Refusal {
+                element: node,
+                reason: format!(
+                    "its law gives `{}` from `{}` and has no closed-form inverse, so it cannot take derivative causality",
+                    co_port.name(),
+                    energy.name()
+                ),
+            });
+        }
         used.sort();
         used.dedup();
         self.push(
@@ -808,6 +821,7 @@ impl Builder<'_> {
             Relation::Storage {
                 derivative,
                 integral,
+                implicit,
             },
             used,
         );

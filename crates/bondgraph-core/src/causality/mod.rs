@@ -127,10 +127,12 @@ impl Causal {
                     Relation::Storage {
                         derivative,
                         integral,
+                        implicit,
                     },
                     Use::Solves { var, .. },
                 ) => {
-                    if derivative.is_some_and(|d| d.0 == var) {
+                    let rate = |d: &Option<(VarId, ExprId)>| d.is_some_and(|d| d.0 == var);
+                    if rate(derivative) || rate(implicit) {
                         StorageCausality::Derivative
                     } else if integral.is_some_and(|d| d.0 == var) {
                         StorageCausality::Integral
@@ -139,8 +141,10 @@ impl Causal {
                     }
                 }
                 // Checked both ways; the residual uses the derivative form when there is one.
-                (Relation::Storage { derivative, .. }, Use::Redundant { .. }) => {
-                    if derivative.is_some() {
+                (Relation::Storage { derivative, .. }, Use::Redundant { residual }) => {
+                    let root = (self.system.pool.leaves(residual).iter())
+                        .any(|l| matches!(l, crate::symbolic::Leaf::Root(..)));
+                    if derivative.is_some() || root {
                         StorageCausality::Derivative
                     } else {
                         StorageCausality::Integral

@@ -49,10 +49,12 @@ pub fn at_nodes(
 
 /// Storage elements that cannot take the causality the mode needs, each once.
 pub fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
+    let unsolved = unsolved_roots(model, causal);
     causal
         .system
         .refusals
         .iter()
+        .chain(&unsolved)
         .map(|r| {
             let name = &model.node(r.element).name;
             match causal.mode {
@@ -78,6 +80,45 @@ pub fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
                 )
                 .with_help("they hold on a record that starts where those integrals are zero (the plant at rest); writing the law the other way (`q = ...e` for a C, `p = ...f` for an I) would spare the integrals"),
             }
+        })
+        .collect()
+}
+
+/// In diagnosis, the storage elements whose law could have been solved for a root (it has no
+/// closed-form inverse) and was not: a law that reaches its variable through a function with
+/// flat stretches or several roots, or over an unknown that only elimination removes.
+fn unsolved_roots(model: &BondGraph, causal: &Causal) -> Vec<super::equations::Refusal> {
+    if causal.mode != Mode::Diagnosis {
+        return Vec::new();
+    }
+    let roots = |e| {
+        (causal.system.pool.leaves(e).iter()).any(|l| matches!(l, crate::symbolic::Leaf::Root(..)))
+    };
+    (causal.system.equations.iter().zip(&causal.solved.uses))
+        .filter_map(|(eq, u)| {
+            let Relation::Storage {
+                derivative: None,
+                implicit: Some(_),
+                ..
+            } = eq.relation
+            else {
+                return None;
+            };
+            let rooted = match *u {
+                Use::Redundant { residual } => roots(residual),
+                Use::Solves { class, .. } => class == super::solve::Class::Implicit,
+                Use::Pending => false,
+            };
+            let (energy, co) = match &model.node(eq.owner).kind {
+                crate::graph::NodeKind::Element(k, _) if k.base() == crate::graph::ElementKind::I => ("p", "f"),
+                _ => ("q", "e"),
+            };
+            (!rooted).then(|| super::equations::Refusal {
+                element: eq.owner,
+                reason: format!(
+                    "its law gives `{co}` from `{energy}`, has no closed-form inverse, and cannot be solved for `{energy}` numerically here (it reaches it through `abs`, `sign`, `min`, `max`, a periodic function or an integral, or what sets `{co}` is known only to the elimination)"
+                ),
+            })
         })
         .collect()
 }

@@ -13,7 +13,7 @@
 
 use std::collections::VecDeque;
 
-use super::equations::{Equation, Relation, System, VarId};
+use super::equations::{Equation, Relation, System, VarId, ARGUMENT};
 use super::Mode;
 use crate::graph::{BondGraph, ElementKind, NodeKind};
 use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Leaf, Pool};
@@ -33,8 +33,12 @@ pub enum Class {
     /// as written, whose conditioning the user chose (`f = Kv e^3` stays a cube, not a
     /// cube root of a signal near zero).
     Inverted = 4,
+    /// A nonlinear law with no closed-form inverse read for its input (diagnosis): the
+    /// input becomes a [`Root`], found numerically at run time. Before integral causality,
+    /// whose ARRs hold only from a known initial state.
+    Implicit = 5,
     /// Storage in the other causality (integral in diagnosis).
-    Fallback = 5,
+    Fallback = 6,
 }
 
 /// What became of an equation.
@@ -83,6 +87,20 @@ pub struct Implicit {
     pub residual: ExprId,
 }
 
+/// An unknown set by a law that has no closed-form inverse (diagnosis only): held as the
+/// symbol [`Leaf::Root`] wherever it is read, it is the root of `residual`, which a residual
+/// generator finds numerically at each sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Root {
+    /// The unknown (for a storage element read through its law, the rate is the root's
+    /// derivative and the unknown the root's is the energy variable).
+    pub var: VarId,
+    /// The law's equation.
+    pub equation: usize,
+    /// `law(root) − given`, over known signals, earlier roots and the root itself.
+    pub residual: ExprId,
+}
+
 /// The oriented system.
 pub struct Solved {
     /// Each unknown's expression over known signals, when it could be computed.
@@ -95,6 +113,8 @@ pub struct Solved {
     pub torn: Vec<Torn>,
     /// The unknowns of nonlinear algebraic loops, in the order they were torn.
     pub implicit: Vec<Implicit>,
+    /// The unknowns set numerically, by the index of their [`Leaf::Root`].
+    pub roots: Vec<Root>,
 }
 
 fn class_of(
@@ -117,6 +137,7 @@ fn class_of(
         }),
         Relation::Scale { .. } => None,
         Relation::Law { out, .. } if *out == v => Some(Class::Resistor),
+        Relation::Law { inverse: None, .. } => (mode == Mode::Diagnosis).then_some(Class::Implicit),
         Relation::Law { inverse, .. } => {
             inverse.is_some_and(|i| i.0 == v).then_some(Class::Inverted)
         }
@@ -130,8 +151,11 @@ fn class_of(
         Relation::Storage {
             derivative,
             integral,
+            implicit,
         } => {
-            if derivative.is_some_and(|d| d.0 == v) {
+            if implicit.is_some_and(|d| d.0 == v) && mode == Mode::Diagnosis {
+                Some(Class::Implicit)
+            } else if derivative.is_some_and(|d| d.0 == v) {
                 Some(if mode == Mode::Diagnosis {
                     Class::Preferred
                 } else {
@@ -185,6 +209,7 @@ pub fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
         solved_by: solver.solved_by,
         torn: solver.torn,
         implicit: solver.implicit,
+        roots: solver.roots,
     }
 }
 
@@ -204,7 +229,8 @@ struct Solver<'a> {
     solved_by: Vec<Option<usize>>,
     torn: Vec<Torn>,
     implicit: Vec<Implicit>,
-    queues: [VecDeque<usize>; 6],
+    roots: Vec<Root>,
+    queues: [VecDeque<usize>; 7],
     derivatives: Derivatives<Leaf, Rule>,
     /// While a tear is tried: the unknowns and equations it touched, to undo it.
     journal: Option<(Vec<usize>, Vec<usize>)>,
@@ -233,6 +259,7 @@ impl<'a> Solver<'a> {
             solved_by: vec![None; n_vars],
             torn: Vec::new(),
             implicit: Vec::new(),
+            roots: Vec::new(),
             sys,
             mode,
             sensed,
@@ -255,7 +282,17 @@ impl<'a> Solver<'a> {
         }
         match self.unknown[i] {
             0 => {
-                let r = residual(self.sys, i, &self.values, &mut self.derivatives);
+                let r = match self.implicit_rate(i) {
+                    // `rate = d/dt root`: the storage law as given, with no integral.
+                    Some(rate) => match self.root(i, rate) {
+                        Some(d) => {
+                            let known = value_of(&mut self.sys.pool, rate, &self.values);
+                            self.sys.pool.sub(known, d)
+                        }
+                        None => residual(self.sys, i, &self.values, &mut self.derivatives),
+                    },
+                    None => residual(self.sys, i, &self.values, &mut self.derivatives),
+                };
                 self.set_use(i, Use::Redundant { residual: r });
             }
             1 => {
@@ -364,7 +401,14 @@ impl<'a> Solver<'a> {
             let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) else {
                 continue;
             };
-            let mut value = solve_for(self.sys, i, v, &self.values, &mut self.derivatives);
+            let mut value = if class == Class::Implicit {
+                match self.root(i, v) {
+                    Some(value) => value,
+                    None => continue,
+                }
+            } else {
+                solve_for(self.sys, i, v, &self.values, &mut self.derivatives)
+            };
             if class == Class::SensorBalance {
                 self.torn.push(Torn {
                     var: v,
@@ -375,6 +419,76 @@ impl<'a> Solver<'a> {
             self.set_use(i, Use::Solves { var: v, class });
             self.know(v, value, Some(i));
         }
+    }
+
+    /// In diagnosis, the rate of a storage equation that has only its implicit derivative
+    /// form: checked as the derivative of a root rather than through an integral from the
+    /// start of the record.
+    fn implicit_rate(&self, i: usize) -> Option<VarId> {
+        match self.sys.equations[i].relation {
+            Relation::Storage {
+                derivative: None,
+                implicit: Some((rate, _)),
+                ..
+            } if self.mode == Mode::Diagnosis => Some(rate),
+            _ => None,
+        }
+    }
+
+    /// Holds the unknown `v` of equation `i`, a law with no closed-form inverse read for
+    /// its input, as a new root; its value (the root, or for a storage element's rate the
+    /// root's derivative). `None`, and the equation waits for integral causality, while a
+    /// tear is tried (it could not be undone) or when what the law is given over holds a
+    /// torn unknown, whose elimination cannot reach inside a root.
+    fn root(&mut self, i: usize, v: VarId) -> Option<ExprId> {
+        if self.journal.is_some() {
+            return None;
+        }
+        let k = self.roots.len() as u32;
+        let pool = &mut self.sys.pool;
+        let z = pool.leaf(Leaf::Root(k, 0));
+        let (given, law, value) = match self.sys.equations[i].relation.clone() {
+            Relation::Law { out, rhs, .. } => {
+                let law = pool.substitute(rhs, &mut |_, l| (l == Leaf::Var(v.0)).then_some(z));
+                (out, law, z)
+            }
+            Relation::Storage {
+                implicit: Some((rate, phi)),
+                integral: Some((co, _)),
+                ..
+            } if rate == v => {
+                let law = pool.substitute(phi, &mut |_, l| (l == ARGUMENT).then_some(z));
+                (co, law, pool.leaf(Leaf::Root(k, 1)))
+            }
+            _ => return None,
+        };
+        let law = known(pool, law, &self.values);
+        let given = value_of(pool, given, &self.values);
+        let residual = pool.sub(law, given);
+        // A measured junction's unknown whose value reads known signals only is that value:
+        // the root's law must be over known signals, which elimination does not look into.
+        let torn = &self.torn;
+        let residual = pool.substitute(residual, &mut |_, l| match l {
+            Leaf::Tear(u, 0) => torn
+                .iter()
+                .find(|t| t.var.0 == u)
+                .and_then(|t| t.definition)
+                .map(|d| d.1),
+            _ => None,
+        });
+        let leaves = pool.leaves(residual);
+        let opaque = leaves
+            .iter()
+            .any(|l| matches!(l, Leaf::Tear(..) | Leaf::Var(_)));
+        if opaque || !leaves.contains(&Leaf::Root(k, 0)) || !smooth_in(pool, residual, z) {
+            return None;
+        }
+        self.roots.push(Root {
+            var: v,
+            equation: i,
+            residual,
+        });
+        Some(value)
     }
 
     /// An unknown to tear a stalled loop at: the first unknown of the first waiting
@@ -481,6 +595,30 @@ impl<'a> Solver<'a> {
     }
 }
 
+/// Whether `e` follows the leaf `z` through smooth functions only: a law that reaches its
+/// input through `abs`, `sign`, `min`, `max`, a periodic function or an integral has flat
+/// stretches or several inputs per value, where a numerical root is no answer.
+fn smooth_in(pool: &Pool, e: ExprId, z: ExprId) -> bool {
+    use crate::expr::Func;
+    use crate::symbolic::Node;
+    let mut holds = std::collections::HashSet::new();
+    let mut smooth = true;
+    pool.visit_reachable(&[e], |id, node| {
+        let held = |a: ExprId| a == z || holds.contains(&a);
+        let rough = match node {
+            Node::Call1(Func::Abs | Func::Sign | Func::Sin | Func::Cos | Func::Tan, a)
+            | Node::Int(a) => held(a),
+            Node::Call2(_, a, b) => held(a) || held(b),
+            _ => false,
+        };
+        smooth &= !rough;
+        if id == z || crate::symbolic::children(node).any(held) {
+            holds.insert(id);
+        }
+    });
+    smooth
+}
+
 /// The root of `r`, if `r` is linear in the unknown `v`: with a = r(0) and b = r(1) − a,
 /// r is linear when r(2) = a + 2b holds in canonical form, and then v = −a/b.
 fn linear_root(pool: &mut Pool, r: ExprId, v: VarId) -> Option<ExprId> {
@@ -568,6 +706,7 @@ fn solve_for(
         Relation::Storage {
             derivative,
             integral,
+            ..
         } => match (derivative, integral) {
             (Some((out, g)), _) if out == v => {
                 let g = known(p, g, values);
@@ -615,6 +754,7 @@ fn residual(
         Relation::Storage {
             derivative,
             integral,
+            ..
         } => match (derivative, integral) {
             (Some((out, g)), _) => {
                 let out = value_of(p, out, values);

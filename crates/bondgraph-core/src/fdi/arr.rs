@@ -5,6 +5,7 @@ use std::collections::BTreeSet;
 
 use super::auxiliary::{self, Auxiliary};
 use super::eliminate::eliminate;
+use super::roots::RootLaw;
 use crate::causality::equations::{Equation, VarId};
 use crate::causality::{assign, assign_freeing, assign_in, report, Causal, Mode};
 use crate::diagnostic::{Code, Diagnostic, Severity};
@@ -41,6 +42,9 @@ pub struct Diagnosis {
     pub arrs: Vec<Arr>,
     /// The auxiliary signals the ARRs read, with the derivatives they read.
     pub auxiliaries: Vec<Auxiliary>,
+    /// The laws of the roots ([`Leaf::Root`]) the ARRs read, by index; an ARR reads a
+    /// root's value only, its derivatives put back in terms of it.
+    pub roots: Vec<RootLaw>,
     /// Problems met: unknowns that could not be computed, missing ARRs.
     pub problems: Vec<Diagnostic>,
 }
@@ -79,13 +83,28 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
     if with_problems {
         super::basis::sparsen(&mut causal.system.pool, model, &mut eliminated.relations);
     }
+    let pool = &mut causal.system.pool;
     let roots: Vec<ExprId> = eliminated.relations.iter().map(|r| r.expr).collect();
     let mut auxiliaries = eliminated.auxiliaries;
-    let expanded = match auxiliary::differentiate(&mut causal.system.pool, &mut auxiliaries, &roots)
-    {
-        Some(()) => auxiliary::expand(&mut causal.system.pool, &auxiliaries, &roots),
+    let expanded = match auxiliary::differentiate(pool, &mut auxiliaries, &roots) {
+        Some(()) => auxiliary::expand(pool, &auxiliaries, &roots),
         None => roots,
     };
+    // The roots' laws, with each derivative the relations read written in terms of the
+    // roots; a relation whose roots cannot be written so is not one a generator can evaluate.
+    let laws = super::roots::explicit(pool, &causal.solved.roots)
+        .and_then(|mut x| x.laws_for(pool, &expanded));
+    let keep: Vec<bool> = (expanded.iter())
+        .map(|&e| laws.is_some() || !holds_root(pool, e))
+        .collect();
+    let mut kept = keep.iter();
+    eliminated
+        .relations
+        .retain(|_| kept.next().copied().unwrap_or(false));
+    let expanded: Vec<ExprId> = (expanded.into_iter().zip(&keep))
+        .filter_map(|(e, &k)| k.then_some(e))
+        .collect();
+    let roots = laws.unwrap_or_default();
     let torn: BTreeSet<VarId> = causal.solved.torn.iter().map(|t| t.var).collect();
     let mut arrs: Vec<Arr> = eliminated
         .relations
@@ -95,6 +114,18 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
             let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
             for &eq in &relation.equations {
                 cone(&causal, &torn, eq, &mut nodes, &mut lets);
+            }
+            // A root's law was put over known signals whole, through any torn unknown.
+            for leaf in causal.system.pool.leaves(expanded) {
+                if let Some(root) = leaf_root(&causal, leaf) {
+                    cone(
+                        &causal,
+                        &BTreeSet::new(),
+                        root.equation,
+                        &mut nodes,
+                        &mut lets,
+                    );
+                }
             }
             let origin = causal.system.equations[relation.origin].owner;
             Arr {
@@ -136,8 +167,22 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
         causal,
         arrs,
         auxiliaries,
+        roots,
         problems,
     }
+}
+
+/// The root a leaf is, if it is one.
+fn leaf_root(causal: &Causal, leaf: Leaf) -> Option<&crate::causality::solve::Root> {
+    match leaf {
+        Leaf::Root(k, _) => causal.solved.roots.get(k as usize),
+        _ => None,
+    }
+}
+
+/// Whether `e` reads a root.
+fn holds_root(pool: &crate::symbolic::Pool, e: ExprId) -> bool {
+    pool.leaves(e).iter().any(|l| matches!(l, Leaf::Root(..)))
 }
 
 /// `node` if it is a junction, else the first junction it is bonded to.

@@ -47,7 +47,7 @@ pub fn sparsen(pool: &mut Pool, model: &BondGraph, relations: &mut [Constraint])
     let named = |r: &Constraint| {
         pool.leaves(r.expr)
             .iter()
-            .any(|l| matches!(l, Leaf::Aux(..)))
+            .any(|l| matches!(l, Leaf::Aux(..) | Leaf::Root(..)))
     };
     let small: Vec<bool> = polys
         .iter()

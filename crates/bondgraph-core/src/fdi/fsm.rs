@@ -282,21 +282,33 @@ pub fn arr_rows_indexed(
         .map(|arr| {
             // What the simplified residual still contains.
             let (mut sensors, mut params) = (BTreeSet::new(), BTreeSet::new());
-            for leaf in pool.leaves(arr.expanded) {
-                match leaf {
-                    Leaf::Sensor(s, _) => {
-                        sensors.insert(s);
+            // A root is an atom of the residual: what its law reads, the residual reads.
+            let (mut laws, mut stack) = (BTreeSet::new(), vec![arr.expanded]);
+            while let Some(e) = stack.pop() {
+                for leaf in pool.leaves(e) {
+                    match leaf {
+                        Leaf::Sensor(s, _) => {
+                            sensors.insert(s);
+                        }
+                        Leaf::Param(p) => {
+                            params.insert(p);
+                        }
+                        Leaf::Root(k, _) if laws.insert(k) => {
+                            if let Some(law) = diagnosis.roots.get(k as usize) {
+                                stack.push(law.residual);
+                            }
+                        }
+                        _ => {}
                     }
-                    Leaf::Param(p) => {
-                        params.insert(p);
-                    }
-                    _ => {}
                 }
             }
             // A component with parameters of its own is marked only where the residual
             // depends on one of them: a parameter that cancels cannot show a fault, even if
             // it is still written (a factor of both a numerator and a denominator).
-            let depends = dependences(pool, arr.expanded, model);
+            let mut depends = dependences(pool, arr.expanded, model);
+            for law in laws.iter().filter_map(|&k| diagnosis.roots.get(k as usize)) {
+                depends.extend(dependences(pool, law.residual, model));
+            }
             let survives = |c: &Component| {
                 c.parameters.is_empty()
                     || c.parameters

@@ -119,7 +119,10 @@ pub(crate) fn sensors_read(system: &System, eq: &Equation) -> Vec<NodeId> {
         Relation::Storage {
             derivative,
             integral,
-        } => derivative.iter().chain(integral).map(|d| d.1).collect(),
+            implicit,
+        } => (derivative.iter().chain(integral).chain(implicit))
+            .map(|d| d.1)
+            .collect(),
     };
     let mut out: Vec<NodeId> = exprs
         .into_iter()

@@ -10,6 +10,7 @@ mod fsm;
 pub mod isolability;
 mod operator;
 pub mod placement;
+pub mod roots;
 mod sensitivity;
 pub mod simulated;
 pub mod structure;

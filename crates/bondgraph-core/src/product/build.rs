@@ -52,6 +52,7 @@ pub(crate) fn build(
         state_space: None,
         arrs: Vec::new(),
         auxiliaries: Arena::default(),
+        roots: Arena::default(),
         diagnosed: false,
         components: Arena::default(),
         isolability: Isolability::default(),
@@ -120,6 +121,8 @@ struct Builder<'m> {
     auxiliary_of: HashMap<u32, Result<Handle<Auxiliary>, Refusal>>,
     /// The unknowns of nonlinear algebraic loops, by their symbol in the state equations.
     loop_of: HashMap<u32, Handle<LoopUnknown>>,
+    /// The roots copied so far, by their index in the diagnosis, or why one could not be.
+    root_of: HashMap<u32, Result<Handle<Root>, Refusal>>,
     /// Every name the model gives, once an auxiliary signal needs a name apart from them.
     taken: Option<BTreeSet<String>>,
     /// The number of the last auxiliary signal named (`z1`, `z2`…).
@@ -133,6 +136,7 @@ impl<'m> Builder<'m> {
             sensor_of: HashMap::new(),
             auxiliary_of: HashMap::new(),
             loop_of: HashMap::new(),
+            root_of: HashMap::new(),
             taken: None,
             numbered: 0,
         }
@@ -231,7 +235,12 @@ impl<'m> Builder<'m> {
                 Leaf::Var(v) if states => {
                     Symbol::Loop(*self.loop_of.get(&v).ok_or(Refusal::Unknown)?)
                 }
-                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) => {
+                Leaf::Root(k, n) if !states => match self.root_of.get(&k) {
+                    Some(Ok(h)) => Symbol::Root(*h, n),
+                    Some(Err(why)) => return Err(*why),
+                    None => return Err(Refusal::Unknown),
+                },
+                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) | Leaf::Root(..) => {
                     return Err(Refusal::Unknown)
                 }
             };
@@ -368,6 +377,117 @@ impl<'m> Builder<'m> {
         self.taken = Some(taken);
     }
 
+    /// Copies the roots that the ARRs `picked` of `d` read (directly, through auxiliary
+    /// signals, or through other roots' laws), each after those its law reads, named after
+    /// the variable it is (`q_spring`), apart from every name of the model; a root that an
+    /// earlier derivation copied with the same law is that one.
+    fn roots(&mut self, c: &mut Compiled, d: &fdi::Diagnosis, picked: &[usize]) {
+        self.root_of.clear();
+        let pool = &d.causal.system.pool;
+        let mut from: Vec<_> = picked.iter().map(|&k| d.arrs[k].residual).collect();
+        for &k in &aux_leaves(pool, &from) {
+            from.extend(
+                d.auxiliaries
+                    .get(k as usize)
+                    .into_iter()
+                    .flat_map(|a| a.derivatives.iter().copied()),
+            );
+        }
+        let mut used = BTreeSet::new();
+        let mut stack = from;
+        while let Some(e) = stack.pop() {
+            for leaf in pool.leaves(e) {
+                if let Leaf::Root(k, _) = leaf {
+                    if used.insert(k) {
+                        stack.extend(d.roots.get(k as usize).map(|r| r.residual));
+                    }
+                }
+            }
+        }
+        // Each root's law reads earlier roots only: in order, each finds those it reads.
+        for k in used {
+            let result = self.root(c, d, k);
+            self.root_of.insert(k, result);
+        }
+    }
+
+    /// Copies root `k` of `d`, or finds it among those copied.
+    fn root(
+        &mut self,
+        c: &mut Compiled,
+        d: &fdi::Diagnosis,
+        k: u32,
+    ) -> Result<Handle<Root>, Refusal> {
+        let m = self.model;
+        let (Some(law), Some(solved)) = (
+            d.roots.get(k as usize),
+            d.causal.solved.roots.get(k as usize),
+        ) else {
+            return Err(Refusal::Unknown);
+        };
+        let pool = &d.causal.system.pool;
+        let owner = d.causal.system.equations[solved.equation].owner;
+        let element = m.node(owner).name.clone();
+        let letter = match (
+            &m.node(owner).kind,
+            d.causal.system.vars[solved.var.0 as usize],
+        ) {
+            (NodeKind::Element(kind, _), _) if kind.is_storage() => {
+                if kind.base() == ElementKind::I {
+                    "p"
+                } else {
+                    "q"
+                }
+            }
+            (_, causality::equations::Var::Effort(_)) => "e",
+            _ => "f",
+        };
+        let name = format!("{letter}_{element}");
+        let copy = |this: &mut Self, c: &mut Compiled, h: Handle<Root>| {
+            this.root_of.insert(k, Ok(h));
+            let residual = this.import(&mut c.exprs, pool, law.residual, false)?;
+            let slope = this.import(&mut c.exprs, pool, law.slope, false)?;
+            let derivatives = (law.derivatives.iter())
+                .map(|&d| this.import(&mut c.exprs, pool, d, false))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok::<_, Refusal>((residual, slope, derivatives))
+        };
+        let same = (c.roots.iter())
+            .filter(|(_, r)| r.element == element && r.name.trim_end_matches('_') == name)
+            .map(|(h, r)| (h, r.residual))
+            .collect::<Vec<_>>();
+        for (h, residual) in same {
+            let Ok((r, _, derivatives)) = copy(self, c, h) else {
+                continue;
+            };
+            if r == residual {
+                // This derivation may read more derivatives of it than the first did.
+                let known = &mut c.roots.get_mut(h).derivatives;
+                if derivatives.len() > known.len() {
+                    *known = derivatives;
+                }
+                return Ok(h);
+            }
+        }
+        let h = Handle::new(c.roots.len());
+        let (residual, slope, derivatives) = copy(self, c, h)?;
+        // A relation reads no state, so `q_spring` may name the root that stands for the
+        // state's value where the ARR is evaluated.
+        let mut taken = model_names(m);
+        taken.extend(c.roots.values().map(|r| r.name.clone()));
+        let mut unique = name;
+        while taken.contains(&unique) {
+            unique.push('_');
+        }
+        Ok(c.roots.push(Root {
+            name: unique,
+            element,
+            residual,
+            slope,
+            derivatives,
+        }))
+    }
+
     /// The ARRs kept that could be written, and the FSM over them.
     fn arrs(&mut self, c: &mut Compiled, dd: &Diagnosed, stage: &mut Diagnostics) {
         let m = self.model;
@@ -385,13 +505,14 @@ impl<'m> Builder<'m> {
             }
             let indices: Vec<usize> = picks.iter().map(|k| k.1).collect();
             self.auxiliaries(c, d, &indices);
+            self.roots(c, d, &indices);
             let pool = &d.causal.system.pool;
             for (pick, k) in picks {
                 let arr = &d.arrs[k];
                 match self.import(&mut c.exprs, pool, arr.residual, false) {
                     Ok(e) => {
                         shown.push(&pick.rows);
-                        let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, e);
+                        let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, e);
                         c.arrs.push(Arr {
                             name: String::new(),
                             junction: m.node(arr.junction).name.clone(),
@@ -403,6 +524,7 @@ impl<'m> Builder<'m> {
                             reads,
                             integrals,
                             auxiliaries: auxiliaries_read(&c.exprs, &c.auxiliaries, e),
+                            roots: c.roots_read(&[e]),
                             sensitivities: None,
                             realisation: Realisation::Direct,
                             inverted: inverted_laws(m, &d.causal, &arr.nodes),
@@ -488,11 +610,11 @@ impl Builder<'_> {
         let output = space.outputs.iter().find(|o| o.0 == sensor)?.1;
         let y = c.exprs.leaf(Symbol::Sensor(sensor, 0));
         let expr = c.exprs.sub(y, output);
-        let (_, integrals) = reads(&c.exprs, &c.auxiliaries, expr);
+        let (_, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, expr);
         // What it reads: its detector, and the inputs that drive the copy.
         let rates: Vec<Expr> = space.equations.iter().map(|e| e.1).collect();
         let driven = rates.into_iter().fold(expr, |a, r| c.exprs.add(a, r));
-        let (reads, _) = reads(&c.exprs, &c.auxiliaries, driven);
+        let (reads, _) = reads(&c.exprs, &c.auxiliaries, &c.roots, driven);
         let junction = self.model.detector_junction(s.sensor)?;
         Some(Arr {
             name: String::new(),
@@ -505,6 +627,7 @@ impl Builder<'_> {
             reads,
             integrals,
             auxiliaries: Vec::new(),
+            roots: Vec::new(),
             sensitivities: None,
             realisation: Realisation::Direct,
             // The copy holds the state equations, whose inversions the simulation's
@@ -569,15 +692,32 @@ fn model_names(model: &BondGraph) -> BTreeSet<String> {
     out
 }
 
-/// `e` and the derivatives of auxiliary signals that it reads, directly or through others.
-fn with_auxiliaries(exprs: &Exprs, auxiliaries: &Arena<Auxiliary>, e: Expr) -> Vec<Expr> {
-    let read = super::auxiliary_derivatives_read(exprs, auxiliaries, &[e]);
-    std::iter::once(e)
-        .chain(
-            read.into_iter()
-                .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
-        )
-        .collect()
+/// `e`, the derivatives of auxiliary signals that it reads, and the laws of the roots it
+/// reads, directly or through others.
+fn with_definitions(
+    exprs: &Exprs,
+    auxiliaries: &Arena<Auxiliary>,
+    roots: &Arena<Root>,
+    e: Expr,
+) -> Vec<Expr> {
+    let mut out = vec![e];
+    for h in super::roots_read(exprs, auxiliaries, roots, &[e]) {
+        out.push(roots[h].residual);
+    }
+    // The derivatives of roots read, written out, read signals of their own.
+    let mut derivatives: Vec<Expr> = Vec::new();
+    exprs.visit_reachable(&out, |_, node| {
+        if let Node::Leaf(Symbol::Root(h, n)) = node {
+            derivatives.extend(roots[h].derivatives.get(n as usize).filter(|_| n > 0));
+        }
+    });
+    out.extend(derivatives);
+    let read = super::auxiliary_derivatives_read(exprs, auxiliaries, &out);
+    out.extend(
+        read.into_iter()
+            .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
+    );
+    out
 }
 
 /// The auxiliary signals `e` reads, directly or through others, in definition order.
@@ -597,11 +737,12 @@ fn auxiliaries_read(
 pub(super) fn reads(
     exprs: &Exprs,
     auxiliaries: &Arena<Auxiliary>,
+    roots: &Arena<Root>,
     e: Expr,
 ) -> (Vec<SignalUse>, Vec<Expr>) {
     let mut uses: BTreeMap<Signal, (BTreeSet<u32>, bool)> = BTreeMap::new();
     let mut others = Vec::new();
-    let roots = with_auxiliaries(exprs, auxiliaries, e);
+    let roots = with_definitions(exprs, auxiliaries, roots, e);
     let mut pointwise: BTreeSet<Expr> = roots.iter().copied().collect();
     exprs.visit_reachable(&roots, |_, node| match node {
         Node::Int(arg) => match exprs.node(arg) {

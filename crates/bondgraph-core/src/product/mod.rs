@@ -39,6 +39,10 @@ pub enum Symbol {
     /// An unknown of a nonlinear algebraic loop (in state equations and outputs only): set
     /// by its [`LoopUnknown::residual`]` = 0`, solved numerically when simulating.
     Loop(Handle<LoopUnknown>),
+    /// The n-th time derivative of a variable set by a law with no closed-form inverse (in
+    /// ARRs only): the root of its [`Root::residual`], found numerically by a residual
+    /// generator at each sample; its derivatives are [`Root::derivatives`].
+    Root(Handle<Root>, u32),
 }
 
 /// An expression of the product, a handle into [`Compiled::exprs`].
@@ -186,6 +190,28 @@ impl Auxiliary {
     }
 }
 
+/// A variable an ARR reads that a law sets and no closed form gives: the law read for its
+/// input (`e = k1 q + k3 q^3` for `q`, given `e`). A residual generator finds it at each
+/// sample as the root of [`Root::residual`] (Newton's method from the last sample's root,
+/// with bisection when Newton does not converge); the ARR may read its derivatives, each
+/// written in terms of it ([`Root::derivatives`]: `z' = −(∂g/∂t)/(∂g/∂z)`), or, realised by
+/// integration, its value only.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Root {
+    /// The variable's name in the model's terms (`q_spring`, `e_valve`), apart from every
+    /// other name.
+    pub name: String,
+    /// The element whose law sets it.
+    pub element: String,
+    /// `g`: zero at the root; over parameters, signals, earlier roots and this root.
+    pub residual: Expr,
+    /// `∂g/∂z`.
+    pub slope: Expr,
+    /// Its time derivatives as far as the ARRs read them, each over parameters, signals and
+    /// the roots' values; `derivatives[0]` is the root itself.
+    pub derivatives: Vec<Expr>,
+}
+
 /// What an ARR reads of one input or measured signal.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct SignalUse {
@@ -232,6 +258,9 @@ pub struct Arr {
     /// The auxiliary signals it reads, directly or through others, in definition order:
     /// part of the relation, to be written with it.
     pub auxiliaries: Vec<Handle<Auxiliary>>,
+    /// The roots it reads, directly or through others' laws, in definition order: part of
+    /// the relation, to be written with it.
+    pub roots: Vec<Handle<Root>>,
     /// `∂r/∂θ` for each uncertain parameter θ it depends on, over the same signals: the
     /// adaptive threshold is `Σ |∂r/∂θ| Δθ`. `None` when they could not be derived (an ARR
     /// that reads auxiliary signals, or one realised by integration): such an ARR has no
@@ -595,6 +624,8 @@ pub struct Compiled {
     pub arrs: Vec<Arr>,
     /// The auxiliary signals the ARRs read, each defined before it is used.
     pub auxiliaries: Arena<Auxiliary>,
+    /// The variables the ARRs read that are set numerically, each after those its law reads.
+    pub roots: Arena<Root>,
     /// Whether ARRs were derived at all (`false` when only the state equations were asked for).
     pub diagnosed: bool,
     /// The rows of the fault signature matrix.
@@ -635,7 +666,42 @@ pub(crate) fn auxiliary_derivatives_read(
     out
 }
 
+/// The roots that `from` reads, directly, through auxiliary signals or through the laws of
+/// other roots, in definition order.
+pub(crate) fn roots_read(
+    exprs: &Exprs,
+    auxiliaries: &Arena<Auxiliary>,
+    roots: &Arena<Root>,
+    from: &[Expr],
+) -> Vec<Handle<Root>> {
+    let read = auxiliary_derivatives_read(exprs, auxiliaries, from);
+    let mut stack: Vec<Expr> = (from.iter().copied())
+        .chain(
+            read.into_iter()
+                .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
+        )
+        .collect();
+    let mut out = std::collections::BTreeSet::new();
+    while let Some(e) = stack.pop() {
+        for leaf in exprs.leaves(e) {
+            if let Symbol::Root(h, n) = leaf {
+                if out.insert(h) {
+                    stack.push(roots[h].residual);
+                }
+                stack.extend(roots[h].derivatives.get(n as usize).filter(|_| n > 0));
+            }
+        }
+    }
+    out.into_iter().collect()
+}
+
 impl Compiled {
+    /// The roots that `from` reads, directly or through auxiliary signals and other roots'
+    /// laws: what code evaluating `from` must solve first, in that order.
+    pub fn roots_read(&self, from: &[Expr]) -> Vec<Handle<Root>> {
+        roots_read(&self.exprs, &self.auxiliaries, &self.roots, from)
+    }
+
     /// The derivatives of auxiliary signals (signal, order) that `roots` read, directly or
     /// through the derivatives of others: what code evaluating `roots` must compute first.
     pub fn auxiliary_derivatives_read(

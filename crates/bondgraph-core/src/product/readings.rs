@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{Compiled, Expr, Handle, Input, ResidualForm, Signal, State, Symbol};
+use super::{Compiled, Expr, Handle, Input, ResidualForm, Root, Signal, State, Symbol};
 use crate::expr::BinOp;
 use crate::symbolic::Node;
 
@@ -20,6 +20,8 @@ pub enum Quantity {
     Nonlinear(usize),
     /// A state of the copy of the model that simulated residuals run ([`Readings::copy`]).
     Simulated(Handle<State>),
+    /// A root the ARRs read, solved at each sample from the quantities before it.
+    Root(Handle<Root>),
 }
 
 /// The copy of the model that simulated residuals run: the model's states, then one per
@@ -41,7 +43,7 @@ pub struct ModelCopy {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Readings {
     /// Per signal (in [`Signal`] order) its derivatives by order, then its integral if read;
-    /// then the nonlinear integrals.
+    /// then the roots; then the nonlinear integrals.
     pub quantities: Vec<Quantity>,
     /// Each raw signal the ARRs read, with the highest derivative read.
     pub raw: Vec<(Signal, u32)>,
@@ -86,6 +88,10 @@ impl Compiled {
                 integrated.push(signal);
             }
         }
+        // A root's law reads signals (before it) and earlier roots; an integral may read a
+        // root (after it).
+        let evaluated: Vec<Expr> = self.arrs.iter().map(|a| a.evaluated()).collect();
+        quantities.extend(self.roots_read(&evaluated).into_iter().map(Quantity::Root));
         quantities.extend((0..nonlinear.len()).map(Quantity::Nonlinear));
         let copy = self.copy();
         if copy.is_some() {

@@ -50,7 +50,7 @@ pub(crate) fn realise(c: &mut Compiled) {
     for k in 0..c.arrs.len() {
         if let Some(integrated) = integrated(&mut c.exprs, &c.arrs[k]) {
             let arr = &mut c.arrs[k];
-            let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, integrated.0);
+            let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, integrated.0);
             arr.realisation = Realisation::Integrated(Integrated {
                 level: integrated.1,
                 rate: integrated.2,
@@ -184,9 +184,10 @@ fn node_facts(node: Node<Symbol>, facts: &HashMap<Expr, Facts>) -> Facts {
         Node::Num(_) => leaf(0, true, false),
         Node::Leaf(l) => match l {
             Symbol::Parameter(_) => leaf(0, true, false),
-            Symbol::Input(_, n) | Symbol::Sensor(_, n) | Symbol::Auxiliary(_, n) => {
-                leaf(n, false, true)
-            }
+            Symbol::Input(_, n)
+            | Symbol::Sensor(_, n)
+            | Symbol::Auxiliary(_, n)
+            | Symbol::Root(_, n) => leaf(n, false, true),
             Symbol::Time => leaf(0, false, false),
             Symbol::State(_) | Symbol::Loop(_) => leaf(0, false, true),
         },
@@ -222,6 +223,11 @@ fn split_node(
             level: Some(exprs.leaf(Symbol::Input(u, n - 1))),
             rate: None,
         }),
+        // A root's derivative integrates to the root, which the generator solves for.
+        Node::Leaf(Symbol::Root(h, n)) if n > 0 => Some(Split {
+            level: Some(exprs.leaf(Symbol::Root(h, n - 1))),
+            rate: None,
+        }),
         Node::Neg(a) => Some(map(exprs, of(a)?, |p, x| p.neg(x))),
         Node::Binary(BinOp::Add, a, b) => Some(combine(exprs, of(a)?, of(b)?, true)),
         Node::Binary(BinOp::Sub, a, b) => Some(combine(exprs, of(a)?, of(b)?, false)),
@@ -253,7 +259,7 @@ fn product(exprs: &mut Exprs, c: Expr, x: Split) -> Option<Split> {
         return Some(map(exprs, x, |p, y| p.mul(c, y)));
     };
     let reads_derivative = (exprs.leaves(level).iter())
-        .any(|l| matches!(l, Symbol::Sensor(_, n) | Symbol::Input(_, n) | Symbol::Auxiliary(_, n) if *n > 0));
+        .any(|l| matches!(l, Symbol::Sensor(_, n) | Symbol::Input(_, n) | Symbol::Auxiliary(_, n) | Symbol::Root(_, n) if *n > 0));
     if reads_derivative {
         return None;
     }
@@ -280,6 +286,7 @@ pub(crate) fn time_rate(p: &mut Exprs, s: Symbol) -> Option<Expr> {
         Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),
         Symbol::Parameter(_) => Some(p.num(0.0)),
         Symbol::Time => Some(p.num(1.0)),
+        Symbol::Root(h, n) => Some(p.leaf(Symbol::Root(h, n + 1))),
         Symbol::Auxiliary(..) | Symbol::State(_) | Symbol::Loop(_) => None,
     }
 }

@@ -21,17 +21,26 @@ pub(crate) fn sensitivities(c: &mut Compiled) {
             c.arrs[k].sensitivities = None;
             continue;
         }
-        let expr = arr.expr;
-        let leaves = c.exprs.leaves(expr);
+        let roots = c.roots_read(&[arr.expr]);
+        // A root's derivatives are functions of the root: written out, the root itself is
+        // all that moves with θ beyond the parameters.
+        let expr = {
+            let roots = &c.roots;
+            c.exprs.substitute(arr.expr, &mut |_, leaf| match leaf {
+                Symbol::Root(h, n) if n > 0 => roots[h].derivatives.get(n as usize).copied(),
+                _ => None,
+            })
+        };
+        let mut leaves = c.exprs.leaves(expr);
+        for &h in &roots {
+            leaves.extend(c.exprs.leaves(c.roots[h].residual));
+        }
         let mut out = Vec::new();
         for &theta in &uncertain {
             if !leaves.contains(&Symbol::Parameter(theta)) {
                 continue;
             }
-            let mut d = Derivatives::partial(|p: &mut crate::symbolic::Pool<Symbol>, leaf| {
-                Some(p.num(f64::from(u8::from(leaf == Symbol::Parameter(theta)))))
-            });
-            if let Some(s) = d.of(&mut c.exprs, expr) {
+            if let Some(s) = sensitivity(c, expr, &roots, theta) {
                 if c.exprs.as_num(s) != Some(0.0) {
                     out.push((theta, s));
                 }
@@ -39,6 +48,37 @@ pub(crate) fn sensitivities(c: &mut Compiled) {
         }
         c.arrs[k].sensitivities = Some(out);
     }
+}
+
+/// `dr/dθ` of `expr`, through the roots it reads (`roots`, in definition order): a root of
+/// `g(z, θ) = 0` moves with θ as `dz/dθ = −(∂g/∂θ)/(∂g/∂z)`, `∂g/∂θ` taken through the
+/// earlier roots `g` reads.
+fn sensitivity(
+    c: &mut Compiled,
+    expr: super::Expr,
+    roots: &[super::Handle<super::Root>],
+    theta: super::Handle<super::Parameter>,
+) -> Option<super::Expr> {
+    let mut moves: std::collections::HashMap<Symbol, super::Expr> = Default::default();
+    let along = |c: &mut Compiled,
+                 e: super::Expr,
+                 moves: &std::collections::HashMap<Symbol, super::Expr>| {
+        let mut d = Derivatives::partial(|p: &mut crate::symbolic::Pool<Symbol>, leaf| {
+            Some(match moves.get(&leaf) {
+                Some(&m) => m,
+                None => p.num(f64::from(u8::from(leaf == Symbol::Parameter(theta)))),
+            })
+        });
+        d.of(&mut c.exprs, e)
+    };
+    for &h in roots {
+        let (g, slope) = (c.roots[h].residual, c.roots[h].slope);
+        let held = along(c, g, &moves)?;
+        let ratio = c.exprs.div(held, slope);
+        let dz = c.exprs.neg(ratio);
+        moves.insert(Symbol::Root(h, 0), dz);
+    }
+    along(c, expr, &moves)
 }
 
 #[cfg(test)]

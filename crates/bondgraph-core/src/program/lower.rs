@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use super::{Channel, Code, CopyRates, Evaluation, Fill, Leaf, Program, Raw, Residual};
 use super::{Sensitivity, Slot, Source};
-use crate::product::{Arena, Auxiliary, Compiled, Expr, Handle, ModelCopy, Quantity};
+use crate::product::{Arena, Auxiliary, Compiled, Expr, Handle, ModelCopy, Quantity, Root};
 use crate::product::{Readings, Realisation, Signal, Symbol};
 use crate::symbolic::{Node, Pool};
 
@@ -151,13 +151,23 @@ impl Lowering<'_> {
                     .and_then(|h| channel(Source::Integral(h)))
                     .map(|channel| Fill::Estimate { channel, order: 0 }),
                 // Filled below, once every slot it may read exists.
-                Quantity::Nonlinear(_) => Some(Fill::Simulated(0)),
+                Quantity::Nonlinear(_) | Quantity::Root(_) => Some(Fill::Simulated(0)),
                 Quantity::Simulated(k) => Some(Fill::Simulated(k.index() as u32)),
             };
             // Every signal read has a raw signal and a channel (see `channels`).
             let Some(fill) = fill else { continue };
             let h = self.slots.push(Slot { quantity, fill });
             self.slot.insert(quantity, h);
+        }
+        for &quantity in &readings.quantities {
+            let Quantity::Root(h) = quantity else {
+                continue;
+            };
+            let root = &self.c.roots[h];
+            let (residual, slope) = (self.residual(root.residual), self.residual(root.slope));
+            if let Some(&slot) = self.slot.get(&quantity) {
+                self.slots.get_mut(slot).fill = Fill::Root { residual, slope };
+            }
         }
         for (k, &integrand) in readings.nonlinear.iter().enumerate() {
             let code = self.residual(integrand);
@@ -186,6 +196,14 @@ impl Lowering<'_> {
             rates,
             names,
             inputs,
+        }
+    }
+
+    /// A root's `n`-th derivative (n ≥ 1), an expression of the root and the signals.
+    fn root_derivative(&mut self, h: Handle<Root>, n: u32) -> Code {
+        match self.c.roots[h].derivatives.get(n as usize) {
+            Some(&e) => self.residual(e),
+            None => self.code.num(f64::NAN),
         }
     }
 
@@ -290,6 +308,8 @@ impl Lowering<'_> {
             }
             (Symbol::State(k), Context::Residual) => slot(self, Quantity::Simulated(k)),
             (Symbol::Auxiliary(a, n), Context::Residual) => self.auxiliary(a, n),
+            (Symbol::Root(h, 0), Context::Residual) => slot(self, Quantity::Root(h)),
+            (Symbol::Root(h, n), Context::Residual) => self.root_derivative(h, n),
             _ => self.code.num(f64::NAN),
         }
     }
@@ -354,6 +374,21 @@ mod tests {
             Symbol::Sensor(h, n) => slot(Quantity::Derivative(Signal::Sensor(h), n)),
             Symbol::State(k) => slot(Quantity::Simulated(k)),
             Symbol::Auxiliary(a, n) => aux.get(&(a.index(), n)).copied().unwrap_or(f64::NAN),
+            Symbol::Root(h, 0) => slot(Quantity::Root(h)),
+            // Over the roots' values and signals only.
+            Symbol::Root(h, n) => {
+                let d = c.roots[h].derivatives.get(n as usize).copied();
+                d.map_or(f64::NAN, |d| {
+                    Evaluator::new(&c.exprs, |s| match s {
+                        Symbol::Parameter(p) => param(p),
+                        Symbol::Input(u, n) => slot(Quantity::Derivative(Signal::Input(u), n)),
+                        Symbol::Sensor(h, n) => slot(Quantity::Derivative(Signal::Sensor(h), n)),
+                        Symbol::Root(h, 0) => slot(Quantity::Root(h)),
+                        _ => f64::NAN,
+                    })
+                    .value(d)
+                })
+            }
             Symbol::Time | Symbol::Loop(_) => f64::NAN,
         };
         let integrals = |root: Expr| {

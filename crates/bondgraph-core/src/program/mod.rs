@@ -87,6 +87,15 @@ pub enum Fill {
     Integral(Code),
     /// A state of the copy of the model (its position in the copy's states).
     Simulated(u32),
+    /// The root of `residual`, an expression of the slots before it and of this slot, found
+    /// by Newton's method (with `slope`, its derivative in this slot) from the last sample's
+    /// root, bisection where Newton fails (see `bondgraph::RootFinder`).
+    Root {
+        /// Zero at the root.
+        residual: Code,
+        /// Its derivative in the root.
+        slope: Code,
+    },
 }
 
 /// One quantity the residuals read: a field of the generated `Signals`.

@@ -242,7 +242,7 @@ impl Builder<'_> {
                 Symbol::Input(u, n) => p.leaf(P::InputDer(u.index() as u32, n)),
                 Symbol::State(k) => p.leaf(P::State(k.index() as u32)),
                 // State equations and outputs read neither measured nor auxiliary signals.
-                Symbol::Sensor(..) | Symbol::Auxiliary(..) => p.num(f64::NAN),
+                Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Root(..) => p.num(f64::NAN),
                 Symbol::Time => p.leaf(P::Time),
                 Symbol::Loop(k) => p.leaf(P::Loop(k.index() as u32)),
             });

@@ -201,6 +201,7 @@ pub fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
         Leaf::Sensor(s, n) => Some(p.leaf(Leaf::Sensor(s, n + 1))),
         Leaf::Tear(v, n) => Some(p.leaf(Leaf::Tear(v, n + 1))),
         Leaf::Aux(k, n) => Some(p.leaf(Leaf::Aux(k, n + 1))),
+        Leaf::Root(k, n) => Some(p.leaf(Leaf::Root(k, n + 1))),
         Leaf::Time => Some(p.num(1.0)),
         Leaf::State(_) | Leaf::Var(_) => None,
     }

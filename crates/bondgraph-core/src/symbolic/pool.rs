@@ -83,6 +83,10 @@ pub enum Leaf {
     /// signals that an elimination step applies an operator in d/dt to, named instead of
     /// multiplied out (see `fdi::auxiliary`).
     Aux(u32, u32),
+    /// The `n`-th time derivative of an unknown that a law without a closed-form inverse
+    /// sets implicitly (by the index of its root in the solved system): solved numerically
+    /// at run time, its derivatives put back in terms of it once the ARRs are derived.
+    Root(u32, u32),
     /// Time.
     Time,
 }
