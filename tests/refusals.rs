@@ -483,3 +483,60 @@ fn a_ring_of_tanks_with_a_smoothed_check_valve_has_its_arrs() {
     );
     assert!(!stderr(&out).contains("bg::no-arr"), "{}", stderr(&out));
 }
+
+/// A spring whose force saturates, `e = k (tanh q + atan(q)/10)`: the law has no closed-form
+/// inverse and no root beyond `±1.16 k`. On a record whose force leaves that range, the
+/// estimates there are flagged (the `unsolved` column names the root, standard error counts
+/// them), never given a guessed stretch; within the range the residual is a number.
+const SATURATING: &str = "model saturating\nparam m = 1.0\nparam k = 40\nparam b = 0.5\n\
+    input F\nSe force = F\nI mass = m\nC spring : e = k*(tanh(q) + atan(q)/10)\nR damp = b\n\
+    Df v on v1\nforce -> 1:v1 -> mass, spring, damp\n";
+
+#[test]
+fn a_sample_where_a_law_has_no_root_is_flagged_not_guessed() {
+    let dir = std::env::temp_dir().join(format!("bgc-unsolved-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let model = dir.join("saturating.bg");
+    std::fs::write(&model, SATURATING).expect("model");
+    // At rest, F within the spring's range for a second, then far beyond it.
+    let mut csv = String::from("t,F,v\n");
+    for k in 0..2000 {
+        let t = f64::from(k) * 1e-3;
+        let force = if t < 1.0 { 10.0 } else { 100.0 };
+        csv.push_str(&format!("{t},{force},0\n"));
+    }
+    let record = dir.join("record.csv");
+    std::fs::write(&record, csv).expect("record");
+    let model = model.to_string_lossy().into_owned();
+    let record = record.to_string_lossy().into_owned();
+    let out = bgc(&["residuals", &model, &record]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(header.last(), Some(&"unsolved"), "{header:?}");
+    let (mut flagged, mut solved) = (0, 0);
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let t: f64 = cells[0].parse().expect("time");
+        let unsolved = *cells.last().expect("cells");
+        if t < 0.9 {
+            assert_eq!(unsolved, "", "{line}");
+            assert!(cells[1].parse::<f64>().is_ok_and(f64::is_finite), "{line}");
+            solved += 1;
+        } else if t > 1.1 {
+            assert_eq!(unsolved, "q_spring", "{line}");
+            flagged += 1;
+        }
+    }
+    assert!(
+        solved > 100 && flagged > 100,
+        "{solved} solved, {flagged} flagged"
+    );
+    assert!(
+        stderr(&out).contains("`q_spring` has no root at"),
+        "{}",
+        stderr(&out)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
