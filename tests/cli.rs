@@ -237,6 +237,44 @@ fn simulate_writes_the_same_csv_every_time() {
     );
 }
 
+/// Every duration and step the command line gives is checked as a scenario's are: no
+/// infinite, zero, negative or NaN value, no step longer than the duration, no run of more
+/// than `MAX_SAMPLES` samples (a mistyped `--duration 1e9` once asked for 8 TB). Each is an
+/// error that says what is wrong, before anything is simulated or written.
+#[test]
+fn simulate_checks_the_duration_and_step_it_is_given() {
+    let run = |extra: &[&str]| {
+        let mut args = vec!["simulate", "models/dc_motor.bg", "-e", "input U0 = 12"];
+        args.extend_from_slice(extra);
+        bgc(&args)
+    };
+    for (extra, says) in [
+        (&["--duration", "1e9"][..], "samples"),
+        (&["--duration", "1", "--step", "1e-12"][..], "samples"),
+        (&["--duration", "inf"][..], "duration"),
+        (&["--duration", "NaN"][..], "duration"),
+        (&["--duration=-1"][..], "duration"),
+        (&["--step", "0"][..], "step"),
+        (&["--step=-0.1"][..], "step"),
+        (&["--step", "NaN"][..], "step"),
+        (
+            &["--duration", "1", "--step", "5"][..],
+            "longer than the duration",
+        ),
+    ] {
+        let out = run(extra);
+        assert_ne!(code(&out), 0, "{extra:?}: {}", stdout(&out));
+        assert!(stdout(&out).is_empty(), "{extra:?}: wrote {}", stdout(&out));
+        assert!(
+            stderr(&out).contains("error:") && stderr(&out).contains(says),
+            "{extra:?}: {}",
+            stderr(&out)
+        );
+    }
+    let fine = run(&["--duration", "0.1", "--step", "0.01"]);
+    assert_eq!(code(&fine), 0, "{}", stderr(&fine));
+}
+
 /// `--plot` draws an SVG with a panel per signal; another extension is refused.
 #[test]
 fn simulate_plots_svg_only() {

@@ -60,6 +60,14 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
     report::print(&name, &text, &diagnostics);
     let mut scenario = scenario.ok_or(Failure::Invalid)?;
     override_settings(&mut scenario, &args);
+    // The scenario's own settings were checked as it was read; the command line's are now.
+    let wrong = scenario.check_settings();
+    if !wrong.is_empty() {
+        for w in wrong {
+            eprintln!("error: {name}: {w} (with --duration and --step as given)");
+        }
+        return Err(Failure::Usage);
+    }
     let simulation = Simulation::new(&c, &scenario).map_err(|d| {
         report::print(&name, &text, &d);
         Failure::Invalid

@@ -118,6 +118,16 @@ pub struct Scenario {
     pub(crate) initial: Vec<Setting>,
 }
 
+impl Scenario {
+    /// What is wrong with its duration and output step, once something other than its text
+    /// set them (the command line's `--duration` and `--step`): each as a sentence.
+    pub fn check_settings(&self) -> Vec<String> {
+        let mut d = Diagnostics::default();
+        check_times(self, &mut d, 0);
+        d.iter().map(|d| d.message.clone()).collect()
+    }
+}
+
 impl Default for Scenario {
     fn default() -> Self {
         Scenario {
@@ -136,7 +146,7 @@ impl Default for Scenario {
 }
 
 /// Longest simulation, in output samples: a bound on memory and time for a mistyped duration.
-pub const MAX_SAMPLES: f64 = 1e8;
+pub const MAX_SAMPLES: f64 = 1e7;
 
 /// Reads a scenario; `None` with the diagnostics when any statement is wrong.
 pub fn parse_scenario(text: &str) -> (Option<Scenario>, Diagnostics) {
@@ -179,6 +189,15 @@ fn check_times(s: &Scenario, diagnostics: &mut Diagnostics, end: usize) {
             format!(
                 "the output step must be a positive number of seconds, not {}",
                 s.output_step
+            ),
+        ));
+    } else if s.duration.is_finite() && s.output_step > s.duration {
+        diagnostics.push(Diagnostic::error(
+            Code::BadValue,
+            whole,
+            format!(
+                "the output step ({} s) is longer than the duration ({} s): no sample after the first",
+                s.output_step, s.duration
             ),
         ));
     } else if s.duration / s.output_step > MAX_SAMPLES {
