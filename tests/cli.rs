@@ -317,5 +317,28 @@ fn simulate_plots_svg_only() {
         "{}",
         stderr(&refused)
     );
+    // A plot into a directory that does not exist is refused before the run, not after it
+    // (where it also lost the samples asked for with -o).
+    let csv = dir.join("run.csv").display().to_string();
+    let missing = dir
+        .join("no_such_dir")
+        .join("run.svg")
+        .display()
+        .to_string();
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "input U0 = 12",
+        "--plot",
+        &missing,
+        "-o",
+        &csv,
+    ]);
+    assert_eq!(code(&out), 2, "{}", stderr(&out));
+    assert!(stderr(&out).contains("the directory"), "{}", stderr(&out));
+    let out = bgc(&["residuals", "models/dc_motor.bg", &csv, "--plot", &missing]);
+    assert_eq!(code(&out), 2, "{}", stderr(&out));
+    assert!(stderr(&out).contains("the directory"), "{}", stderr(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -462,10 +462,22 @@ pub(crate) fn push_number(out: &mut String, v: f64) {
     out.push_str(ryu::Buffer::new().format(v));
 }
 
+/// Writes `text` to a file beside `path`, then renames it: a reader never sees half a file,
+/// and a failed write leaves what was there.
+fn atomically(path: &Path, text: &str) -> std::io::Result<()> {
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".bgc-part");
+    let part = path.with_file_name(name);
+    std::fs::write(&part, text)?;
+    std::fs::rename(&part, path).inspect_err(|_| {
+        let _ = std::fs::remove_file(&part);
+    })
+}
+
 pub(crate) fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {
     use std::io::Write as _;
     let result = match path {
-        Some(path) => std::fs::write(path, text).map_err(|e| (path.display().to_string(), e)),
+        Some(path) => atomically(path, text).map_err(|e| (path.display().to_string(), e)),
         None => std::io::stdout()
             .lock()
             .write_all(text.as_bytes())

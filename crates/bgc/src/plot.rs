@@ -30,12 +30,7 @@ pub struct Panel<'a> {
 
 /// Draws `panels` over `time` into the SVG file `path`, one under the other.
 pub fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), String> {
-    if path.extension().and_then(|e| e.to_str()) != Some("svg") {
-        return Err(format!(
-            "`{}`: plots are written as SVG only; name the file `.svg`",
-            path.display()
-        ));
-    }
+    check_path(path)?;
     let height = PANEL * panels.len().max(1) as u32;
     let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
     let failed = |e: &dyn std::fmt::Display| format!("`{}`: {e}", path.display());
@@ -45,6 +40,26 @@ pub fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), Strin
         draw_panel(area, time, panel).map_err(|e| failed(&e))?;
     }
     root.present().map_err(|e| failed(&e))
+}
+
+/// Whether a plot can be written at `path`: an `.svg` name in a directory that exists. Checked
+/// before any work, so that a typo costs no run.
+pub fn check_path(path: &Path) -> Result<(), String> {
+    if path.extension().and_then(|e| e.to_str()) != Some("svg") {
+        return Err(format!(
+            "`{}`: plots are written as SVG only; name the file `.svg`",
+            path.display()
+        ));
+    }
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty());
+    if dir.is_some_and(|d| !d.is_dir()) {
+        return Err(format!(
+            "`{}`: the directory `{}` does not exist",
+            path.display(),
+            dir.map(|d| d.display().to_string()).unwrap_or_default()
+        ));
+    }
+    Ok(())
 }
 
 type Result2 = Result<(), DrawingAreaErrorKind<std::io::Error>>;

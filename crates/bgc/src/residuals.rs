@@ -109,6 +109,12 @@ pub struct ResidualArgs {
 
 /// Runs `bgc residuals`.
 pub fn run(args: ResidualArgs) -> Result<(), Failure> {
+    if let Some(path) = &args.plot {
+        crate::plot::check_path(path).map_err(|e| {
+            eprintln!("error: {e}");
+            Failure::Usage
+        })?;
+    }
     // The bound from parameter uncertainty is that of the relation as written.
     let realise = if args.adaptive {
         if args.realise.realise() != Realise::Direct {
@@ -392,13 +398,15 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             );
         }
     }
+    // The residuals first: a plot that cannot be drawn leaves them written.
+    cli::write(args.output.as_deref(), &out)?;
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(|e| {
             eprintln!("error: {e}");
             Failure::Usage
         })?;
     }
-    cli::write(args.output.as_deref(), &out)
+    Ok(())
 }
 
 /// What `--plot` draws, kept as the rows are computed.

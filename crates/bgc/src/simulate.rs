@@ -54,6 +54,12 @@ enum SolverArg {
 
 /// Runs `bgc simulate`.
 pub fn run(args: SimulateArgs) -> Result<(), Failure> {
+    if let Some(path) = &args.plot {
+        crate::plot::check_path(path).map_err(|e| {
+            eprintln!("error: {e}");
+            Failure::Usage
+        })?;
+    }
     let c = cli::compile(&args.model, Derive::StateEquations, None)?;
     let (name, text) = scenario_text(&args)?;
     let (scenario, diagnostics) = parse_scenario(&text);
@@ -86,10 +92,12 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
+    // The samples first: a plot that cannot be drawn leaves them written.
+    cli::write(args.output.as_deref(), &csv(&trajectory))?;
     if let Some(path) = &args.plot {
         plot(path, &trajectory, &c)?;
     }
-    cli::write(args.output.as_deref(), &csv(&trajectory))
+    Ok(())
 }
 
 /// The recorded signals (not the states), one panel each, titled with their unit and
