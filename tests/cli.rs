@@ -342,3 +342,50 @@ fn simulate_plots_svg_only() {
     assert!(stderr(&out).contains("the directory"), "{}", stderr(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A record separated by `;` (what a spreadsheet writes where the decimal mark is a comma) or
+/// by tabs gives the residuals of the same record separated by commas; a time column named
+/// otherwise, or a signal's column with a typo, is named in the error.
+#[test]
+fn records_with_other_separators_and_near_miss_columns() {
+    let dir = std::env::temp_dir().join(format!("bgc-separators-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "input U0 = 12",
+        "--duration",
+        "1",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let csv = stdout(&out);
+    let write = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("record");
+        path.display().to_string()
+    };
+    let residuals = |path: &str| bgc(&["residuals", "models/dc_motor.bg", path]);
+    let comma = residuals(&write("comma.csv", &csv));
+    assert_eq!(code(&comma), 0, "{}", stderr(&comma));
+    for (name, separator) in [("semicolon.csv", ";"), ("tab.tsv", "\t")] {
+        let other = residuals(&write(name, &csv.replace(',', separator)));
+        assert_eq!(code(&other), 0, "{name}: {}", stderr(&other));
+        assert_eq!(stdout(&other), stdout(&comma), "{name}");
+    }
+    let time = residuals(&write("time.csv", &csv.replacen("t,", "time,", 1)));
+    assert_ne!(code(&time), 0);
+    assert!(
+        stderr(&time).contains("is `time` the time?"),
+        "{}",
+        stderr(&time)
+    );
+    let typo = residuals(&write("typo.csv", &csv.replacen(",y1", ",Y1", 1)));
+    assert_ne!(code(&typo), 0);
+    assert!(
+        stderr(&typo).contains("did you mean `Y1`?"),
+        "{}",
+        stderr(&typo)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

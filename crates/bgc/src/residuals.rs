@@ -668,22 +668,41 @@ const STEP_TOLERANCE: f64 = 1e-6;
 impl Data {
     /// Reads CSV `bytes`, keeping `names` (and `t`); needs at least `window` rows.
     pub fn read(bytes: &[u8], names: &[String], window: usize) -> Result<Data, String> {
+        let delimiter = delimiter(bytes);
         let mut reader = csv::ReaderBuilder::new()
             .trim(csv::Trim::Headers)
+            .delimiter(delimiter)
             .from_reader(bytes);
         let header = reader
             .headers()
             .map_err(|e| format!("cannot read the header: {e}"))?
             .clone();
         let find = |name: &str| header.iter().position(|h| h == name);
-        let t = find("t").ok_or("no time column: the header needs a column named `t`")?;
+        let missing = |name: &str, what: String| {
+            let near = bondgraph_core::closest(name, header.iter().collect::<Vec<_>>().into_iter());
+            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            format!(
+                "{what}{hint}; the header has {}",
+                header.iter().collect::<Vec<_>>().join(", ")
+            )
+        };
+        let t = find("t").ok_or_else(|| {
+            // A one-letter name has no near miss by edits; a time column by another name does.
+            let named = header
+                .iter()
+                .find(|h| h.to_lowercase().starts_with("time") || *h == "T");
+            let what = "no time column: the header needs a column named `t`";
+            match named {
+                Some(h) => format!("{what} (is `{h}` the time? rename it `t`)"),
+                None => missing("t", what.to_string()),
+            }
+        })?;
         let mut at = vec![t];
         for name in names {
             at.push(find(name).ok_or_else(|| {
-                format!(
-                    "no column `{name}`: the ARRs read {}; the header has {}",
-                    names.join(", "),
-                    header.iter().collect::<Vec<_>>().join(", ")
+                missing(
+                    name,
+                    format!("no column `{name}`: the ARRs read {}", names.join(", ")),
                 )
             })?);
         }
@@ -692,7 +711,7 @@ impl Data {
             .collect();
         let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
         let body = bytes.get(start..).unwrap_or_default();
-        let mut columns = parse_rows(body, &at, &column_names)?;
+        let mut columns = parse_rows(body, &at, &column_names, delimiter)?;
         let time = columns.remove(0);
         let step = check_time(&time)?;
         if time.len() < window {
@@ -713,7 +732,12 @@ impl Data {
 /// as numbers, by column. A large record is parsed in two halves at once, split at a line
 /// end: parsing is a good part of `bgc residuals`' time, and a machine has two cores at
 /// least. A record with quotes, where a line end may sit inside a cell, is parsed in one go.
-fn parse_rows(body: &[u8], at: &[usize], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+fn parse_rows(
+    body: &[u8],
+    at: &[usize],
+    names: &[&str],
+    delimiter: u8,
+) -> Result<Vec<Vec<f64>>, String> {
     let split = (body.len() > 1 << 20 && !body.contains(&b'"'))
         .then(|| {
             let middle = body.len() / 2;
@@ -724,13 +748,13 @@ fn parse_rows(body: &[u8], at: &[usize], names: &[&str]) -> Result<Vec<Vec<f64>>
         })
         .flatten();
     let Some(split) = split else {
-        return parse_part(body, at, names, 2);
+        return parse_part(body, at, names, 2, delimiter);
     };
     let (first, second) = body.split_at(split);
     let second_line = 2 + first.iter().filter(|&&b| b == b'\n').count();
     let (head, tail) = std::thread::scope(|scope| {
-        let tail = scope.spawn(|| parse_part(second, at, names, second_line));
-        let head = parse_part(first, at, names, 2);
+        let tail = scope.spawn(|| parse_part(second, at, names, second_line, delimiter));
+        let head = parse_part(first, at, names, 2, delimiter);
         (head, tail.join())
     });
     // The first half's mistake comes first: it is on an earlier line.
@@ -742,15 +766,33 @@ fn parse_rows(body: &[u8], at: &[usize], names: &[&str]) -> Result<Vec<Vec<f64>>
     Ok(columns)
 }
 
+/// The cell separator of a record: `,`, unless its header has none and is separated by `;`
+/// (what a spreadsheet writes where the decimal mark is a comma) or by tabs.
+fn delimiter(bytes: &[u8]) -> u8 {
+    let header = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+    let has = |c: u8| header.contains(&c);
+    if has(b',') {
+        b','
+    } else if has(b';') {
+        b';'
+    } else if has(b'\t') {
+        b'\t'
+    } else {
+        b','
+    }
+}
+
 /// The rows of `part`, whose first line is `line` of the file.
 fn parse_part(
     part: &[u8],
     at: &[usize],
     names: &[&str],
     mut line: usize,
+    delimiter: u8,
 ) -> Result<Vec<Vec<f64>>, String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
+        .delimiter(delimiter)
         .from_reader(part);
     let rows = part.iter().filter(|&&b| b == b'\n').count() + 1;
     let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); at.len()];

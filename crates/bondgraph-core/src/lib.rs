@@ -28,6 +28,7 @@ pub use expr::{BinOp, Func};
 pub use fdi::candidates::{MAX_CANDIDATE_SIZE, MAX_DERIVATIONS, WINDOW_DETECTORS};
 pub use fdi::placement::{Goal, NamedClasses, NewDetector, Placement, PlacementError, Proposal};
 pub use fdi::ResidualSet;
+pub use graph::closest;
 pub use product::*;
 pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 #[cfg(feature = "simulate")]

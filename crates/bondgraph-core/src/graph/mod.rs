@@ -11,6 +11,7 @@ mod validate;
 pub use lets::{first_too_large, MAX_EXPANDED};
 pub use lower::lower;
 pub use model::*;
+pub use scope::closest;
 
 #[cfg(test)]
 mod tests;

@@ -104,8 +104,8 @@ impl Scope {
 const MAX_CANDIDATES: usize = 5_000;
 
 /// The candidate within a small edit distance of `name` (ties broken alphabetically, so the
-/// suggestion does not depend on hash order).
-pub(crate) fn closest<'a>(
+/// suggestion does not depend on hash order): what "did you mean" names.
+pub fn closest<'a>(
     name: &str,
     candidates: impl ExactSizeIterator<Item = &'a str>,
 ) -> Option<&'a str> {
