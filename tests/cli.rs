@@ -389,3 +389,34 @@ fn records_with_other_separators_and_near_miss_columns() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Times are written as the decimals they are (`0.009`, not `0.009000000000000001`), in
+/// simulated records and in residuals alike.
+#[test]
+fn times_are_written_without_the_bits_sums_of_steps_add() {
+    let dir = std::env::temp_dir().join(format!("bgc-times-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("run.csv").display().to_string();
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "input U0 = 12",
+        "--duration",
+        "2",
+        "-o",
+        &record,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let residuals = bgc(&["residuals", "models/dc_motor.bg", &record]);
+    assert_eq!(code(&residuals), 0, "{}", stderr(&residuals));
+    let simulated = std::fs::read_to_string(&record).expect("record");
+    for text in [simulated, stdout(&residuals)] {
+        for line in text.lines().skip(1) {
+            let t = line.split(',').next().expect("time");
+            let decimals = t.split('.').nth(1).map_or(0, str::len);
+            assert!(decimals <= 3, "{t} in {line}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

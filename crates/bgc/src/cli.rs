@@ -462,6 +462,25 @@ pub(crate) fn push_number(out: &mut String, v: f64) {
     out.push_str(ryu::Buffer::new().format(v));
 }
 
+/// Time `t` on a record of step `step`, rounded to a millionth of the step's decade: what
+/// sums of steps add in the last bits (`9.908000000000001`, `0.005999999999999999`) is not
+/// written. Dividing by a power of ten, exact up to 1e22, gives the double nearest the
+/// decimal, which prints as it.
+pub(crate) fn tidy_time(t: f64, step: f64) -> f64 {
+    if !(t.is_finite() && step.is_finite() && step > 0.0) {
+        return t;
+    }
+    let digits = (6.0 - step.log10().floor()).clamp(0.0, 22.0);
+    let scale = 10f64.powi(digits as i32);
+    let scaled = (t * scale).round();
+    // Past 2^53 the scaled time is no longer exact: leave it as it is.
+    if scaled.abs() < 9.0e15 {
+        scaled / scale
+    } else {
+        t
+    }
+}
+
 /// Writes `text` to a file beside `path`, then renames it: a reader never sees half a file,
 /// and a failed write leaves what was there.
 fn atomically(path: &Path, text: &str) -> std::io::Result<()> {

@@ -372,10 +372,12 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                     _ => false,
                 };
             }
-            chunk.push(e.at, e.residuals, &now, &on);
+            chunk.push(cli::tidy_time(e.at, data.step), e.residuals, &now, &on);
             chunk.unsolved.push(e.unsolved);
             if let Some(slot) = e.unsolved {
-                let entry = unsolved.entry(slot).or_insert((0, e.at));
+                let entry = unsolved
+                    .entry(slot)
+                    .or_insert((0, cli::tidy_time(e.at, data.step)));
                 entry.0 += 1;
             }
             estimates += 1;

@@ -212,12 +212,19 @@ pub fn csv(t: &Trajectory) -> String {
     let mut out = String::with_capacity(rows * t.columns.len() * 20);
     out.push_str(&t.columns.join(","));
     out.push('\n');
+    let step = t
+        .values
+        .first()
+        .and_then(|time| Some(time.get(1)? - time.first()?))
+        .unwrap_or(f64::INFINITY);
     for k in 0..rows {
         for (i, column) in t.values.iter().enumerate() {
             if i > 0 {
                 out.push(',');
+                cli::push_number(&mut out, column[k]);
+            } else {
+                cli::push_number(&mut out, cli::tidy_time(column[k], step));
             }
-            cli::push_number(&mut out, column[k]);
         }
         out.push('\n');
     }
