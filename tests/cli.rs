@@ -420,3 +420,49 @@ fn times_are_written_without_the_bits_sums_of_steps_add() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A relation that is singular on part of a healthy record (`U − R0 i/x` while `x = 0`, a
+/// machine at rest) writes no NaN: those cells are empty, raise no alarm, and standard error
+/// says where they are; `--calibrate` on that record sets a finite threshold from the rest.
+#[test]
+fn a_singular_relation_writes_no_nan_and_calibrates_on_the_rest() {
+    let dir = std::env::temp_dir().join(format!("bgc-singular-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let model = dir.join("singular.bg");
+    std::fs::write(
+        &model,
+        "model singular\nparam R0 = 2\ninput U\ninput x\nSe src = U\nMR r : e = R0*f/x\n\
+         Df i on j\nsrc -> 1:j -> r\n",
+    )
+    .expect("model");
+    let mut csv = String::from("t,U,x,i\n");
+    for k in 0..1000 {
+        let t = f64::from(k) * 1e-3;
+        let on = if t >= 0.5 { 1.0 } else { 0.0 };
+        csv.push_str(&format!("{t},{},{on},{on}\n", 2.0 * on));
+    }
+    let record = dir.join("record.csv");
+    std::fs::write(&record, csv).expect("record");
+    let (model, record) = (model.display().to_string(), record.display().to_string());
+    let out = bgc(&["residuals", &model, &record, "--calibrate", &record]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+    let mut empty = 0;
+    for line in text.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let threshold: f64 = cells[2].parse().expect("a threshold");
+        assert!(threshold.is_finite(), "{line}");
+        if cells[1].is_empty() {
+            assert_eq!(cells[3], "0", "an empty cell raises no alarm: {line}");
+            empty += 1;
+        }
+    }
+    assert!(empty > 400, "{empty}");
+    assert!(
+        stderr(&out).contains("ARR1 is not a number at"),
+        "{}",
+        stderr(&out)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

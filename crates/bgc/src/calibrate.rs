@@ -278,6 +278,9 @@ pub(crate) fn thresholds(
     series
         .into_iter()
         .map(|mut s| {
+            // A residual that is not a number somewhere (singular at rest) says nothing
+            // there: the quantile is that of the samples where it is one.
+            s.retain(|v| v.is_finite());
             s.sort_by(f64::total_cmp);
             // The sample with a share `rate` of the others above it.
             let above = (rate * s.len() as f64).floor() as usize;

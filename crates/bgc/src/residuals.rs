@@ -335,6 +335,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         })
         .collect();
     let mut unsolved: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
+    // Per residual, the estimates where it is not a number for another reason than a root.
+    let mut singular: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
     // The rows are computed here and written as text by a second thread, chunk by chunk:
     // writing numbers costs about what computing them does.
     let out = std::thread::scope(|scope| {
@@ -367,12 +369,21 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                 .zip(levels.iter().zip(e.bounds).zip(e.residuals))
             {
                 *now = l.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
+                // A residual that is not a number says nothing: no alarm, and its debounce
+                // goes on from where it was.
                 *on = match (alarm.as_mut(), *now) {
-                    (Some(a), Some(l)) => a.update_with_level(r, l),
+                    (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
                     _ => false,
                 };
             }
-            chunk.push(cli::tidy_time(e.at, data.step), e.residuals, &now, &on);
+            let at = cli::tidy_time(e.at, data.step);
+            for (k, r) in e.residuals.iter().enumerate() {
+                if !r.is_finite() && e.unsolved.is_none() {
+                    let entry = singular.entry(k).or_insert((0, at));
+                    entry.0 += 1;
+                }
+            }
+            chunk.push(at, e.residuals, &now, &on);
             chunk.unsolved.push(e.unsolved);
             if let Some(slot) = e.unsolved {
                 let entry = unsolved
@@ -396,9 +407,17 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     for (slot, (count, first)) in &unsolved {
         if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
             eprintln!(
-                "warning: {data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are not numbers there, and the `unsolved` column names it"
+                "warning: {data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are empty cells there, and the `unsolved` column names it"
             );
         }
+    }
+    for (k, (count, first)) in &singular {
+        eprintln!(
+            "warning: {data_name}: {} is not a number at {count} estimates (the first at t = {first}): \
+             its relation is singular there (a division by a signal at zero, a law outside its \
+             domain); those cells are empty and raise no alarm",
+            c.arrs[*k].name
+        );
     }
     // The residuals first: a plot that cannot be drawn leaves them written.
     cli::write(args.output.as_deref(), &out)?;
@@ -557,7 +576,10 @@ impl Chunk {
             cli::push_number(out, t);
             for &r in &self.residuals[span.clone()] {
                 out.push(',');
-                cli::push_number(out, r);
+                // Not a number: the cell is empty, and standard error says where and why.
+                if r.is_finite() {
+                    cli::push_number(out, r);
+                }
             }
             for l in &self.levels[span] {
                 out.push(',');
