@@ -466,3 +466,18 @@ fn a_singular_relation_writes_no_nan_and_calibrates_on_the_rest() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `bgc verify` prints no `inf` or `NaN`: a residual that leaves the numbers under a fault
+/// (the Table 3 bench's ARR2 under a fault of y2) is `not finite`.
+#[test]
+fn verify_prints_no_inf() {
+    let out = bgc(&["verify", "models/backlash_bench_table3.bg"]);
+    assert_eq!(code(&out), 0, "{}", stdout(&out));
+    let table = stdout(&out);
+    let words: Vec<&str> = table.split_whitespace().collect();
+    assert!(
+        !words.iter().any(|w| ["inf", "NaN", "-inf"].contains(w)),
+        "{table}"
+    );
+    assert!(table.contains("not finite"), "{table}");
+}

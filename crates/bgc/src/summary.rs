@@ -59,6 +59,16 @@ pub fn check(c: &Compiled) -> String {
     out
 }
 
+/// A relative residual as the table prints it: `not finite` where the residual left the
+/// numbers (it then shows a fault, and holds for nothing), never `inf` or `NaN`.
+fn size(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.3e}")
+    } else {
+        "not finite".to_string()
+    }
+}
+
 /// The table `bgc verify` prints: each ARR on the healthy plant, then each FSM entry.
 pub fn verification(c: &Compiled, v: &Verification) -> String {
     let verdict = |pass: bool| if pass { "pass" } else { "FAIL" };
@@ -78,9 +88,9 @@ pub fn verification(c: &Compiled, v: &Verification) -> String {
     for a in &v.arrs {
         let _ = writeln!(
             out,
-            "  {:<8} {:>10.3e}  {}",
+            "  {:<8} {:>10}  {}",
             a.name,
-            a.worst,
+            size(a.worst),
             verdict(a.pass)
         );
     }
@@ -98,11 +108,11 @@ pub fn verification(c: &Compiled, v: &Verification) -> String {
     for e in &v.entries {
         let _ = writeln!(
             out,
-            "  {:<width$}  {:<8} {}  {:>10.3e}  {}",
+            "  {:<width$}  {:<8} {}  {:>10}  {}",
             c.components[e.component].name,
             c.arrs[e.arr].name,
             if e.marked { "1" } else { "0" },
-            e.worst,
+            size(e.worst),
             verdict(e.pass)
         );
     }

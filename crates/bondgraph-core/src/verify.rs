@@ -567,7 +567,9 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
             Root::Derivative(h, n) => {
                 root_derivatives.insert((h, n), e);
             }
-            Root::Residual => residuals.push(e),
+            // `a/b = 0` holds where `a = 0`: its size is judged against a's terms, so that
+            // an ARR printed `(…)/k1` is not one term of relative size 1.
+            Root::Residual => residuals.push(numerator(&pool, e)),
             Root::Level => level = Some(e),
             // An integrated residual is checked as the generator's integrand: its rate plus
             // its level's derivative along the plant, exactly, so that what is checked is
@@ -760,6 +762,16 @@ fn output_derivative(
 }
 
 /// The terms of `e` read as a sum (signs dropped: only their size matters).
+/// The numerator of `e`, through negations and quotients at its top.
+fn numerator(pool: &Pool<V>, mut e: VId) -> VId {
+    loop {
+        match pool.node(e) {
+            Node::Neg(a) | Node::Binary(BinOp::Div, a, _) => e = a,
+            _ => return e,
+        }
+    }
+}
+
 fn top_terms(pool: &Pool<V>, e: VId, out: &mut Vec<VId>) {
     let mut stack = vec![e];
     while let Some(e) = stack.pop() {
@@ -983,5 +995,29 @@ impl Run<'_> {
                 }
             })
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A relation printed `(A − B)/k = 0` is judged on `A − B` against its two terms, not as
+    /// one term of relative size 1 (which failed right ARRs).
+    #[test]
+    fn a_quotient_is_judged_on_its_numerator_terms() {
+        let mut pool: Pool<V> = Pool::default();
+        let (a, b) = (pool.leaf(V::Time), pool.leaf(V::Input(Handle::new(0), 0)));
+        let k = pool.leaf(V::Nominal(Handle::new(0)));
+        let difference = pool.sub(a, b);
+        let quotient = pool.div(difference, k);
+        let negated = pool.neg(quotient);
+        assert_eq!(numerator(&pool, negated), difference);
+        let mut terms = Vec::new();
+        top_terms(&pool, numerator(&pool, negated), &mut terms);
+        terms.sort();
+        let mut expected = vec![a, b];
+        expected.sort();
+        assert_eq!(terms, expected);
     }
 }
