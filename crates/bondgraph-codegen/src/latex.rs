@@ -11,9 +11,48 @@ use bondgraph_core::{
 
 use crate::names;
 
-/// Characters of LaTeX source that fit on one line of the page, roughly: a long ARR is broken
-/// between the terms of its top-level sum so that it stays within the margins.
-const LINE: usize = 110;
+/// Visible characters (see [`visible`]) of display math on one line of the page, 2 cm
+/// margins: a long equation is broken between the terms of its top-level sum to stay within
+/// them, and only a term wider than this is named in parts.
+const PAGE_LINE: usize = 70;
+
+/// A part shorter than this (visible characters) is never named: `\Phi_2 = \gamma \Phi_1`
+/// costs a line and saves nothing.
+const SHORTEST_NAMED: usize = 24;
+
+/// Roughly how many characters `latex` shows on the page: command names count as one glyph
+/// when they are letters or operators (`\gamma`, `\cdot`) or a thin space (`\,`), nothing
+/// when they only lay out (`\mathrm`, `\frac`, `\left`); braces, subscript and superscript
+/// marks count nothing.
+fn visible(latex: &str) -> usize {
+    const LAYOUT: [&str; 9] = [
+        "mathrm", "frac", "left", "right", "dot", "ddot", "nonumber", "qquad", "quad",
+    ];
+    let mut count = 0;
+    let mut chars = latex.chars().peekable();
+    while let Some(ch) = chars.next() {
+        match ch {
+            '\\' => {
+                let mut name = String::new();
+                while let Some(&c) = chars.peek().filter(|c| c.is_ascii_alphabetic()) {
+                    name.push(c);
+                    chars.next();
+                }
+                if name.is_empty() {
+                    // `\,` (a thin space, between factors: about a glyph at math sizes), `\{`.
+                    if chars.next() == Some(',') {
+                        count += 1;
+                    }
+                } else if !LAYOUT.contains(&name.as_str()) {
+                    count += 1;
+                }
+            }
+            '{' | '}' | '_' | '^' | ' ' => {}
+            _ => count += 1,
+        }
+    }
+    count
+}
 
 /// The state equations, ARRs and FSM as LaTeX.
 pub fn emit(c: &Compiled, standalone: bool) -> String {
@@ -119,7 +158,7 @@ enum Aux {
 }
 
 /// Writes the equations of a document, naming what does not fit on a line: a term longer
-/// than [`LINE`] has its long parts (a third of a line or more) replaced by `\Phi_k`, each
+/// than [`PAGE_LINE`] has its long parts (at least [`SHORTEST_NAMED`] characters) replaced by `\Phi_k`, each
 /// defined on lines of its own just before the equation that uses it.
 struct Writer<'c> {
     c: &'c Compiled,
@@ -167,6 +206,8 @@ impl<'c> Writer<'c> {
             .pool
             .import_from(&self.c.exprs, root, |p, s| p.leaf(Aux::Symbol(s)));
         let mut defined = Vec::new();
+        // Only a term wider than a line of the page is named in parts; the equation is
+        // broken between its terms.
         let e = self.shorten_terms(e, &mut defined);
         let mut lines: Vec<String> = defined
             .iter()
@@ -205,7 +246,7 @@ impl<'c> Writer<'c> {
     /// `e` with its longest parts named, one at a time, until it fits on a line.
     fn shorten(&mut self, e: ExprId<Aux>, defined: &mut Vec<(usize, ExprId<Aux>)>) -> ExprId<Aux> {
         let mut e = e;
-        while self.latex(e).len() > LINE {
+        while visible(&self.latex(e)) > PAGE_LINE {
             let node = self.pool.node(e);
             let children: Vec<ExprId<Aux>> = match node {
                 Node::Num(_) | Node::Leaf(_) => Vec::new(),
@@ -216,7 +257,10 @@ impl<'c> Writer<'c> {
                 .iter()
                 .copied()
                 .filter(|&x| !matches!(self.pool.node(x), Node::Leaf(_) | Node::Num(_)))
-                .max_by_key(|&x| self.latex(x).len());
+                .map(|x| (visible(&self.latex(x)), x))
+                .filter(|&(size, _)| size >= SHORTEST_NAMED)
+                .max()
+                .map(|(_, x)| x);
             let Some(longest) = longest else {
                 return e;
             };
@@ -241,6 +285,12 @@ impl<'c> Writer<'c> {
             return name;
         }
         let def = self.shorten_terms(x, defined);
+        // Once its own parts are named, a short definition (`\Phi_{16} / k_2`) is written in
+        // place rather than named in its turn.
+        if visible(&self.latex(def)) < SHORTEST_NAMED {
+            self.names.insert(x, def);
+            return def;
+        }
         self.named += 1;
         defined.push((self.named, def));
         let name = self.pool.leaf(Aux::Named(self.named));
@@ -249,7 +299,7 @@ impl<'c> Writer<'c> {
     }
 }
 
-/// One equation of an `align`, its terms packed into lines of about [`LINE`] characters;
+/// One equation of an `align`, its terms packed into lines of about [`PAGE_LINE`] visible characters;
 /// only the last line is numbered.
 fn broken(head: &str, terms: &[(bool, String)], tail: &str) -> String {
     let mut lines: Vec<String> = vec![String::new()];
@@ -260,8 +310,10 @@ fn broken(head: &str, terms: &[(bool, String)], tail: &str) -> String {
             (_, true) => " + ",
             (_, false) => " - ",
         };
-        let current = lines.last_mut().map_or(0, |l| l.len());
-        if current > 0 && current + term.len() > LINE {
+        // The first line starts after the head (`ARR1:`, `F =`), the others after a quad.
+        let indent = if lines.len() == 1 { visible(head) } else { 4 };
+        let current = lines.last_mut().map_or(0, |l| visible(l));
+        if current > 0 && indent + current + visible(term) > PAGE_LINE {
             lines.push(String::new());
         }
         if let Some(line) = lines.last_mut() {
@@ -334,4 +386,45 @@ fn escape(s: &str) -> String {
         .replace('%', "\\%")
         .replace('#', "\\#")
         .replace('$', "\\$")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn latex_of(model: &str) -> String {
+        let path = format!("{}/../../models/{model}.bg", env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(path).expect("model");
+        let c = bondgraph_core::compile(&text, model, &bondgraph_core::Options::default())
+            .expect("valid")
+            .compiled;
+        emit(&c, false)
+    }
+
+    /// What a line of the page shows: layout commands, braces and scripts are not glyphs.
+    #[test]
+    fn visible_counts_glyphs_not_markup() {
+        assert_eq!(visible(r"\mathrm{Re} \, p_{Lm}"), 2 + 1 + 3);
+        assert_eq!(visible(r"\frac{a}{b}"), 2);
+        assert_eq!(visible(r"\gamma"), 1);
+    }
+
+    /// The three tanks and the bench are written with few names, each for a part too long to
+    /// share a line (the text of 2026-11 named 14 and 21 parts of them, some as short as
+    /// `\Phi_2 = \gamma \Phi_1`), and no name stands for a short expression.
+    #[test]
+    fn only_long_parts_are_named() {
+        for (model, most) in [("three_tank", 2), ("backlash_bench", 4)] {
+            let latex = latex_of(model);
+            let definitions: Vec<&str> = latex
+                .lines()
+                .filter(|l| l.trim_start().starts_with(r"\Phi_{"))
+                .collect();
+            assert!(definitions.len() <= most, "{model}: {definitions:#?}");
+            for d in definitions {
+                let body = d.split("&=").nth(1).unwrap_or_default();
+                assert!(visible(body) >= SHORTEST_NAMED, "{model}: {d}");
+            }
+        }
+    }
 }
