@@ -481,3 +481,29 @@ fn verify_prints_no_inf() {
     );
     assert!(table.contains("not finite"), "{table}");
 }
+
+/// A step in a message is the decimal it is: `0.002 s`, not the `0.0020000000000000018 s`
+/// that a difference of two sample times holds.
+#[test]
+fn steps_in_messages_are_decimals() {
+    let dir = std::env::temp_dir().join(format!("bgc-steps-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let record = dir.join("uneven.csv");
+    std::fs::write(
+        &record,
+        "t,U0,i,y1\n0,1,0,0\n0.002,1,0,0\n0.004,1,0,0\n0.0065,1,0,0\n",
+    )
+    .expect("record");
+    let out = bgc(&[
+        "residuals",
+        "models/dc_motor.bg",
+        &record.display().to_string(),
+    ]);
+    assert_ne!(code(&out), 0);
+    assert!(
+        stderr(&out).contains("line 5: a step of 0.0025 s where the record's is 0.002 s"),
+        "{}",
+        stderr(&out)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

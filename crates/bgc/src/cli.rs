@@ -462,6 +462,13 @@ pub(crate) fn push_number(out: &mut String, v: f64) {
     out.push_str(ryu::Buffer::new().format(v));
 }
 
+/// A duration for a message, to 9 significant digits: a step of `0.002`, not of
+/// `0.0020000000000000018`, which is what a difference of two sample times holds.
+pub(crate) fn seconds(x: f64) -> String {
+    let rounded: f64 = format!("{x:.8e}").parse().unwrap_or(x);
+    ryu::Buffer::new().format(rounded).to_string()
+}
+
 /// Time `t` on a record of step `step`, rounded to a millionth of the step's decade: what
 /// sums of steps add in the last bits (`9.908000000000001`, `0.005999999999999999`) is not
 /// written. Dividing by a power of ten, exact up to 1e22, gives the double nearest the

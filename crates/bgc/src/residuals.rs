@@ -203,7 +203,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
             eprintln!(
                 "error: {name}: its step ({} s) is not the record's ({} s)",
-                healthy.step, data.step
+                cli::seconds(healthy.step),
+                cli::seconds(data.step)
             );
             return Err(Failure::Invalid);
         }
@@ -860,12 +861,15 @@ fn check_time(time: &[f64]) -> Result<f64, String> {
         if d <= 0.0 {
             return Err(format!(
                 "line {line}: time goes from {} to {}: it must increase",
-                pair[0], pair[1]
+                cli::seconds(pair[0]),
+                cli::seconds(pair[1])
             ));
         }
         if (d - step).abs() > STEP_TOLERANCE * step {
             return Err(format!(
-                "line {line}: a step of {d} s where the record's is {step} s: the estimators need a uniform step"
+                "line {line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
+                cli::seconds(d),
+                cli::seconds(step)
             ));
         }
     }
