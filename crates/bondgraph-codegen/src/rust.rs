@@ -441,8 +441,34 @@ fn copy_items(lower: &mut Lowering<'_>) -> Option<TokenStream> {
 }
 
 /// The model's residual code as tokens: `Params`, `Signals`, `residuals`, the FSM and the
-/// streaming `ResidualGenerator`, printed from the model's residual program.
+/// streaming `ResidualGenerator`, printed from the model's residual program. Every item may
+/// go unused: the code is included in a user's module (`mod m { include!(...) }`), where a
+/// bench program reads a part of it, and must not warn there, nor be linted by the user's
+/// clippy as if written by hand.
 pub fn tokens(c: &Compiled) -> TokenStream {
+    let items = items(c);
+    let Ok(mut file) = syn::parse2::<syn::File>(items.clone()) else {
+        return items;
+    };
+    let allow: syn::Attribute = syn::parse_quote!(#[allow(dead_code, clippy::all)]);
+    for item in &mut file.items {
+        let attrs = match item {
+            syn::Item::Const(i) => &mut i.attrs,
+            syn::Item::Struct(i) => &mut i.attrs,
+            syn::Item::Fn(i) => &mut i.attrs,
+            syn::Item::Impl(i) => &mut i.attrs,
+            syn::Item::Static(i) => &mut i.attrs,
+            syn::Item::Type(i) => &mut i.attrs,
+            syn::Item::Enum(i) => &mut i.attrs,
+            _ => continue,
+        };
+        attrs.push(allow.clone());
+    }
+    quote!(#file)
+}
+
+/// The items of [`tokens`], before each is allowed to go unused.
+fn items(c: &Compiled) -> TokenStream {
     let program = c.program();
     let readings = c.readings();
     let fields = fields(c, &program, &readings);
@@ -606,6 +632,7 @@ fn signals(fields: &[Field]) -> TokenStream {
 
             /// The fields from an array in the order of [`Signals::NAMES`].
             #[must_use]
+            #[allow(non_snake_case)]
             pub fn from_array(a: [f64; #k]) -> Self {
                 let [#(#names),*] = a;
                 Signals { #(#names),* }
@@ -720,7 +747,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                     let k = count(others);
                     others += 1;
                     let (integrand, _) = lower.expr(integrand);
-                    quote!(s.#name = self.others[#k].push(at, { #integrand });)
+                    quote!(s.#name = self.others[#k].push(at, #integrand);)
                 }
                 Fill::Root { residual, slope } => {
                     let k = count(roots);
@@ -731,7 +758,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                     quote! {
                         s.#name = match self.roots[#k].solve(|z| {
                             s.#name = z;
-                            ({ #residual }, { #slope })
+                            (#residual, #slope)
                         }) {
                             Some(z) => z,
                             None => {
@@ -745,6 +772,19 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
         })
         .collect();
     let o = count(others);
+    // Any bank estimates values: only derivatives need checking (`order < 0` would warn).
+    let order_check = if top == 0 {
+        quote!()
+    } else {
+        quote! {
+            if bank.order() < #top_literal {
+                return Err(::bondgraph::EstimatorError::Order {
+                    order: bank.order(),
+                    needed: #top_literal,
+                });
+            }
+        }
+    };
     // Only a program that solves roots carries their finders and says which failed.
     let root_count = count(roots);
     let (roots_field, roots_init, roots_reset, roots_method) = if roots == 0 {
@@ -837,12 +877,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
             /// A generator over `bank`, which must estimate derivatives up to the highest
             /// order of [`CHANNEL_ORDERS`].
             pub fn with_bank(params: Params, bank: B) -> Result<Self, ::bondgraph::EstimatorError> {
-                if bank.order() < #top_literal {
-                    return Err(::bondgraph::EstimatorError::Order {
-                        order: bank.order(),
-                        needed: #top_literal,
-                    });
-                }
+                #order_check
                 Ok(ResidualGenerator {
                     params,
                     bank,
