@@ -309,6 +309,36 @@ fn simulate_plots_svg_only() {
     ] {
         assert!(drawn.lines().any(|l| l.trim() == title), "panel {title}");
     }
+    // A fault's onset is marked in each panel: a grey vertical line.
+    let faulty = dir.join("fault.svg").display().to_string();
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "duration 0.2",
+        "-e",
+        "input U0 = 12",
+        "-e",
+        "fault Re = 2*Re at 0.1",
+        "--plot",
+        &faulty,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let drawn = std::fs::read_to_string(&faulty).expect("svg written");
+    let marks = drawn
+        .split("<polyline")
+        .filter(|p| p.contains("opacity=\"0.6\"") && p.contains("stroke=\"#000000\""))
+        .filter(|p| {
+            let points = p.split("points=\"").nth(1).unwrap_or_default();
+            let points = points.split('"').next().unwrap_or_default();
+            let xs: Vec<&str> = points
+                .split_whitespace()
+                .filter_map(|xy| xy.split(',').next())
+                .collect();
+            xs.len() == 2 && xs[0] == xs[1]
+        })
+        .count();
+    assert_eq!(marks, 3, "one mark per panel (U0, i, y1)");
     let png = dir.join("run.png").display().to_string();
     let refused = args(&png);
     assert_eq!(code(&refused), 2);

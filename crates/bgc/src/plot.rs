@@ -26,6 +26,8 @@ pub struct Panel<'a> {
     pub threshold: Option<&'a [f64]>,
     /// Whether the alarm is on at each time (shaded), if any.
     pub alarm: Option<&'a [bool]>,
+    /// Times marked by a vertical line: when the scenario's faults start.
+    pub marks: &'a [f64],
 }
 
 /// Draws `panels` over `time` into the SVG file `path`, one under the other.
@@ -88,12 +90,21 @@ fn draw_panel(
     if !(low.is_finite() && high.is_finite()) {
         (low, high) = (-1.0, 1.0);
     }
-    let pad = ((high - low) * 0.05).max(1e-12 * high.abs().max(1.0));
+    // A signal that does not move (a constant input) gets a range of its own size, so that
+    // its axis has labels that differ (not nine times `12.000`).
+    let pad = if high - low > 1e-9 * high.abs().max(low.abs()).max(1e-300) {
+        (high - low) * 0.05
+    } else {
+        0.05 * high.abs().max(1.0)
+    };
     let (low, high) = (low - pad, high + pad);
     let mut chart = ChartBuilder::on(area)
         .caption(panel.name, ("sans-serif", 16))
         .margin(8)
-        .x_label_area_size(28)
+        // Room for the last time label, centred on the right edge.
+        .margin_right(28)
+        // Room for the tick labels and, below them, `t [s]`.
+        .x_label_area_size(44)
         .y_label_area_size(70)
         .build_cartesian_2d(t0..t1, low..high)?;
     chart
@@ -101,6 +112,13 @@ fn draw_panel(
         .x_desc("t [s]")
         .light_line_style(WHITE)
         .draw()?;
+    for &at in panel.marks.iter().filter(|&&at| (t0..=t1).contains(&at)) {
+        let style = BLACK.mix(0.6).stroke_width(1);
+        chart.draw_series(std::iter::once(PathElement::new(
+            [(at, low), (at, high)],
+            style,
+        )))?;
+    }
     if let Some(alarm) = panel.alarm {
         let shade = RED.mix(0.15).filled();
         chart
@@ -209,6 +227,34 @@ mod tests {
         let reduced = reduce(&time, &values);
         assert!(reduced.len() <= MAX_POINTS);
         assert!(reduced.contains(&(time[123_457], 5.0)));
+    }
+
+    /// A constant signal's panel has y labels that differ (it had nine times `12.000`).
+    #[test]
+    fn a_constant_signal_has_distinct_labels() {
+        let dir = std::env::temp_dir().join(format!("bgc-plot-unit-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("constant.svg");
+        let time: Vec<f64> = (0..100).map(|k| f64::from(k) * 0.1).collect();
+        let values = vec![12.0; time.len()];
+        let panel = Panel {
+            name: "U0",
+            values: &values,
+            threshold: None,
+            alarm: None,
+            marks: &[],
+        };
+        draw(&path, &time, &[panel]).expect("drawn");
+        let svg = std::fs::read_to_string(&path).expect("svg");
+        let labels: std::collections::BTreeSet<String> = svg
+            .split("</text>")
+            .filter_map(|s| s.rsplit('>').next())
+            .map(str::trim)
+            .filter(|s| s.parse::<f64>().is_ok_and(|v| v > 5.0 && v < 20.0))
+            .map(str::to_string)
+            .collect();
+        assert!(labels.len() >= 3, "{labels:?}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -490,6 +490,7 @@ impl Drawn {
                 values: &self.residuals[k],
                 threshold: self.has_threshold[k].then_some(self.thresholds[k].as_slice()),
                 alarm: self.has_threshold[k].then_some(self.alarms[k].as_slice()),
+                marks: &[],
             })
             .collect();
         crate::plot::draw(path, &self.time, &panels)

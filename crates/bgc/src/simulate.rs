@@ -95,14 +95,19 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
     // The samples first: a plot that cannot be drawn leaves them written.
     cli::write(args.output.as_deref(), &csv(&trajectory))?;
     if let Some(path) = &args.plot {
-        plot(path, &trajectory, &c)?;
+        plot(path, &trajectory, &c, &scenario.fault_onsets())?;
     }
     Ok(())
 }
 
 /// The recorded signals (not the states), one panel each, titled with their unit and
 /// description from the model.
-fn plot(path: &std::path::Path, t: &Trajectory, c: &Compiled) -> Result<(), Failure> {
+fn plot(
+    path: &std::path::Path,
+    t: &Trajectory,
+    c: &Compiled,
+    faults: &[f64],
+) -> Result<(), Failure> {
     let (inputs, states) = (c.inputs.len(), c.states.len());
     let shown: Vec<usize> = (1..=inputs)
         .chain(1 + inputs + states..t.columns.len())
@@ -125,6 +130,7 @@ fn plot(path: &std::path::Path, t: &Trajectory, c: &Compiled) -> Result<(), Fail
             values: &t.values[k],
             threshold: None,
             alarm: None,
+            marks: faults,
         })
         .collect();
     crate::plot::draw(path, &t.values[0], &panels).map_err(|e| {

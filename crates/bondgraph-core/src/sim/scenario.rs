@@ -119,6 +119,16 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// When each fault starts (an abrupt one's time, a drift's first), in statement order:
+    /// what a plot marks.
+    pub fn fault_onsets(&self) -> Vec<f64> {
+        (self.faults.iter())
+            .map(|f| match f.onset {
+                Onset::Abrupt(at) | Onset::Drift(at, _) => at,
+            })
+            .collect()
+    }
+
     /// What is wrong with its duration and output step, once something other than its text
     /// set them (the command line's `--duration` and `--step`): each as a sentence.
     pub fn check_settings(&self) -> Vec<String> {
