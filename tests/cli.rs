@@ -537,3 +537,17 @@ fn steps_in_messages_are_decimals() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `bgc completions SHELL` prints a completion script that knows the subcommands and options.
+#[test]
+fn completions_are_printed_for_the_usual_shells() {
+    for shell in ["bash", "zsh", "fish", "powershell", "elvish"] {
+        let out = bgc(&["completions", shell]);
+        assert_eq!(code(&out), 0, "{shell}: {}", stderr(&out));
+        let script = stdout(&out);
+        for word in ["simulate", "residuals", "verify", "--emit"] {
+            assert!(script.contains(word), "{shell}: {word}");
+        }
+    }
+    assert_eq!(code(&bgc(&["completions", "cmd"])), 2);
+}

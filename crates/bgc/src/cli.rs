@@ -206,6 +206,13 @@ enum Command {
     /// Propose the fewest detectors to add so that components become detectable, or as
     /// isolable as detectors can make them (judged structurally).
     Sensors(crate::sensors::SensorArgs),
+    /// Print a completion script for a shell (`bgc completions bash > /etc/bash_completion.d/bgc`,
+    /// `bgc completions zsh > ~/.zfunc/_bgc`, `bgc completions fish > ~/.config/fish/completions/bgc.fish`).
+    Completions {
+        /// The shell.
+        #[arg(value_enum, value_name = "SHELL")]
+        shell: clap_complete::Shell,
+    },
     /// Print the causality of a model in both modes: storage causality, what sets each
     /// junction, conflicts and algebraic loops.
     Causality {
@@ -273,6 +280,12 @@ pub fn run(args: Args) -> Result<(), Failure> {
         (Some(Command::Simulate(simulate)), _) => crate::simulate::run(simulate),
         (Some(Command::Residuals(residuals)), _) => crate::residuals::run(residuals),
         (Some(Command::Sensors(sensors)), _) => crate::sensors::run(sensors),
+        (Some(Command::Completions { shell }), _) => {
+            use clap::CommandFactory as _;
+            let mut out = Vec::new();
+            clap_complete::generate(shell, &mut Args::command(), "bgc", &mut out);
+            write(None, &String::from_utf8_lossy(&out))
+        }
         (Some(Command::Causality { model, output }), _) => {
             let c = compile(&model, Derive::Everything, None)?;
             write(output.as_deref(), &bondgraph_codegen::text::causality(&c))?;
