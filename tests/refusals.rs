@@ -540,3 +540,27 @@ fn a_sample_where_a_law_has_no_root_is_flagged_not_guessed() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The bench with a torque sensor on the twist (`De zz_new on twist`): the shafts' ARRs no
+/// longer use the link's law, yet read its stiffness K inside the dead zone `w`, and the
+/// motor side's the gear's N inside the twist. The FSM marks the link there (it did not,
+/// with exit 0, and `bgc verify` failed it), and the shared N lists that ARR, so `bgc
+/// verify` passes.
+#[test]
+fn a_parameter_read_through_another_law_marks_its_component() {
+    let text = std::fs::read_to_string(root().join("models/backlash_bench.bg")).expect("bench")
+        + "De zz_new on twist\n";
+    let out = bgc_stdin(&["-"], text.as_bytes());
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let table = stdout(&out);
+    let link = table
+        .lines()
+        .find(|l| l.split_whitespace().take(2).eq(["link", "C"]))
+        .expect("link's row");
+    let cells: Vec<&str> = link.split_whitespace().collect();
+    // ARR1 (motor side) and ARR3 (load side) read K inside `w`, ARR2 is the link's law.
+    assert_eq!(&cells[4..7], ["1", "1", "1"], "{link}");
+    assert!(table.contains("N  gear Wl  ->  ARR1 ARR2 ARR3"), "{table}");
+    let verify = bgc_stdin(&["verify", "-"], text.as_bytes());
+    assert_eq!(code(&verify), 0, "{}", stdout(&verify));
+}

@@ -456,13 +456,19 @@ fn actuator(c: &Compiled, comp: &Component) -> Option<Handle<Input>> {
         .flatten()
 }
 
-/// The ARRs marked for the other components that own parameter `p`.
+/// Where a change of parameter `p`, which other components than `own` own too, can show:
+/// the FSM's `shared parameters` entry for it (their rows, and every ARR that reads it).
 fn shared_marks(c: &Compiled, own: Handle<Component>, p: Handle<Parameter>) -> BTreeSet<usize> {
-    c.components
+    let others = c
+        .components
         .iter()
         .filter(|(h, comp)| *h != own && comp.parameters.contains(&p))
-        .flat_map(|(_, comp)| comp.marks.iter().copied())
-        .collect()
+        .flat_map(|(_, comp)| comp.marks.iter().copied());
+    let shared = c
+        .shared_parameters()
+        .into_iter()
+        .filter(|s| s.parameter == p);
+    others.chain(shared.flat_map(|s| s.marks)).collect()
 }
 
 /// The plant and the residuals in one pool; `None` when the state equations hold loops whose

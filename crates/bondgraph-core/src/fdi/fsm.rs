@@ -325,6 +325,22 @@ pub fn arr_rows_indexed(
             }
             rows.extend(arr.lets.iter().filter_map(|l| let_row.get(l)));
             rows.extend(sensors.iter().filter_map(|s| node_row.get(s)));
+            // A component whose own parameter (no other component's) the residual depends on
+            // through another's law (the link's K inside the dead zone `w`, read where a
+            // torque sensor replaces the link's own equation) shows in it too: a change of
+            // that parameter moves it. A shared parameter's reach is the FSM's `shared
+            // parameters`, not a row's.
+            rows.extend((0..components.len()).filter(|&r| {
+                components[r].parameters.iter().any(|p| {
+                    params.contains(p)
+                        && depends.contains(p)
+                        && components
+                            .iter()
+                            .filter(|c| c.parameters.contains(p))
+                            .count()
+                            == 1
+                })
+            }));
             rows.into_iter()
                 .filter(|&r| survives(&components[r]))
                 .collect()

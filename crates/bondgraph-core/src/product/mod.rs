@@ -744,9 +744,13 @@ impl Compiled {
                 if components.len() < 2 {
                     return None;
                 }
+                // Their rows, and every ARR that reads it: a relation may read it through
+                // another component's law (the gear's ratio in the twist a dead zone reads).
+                let reading = (0..self.arrs.len()).filter(|&k| self.arr_reads(k, parameter));
                 let mut marks: Vec<usize> = components
                     .iter()
                     .flat_map(|&h| self.components[h].marks.iter().copied())
+                    .chain(reading)
                     .collect();
                 marks.sort_unstable();
                 marks.dedup();
@@ -757,6 +761,21 @@ impl Compiled {
                 })
             })
             .collect()
+    }
+
+    /// Whether ARR `k` reads `p`, in its relation, its auxiliary signals or its roots' laws.
+    fn arr_reads(&self, k: usize, p: Handle<Parameter>) -> bool {
+        let arr = &self.arrs[k];
+        let mut exprs = vec![arr.expr];
+        exprs.extend(
+            arr.auxiliaries
+                .iter()
+                .flat_map(|&a| self.auxiliaries[a].derivatives.iter().copied()),
+        );
+        exprs.extend(arr.roots.iter().map(|&r| self.roots[r].residual));
+        exprs
+            .iter()
+            .any(|&e| self.exprs.leaves(e).contains(&Symbol::Parameter(p)))
     }
 
     /// Whether any diagnostic is an error: some output was refused.
