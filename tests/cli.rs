@@ -231,7 +231,8 @@ fn simulate_writes_the_same_csv_every_time() {
     ]);
     assert_eq!(code(&unknown), 1);
     assert!(
-        stderr(&unknown).contains("`Rx` is not a parameter of `dc_motor`"),
+        stderr(&unknown).contains("`Rx` is not a parameter of `dc_motor`")
+            && stderr(&unknown).contains("did you mean `Re`?"),
         "{}",
         stderr(&unknown)
     );

@@ -85,15 +85,21 @@ pub struct Placement {
 /// Why [`place`] cannot answer.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum PlacementError {
-    /// A target named no component.
-    UnknownComponent(String),
+    /// A target named no component: the name, and the component it is likely a slip for.
+    UnknownComponent(String, Option<String>),
 }
 
 impl std::fmt::Display for PlacementError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            PlacementError::UnknownComponent(name) => {
+            PlacementError::UnknownComponent(name, None) => {
                 write!(f, "`{name}` is not a component of the model")
+            }
+            PlacementError::UnknownComponent(name, Some(near)) => {
+                write!(
+                    f,
+                    "`{name}` is not a component of the model (did you mean `{near}`?)"
+                )
             }
         }
     }
@@ -194,10 +200,11 @@ pub fn place(
         targets
             .iter()
             .map(|t| {
-                components
-                    .iter()
-                    .position(|c| &c.name == t)
-                    .ok_or_else(|| PlacementError::UnknownComponent(t.clone()))
+                components.iter().position(|c| &c.name == t).ok_or_else(|| {
+                    let names = components.iter().map(|c| c.name.as_str());
+                    let near = crate::graph::closest(t, names.collect::<Vec<_>>().into_iter());
+                    PlacementError::UnknownComponent(t.clone(), near.map(str::to_string))
+                })
             })
             .collect::<Result<_, _>>()?
     };
@@ -381,6 +388,13 @@ mod tests {
     #[test]
     fn an_unknown_target_is_named() {
         let e = place(&load("dc_motor.bg"), &["nope".to_string()], Goal::Isolable);
-        assert_eq!(e, Err(PlacementError::UnknownComponent("nope".into())));
+        assert_eq!(
+            e,
+            Err(PlacementError::UnknownComponent("nope".into(), None))
+        );
+        // A slip gets the component it is likely for.
+        let e = place(&load("dc_motor.bg"), &["Jn".to_string()], Goal::Isolable);
+        let near = Some("Jm".to_string());
+        assert_eq!(e, Err(PlacementError::UnknownComponent("Jn".into(), near)));
     }
 }

@@ -639,19 +639,29 @@ impl Builder<'_> {
     }
 
     fn undefined(&mut self, name: &Ident, what: &str) {
-        self.errors.push(
-            Diagnostic::error(
-                Code::Undefined,
-                name.span,
-                format!(
-                    "`{}` is not {} {what} of `{}`",
-                    name.name,
-                    article(what),
-                    self.c.name
-                ),
-            )
-            .with_label(format!("expected {} {what}", article(what))),
-        );
+        let c = self.c;
+        // The model's names a scenario can use, for "did you mean".
+        let names: Vec<&str> = (c.parameters.values().map(|p| p.name.as_str()))
+            .chain(c.inputs.values().map(|u| u.name.as_str()))
+            .chain(c.sensors.values().map(|s| s.name.as_str()))
+            .chain(c.states.values().map(|s| s.name.as_str()))
+            .collect();
+        let near = crate::graph::closest(&name.name, names.into_iter());
+        let mut d = Diagnostic::error(
+            Code::Undefined,
+            name.span,
+            format!(
+                "`{}` is not {} {what} of `{}`",
+                name.name,
+                article(what),
+                c.name
+            ),
+        )
+        .with_label(format!("expected {} {what}", article(what)));
+        if let Some(near) = near {
+            d = d.with_help(format!("did you mean `{near}`?"));
+        }
+        self.errors.push(d);
     }
 }
 
