@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{bgc, code, root, stderr, stdout};
+use common::{bgc, code, root, scratch, stderr, stdout};
 
 #[test]
 fn help_and_version() {
@@ -62,8 +62,7 @@ fn usage_errors_exit_2() {
 
 #[test]
 fn an_invalid_model_exits_1_and_writes_nothing() {
-    let dir = std::env::temp_dir().join(format!("bgc-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("cli");
     let bad = dir.join("bad.bg");
     std::fs::write(&bad, "model bad\nSe s = 1\ns -> r\n").expect("write");
     let out_file = dir.join("out.dot");
@@ -83,8 +82,7 @@ fn an_invalid_model_exits_1_and_writes_nothing() {
 
 #[test]
 fn output_goes_to_the_file_given_with_o() {
-    let dir = std::env::temp_dir().join(format!("bgc-cli-o-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("cli-o");
     let file = dir.join("bench.dot");
     let out = bgc(&[
         "models/backlash_bench.bg",
@@ -150,8 +148,7 @@ fn simplification_limits_are_options_and_what_they_skip_is_said() {
 /// its length and without deep recursion: 20,000 of them, as sums and as products.
 #[test]
 fn long_let_chains_neither_overflow_the_stack_nor_take_quadratic_time() {
-    let dir = std::env::temp_dir().join(format!("bgc-cli-lets-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("cli-lets");
     let base = std::fs::read_to_string(root().join("models/rlc_series.bg")).expect("model");
     for op in ["+", "*"] {
         let n = 20_000;
@@ -279,8 +276,7 @@ fn simulate_checks_the_duration_and_step_it_is_given() {
 /// `--plot` draws an SVG with a panel per signal; another extension is refused.
 #[test]
 fn simulate_plots_svg_only() {
-    let dir = std::env::temp_dir().join(format!("bgc-plot-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("plot");
     let svg = dir.join("run.svg").display().to_string();
     let args = |plot: &str| {
         bgc(&[
@@ -379,8 +375,7 @@ fn simulate_plots_svg_only() {
 /// otherwise, or a signal's column with a typo, is named in the error.
 #[test]
 fn records_with_other_separators_and_near_miss_columns() {
-    let dir = std::env::temp_dir().join(format!("bgc-separators-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("separators");
     let out = bgc(&[
         "simulate",
         "models/dc_motor.bg",
@@ -425,8 +420,7 @@ fn records_with_other_separators_and_near_miss_columns() {
 /// simulated records and in residuals alike.
 #[test]
 fn times_are_written_without_the_bits_sums_of_steps_add() {
-    let dir = std::env::temp_dir().join(format!("bgc-times-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("times");
     let record = dir.join("run.csv").display().to_string();
     let out = bgc(&[
         "simulate",
@@ -457,8 +451,7 @@ fn times_are_written_without_the_bits_sums_of_steps_add() {
 /// says where they are; `--calibrate` on that record sets a finite threshold from the rest.
 #[test]
 fn a_singular_relation_writes_no_nan_and_calibrates_on_the_rest() {
-    let dir = std::env::temp_dir().join(format!("bgc-singular-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("singular");
     let model = dir.join("singular.bg");
     std::fs::write(
         &model,
@@ -517,8 +510,7 @@ fn verify_prints_no_inf() {
 /// that a difference of two sample times holds.
 #[test]
 fn steps_in_messages_are_decimals() {
-    let dir = std::env::temp_dir().join(format!("bgc-steps-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("steps");
     let record = dir.join("uneven.csv");
     std::fs::write(
         &record,

@@ -8,7 +8,7 @@ use std::io::Write as _;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{bgc, code, root, stderr, stdout};
+use common::{bgc, code, root, scratch, stderr, stdout};
 
 /// Runs bgc on `text` given on standard input.
 fn bgc_stdin(args: &[&str], text: &[u8]) -> std::process::Output {
@@ -494,8 +494,7 @@ const SATURATING: &str = "model saturating\nparam m = 1.0\nparam k = 40\nparam b
 
 #[test]
 fn a_sample_where_a_law_has_no_root_is_flagged_not_guessed() {
-    let dir = std::env::temp_dir().join(format!("bgc-unsolved-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("unsolved");
     let model = dir.join("saturating.bg");
     std::fs::write(&model, SATURATING).expect("model");
     // At rest, F within the spring's range for a second, then far beyond it.

@@ -61,3 +61,10 @@ pub fn names_line_and_column(report: &str, file: &str) -> bool {
         number(parts.next()) && number(parts.next())
     })
 }
+
+/// A fresh directory for one test's files, named after the test and this process.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bgc-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
