@@ -3,14 +3,15 @@
 
 mod common;
 
-use common::{bgc, code, names_line_and_column, relative, stderr, stdout};
+use common::{bgc, code, names_line_and_column, relative, stdout};
 
 #[test]
 fn every_bad_model_is_rejected_with_a_located_diagnostic() {
     insta::glob!("bad/*.bg", |path| {
         let model = relative(path);
         let out = bgc(&["check", &model]);
-        let report = stderr(&out);
+        // As the user sees it, wrapped lines and all.
+        let report = String::from_utf8_lossy(&out.stderr).into_owned();
         assert_eq!(code(&out), 1, "{model}: {report}");
         assert!(
             stdout(&out).is_empty(),

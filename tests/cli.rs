@@ -122,9 +122,8 @@ fn simplification_limits_are_options_and_what_they_skip_is_said() {
     assert_eq!(code(&tiny), 0);
     assert_eq!(stdout(&tiny), stdout(&canonical));
     assert!(
-        stderr(&tiny).contains(
-            "warning: der(p_wheel) is shown in canonical form: it is larger than --egg-nodes"
-        ),
+        stderr(&tiny)
+            .contains("⚠ der(p_wheel) is shown in canonical form: it is larger than --egg-nodes"),
         "{}",
         stderr(&tiny)
     );
@@ -134,7 +133,9 @@ fn simplification_limits_are_options_and_what_they_skip_is_said() {
     let budget = bgc(&[model, "--emit", "json", "--egg-budget", "1"]);
     assert_eq!(code(&budget), 0);
     assert!(
-        stderr(&budget).contains("warning: 7 expressions, from ARR2 on, are shown in canonical form: --egg-budget was spent"),
+        stderr(&budget).contains(
+            "⚠ 7 expressions, from ARR2 on, are shown in canonical form: --egg-budget was spent"
+        ),
         "{}",
         stderr(&budget)
     );
@@ -264,7 +265,7 @@ fn simulate_checks_the_duration_and_step_it_is_given() {
         assert_ne!(code(&out), 0, "{extra:?}: {}", stdout(&out));
         assert!(stdout(&out).is_empty(), "{extra:?}: wrote {}", stdout(&out));
         assert!(
-            stderr(&out).contains("error:") && stderr(&out).contains(says),
+            stderr(&out).contains("bgc::usage") && stderr(&out).contains(says),
             "{extra:?}: {}",
             stderr(&out)
         );

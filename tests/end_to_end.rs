@@ -249,14 +249,9 @@ impl Drop for Case {
 }
 
 fn models() -> Vec<String> {
-    let mut files: Vec<String> = std::fs::read_dir(common::root().join("models"))
-        .expect("models")
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|f| f.ends_with(".bg"))
-        .collect();
-    files.sort();
-    files
+    (common::models().iter())
+        .map(|p| p.file_name().expect("name").to_string_lossy().into_owned())
+        .collect()
 }
 
 /// Every model, simulated with noise, raises no alarm against thresholds calibrated on

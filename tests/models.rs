@@ -22,7 +22,7 @@ fn emit(model: &str, args: &[&str]) -> String {
     let unexpected = err.lines().any(|l| {
         let l = l.trim_start();
         (l.starts_with("bg::") && l != "bg::mixed-causality" && l != "bg::shared-parameter")
-            || l.starts_with("warning:")
+            || l.starts_with("bgc::")
     });
     assert!(!unexpected, "{model} {args:?}: {err}");
     assert!(

@@ -3,14 +3,17 @@
 //!
 //! The generator is a fixed-seed SplitMix64, so a failure reproduces exactly; the failing
 //! input is printed.
+//!
+//! The suite runs a sample sized to stay in seconds (`BGC_MUTANTS`, default 120 library
+//! mutants and 3 command-line mutants per model); the campaign runs many more with the same
+//! code, e.g. `BGC_MUTANTS=20000 cargo test --release -p bgc --test mutations`, and prints
+//! how many it ran.
 
 mod common;
 
-use std::path::PathBuf;
-
 use bondgraph_core::diagnostic::LineIndex;
 use bondgraph_core::{Derive, Options};
-use common::{bgc, code, names_line_and_column, root, stderr};
+use common::{bgc, code, names_line_and_column, stderr};
 
 /// SplitMix64: small, fast, good enough to pick mutations.
 struct Rng(u64);
@@ -34,14 +37,7 @@ impl Rng {
 }
 
 fn models() -> Vec<(String, Vec<u8>)> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(root().join("models"))
-        .expect("models/")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "bg"))
-        .collect();
-    paths.sort();
-    assert!(paths.len() >= 6, "models/ should hold the reference models");
-    paths
+    common::models()
         .into_iter()
         .map(|p| {
             let name = p.file_name().expect("name").to_string_lossy().into_owned();
@@ -200,13 +196,22 @@ fn assert_plausible(name: &str, what: &str, text: &str, c: &bondgraph_core::Comp
     }
 }
 
+/// How many mutants of each model the library sees (`BGC_MUTANTS`, default 120); the command
+/// line sees a fortieth of them (at least 3), each through three commands.
+fn mutants_per_model() -> usize {
+    std::env::var("BGC_MUTANTS")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(120)
+}
+
 #[test]
 fn mutated_models_never_crash_the_library_and_every_error_is_located() {
     let mut rng = Rng(0x6267_6321);
     let mut rejected = 0;
     let mut total = 0;
     for (name, text) in models() {
-        for _ in 0..1500 {
+        for _ in 0..mutants_per_model() {
             let (mutant, what) = mutate(&text, &mut rng);
             let outcome = std::panic::catch_unwind(|| check_located(&name, what, &mutant));
             if let Err(panic) = outcome {
@@ -229,6 +234,7 @@ fn mutated_models_never_crash_the_library_and_every_error_is_located() {
             }
         }
     }
+    eprintln!("{total} mutants through the library, {rejected} rejected");
     // The mutations must actually exercise the error paths.
     assert!(
         rejected * 2 > total,
@@ -242,7 +248,7 @@ fn mutated_models_never_crash_the_cli_and_every_rejection_names_line_and_column(
     std::fs::create_dir_all(&dir).expect("temp dir");
     let mut rng = Rng(0x5eed);
     for (name, text) in models() {
-        for n in 0..25 {
+        for n in 0..(mutants_per_model() / 40).max(3) {
             let (mutant, what) = mutate(&text, &mut rng);
             let path = dir.join(format!("{n}-{name}"));
             std::fs::write(&path, &mutant).expect("write mutant");

@@ -6,7 +6,6 @@ mod common;
 
 use std::io::Write as _;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use common::{bgc, code, root, scratch, stderr, stdout};
 
@@ -109,7 +108,7 @@ fn a_nonlinear_algebraic_loop_is_held_implicitly_and_verify_goes_through_it() {
 }
 
 #[test]
-fn a_let_that_doubles_at_every_step_is_refused_within_a_second() {
+fn a_let_that_doubles_at_every_step_is_refused_before_it_is_expanded() {
     let mut text = String::from(
         "model deep\nparam a = 0.5\nparam R1 = 2\nparam C1 = 1\ninput U\nlet l0 = U\n",
     );
@@ -117,13 +116,9 @@ fn a_let_that_doubles_at_every_step_is_refused_within_a_second() {
         text.push_str(&format!("let l{i} = l{}*l{} + a\n", i - 1, i - 1));
     }
     text.push_str("MSe u = l199\nR r = R1\nC c = C1\nDf i on j\nu -> 1:j -> r, c\n");
-    let start = Instant::now();
+    // Expanded, the last `let` would hold 2^199 terms: the refusal names the first that
+    // passes the bound, so it is found from the sizes alone (no clock is asked).
     let out = bgc_stdin(&["-"], text.as_bytes());
-    assert!(
-        start.elapsed() < Duration::from_secs(1),
-        "{:?}",
-        start.elapsed()
-    );
     assert_eq!(code(&out), 1);
     let err = stderr(&out);
     assert!(

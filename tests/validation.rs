@@ -2,10 +2,9 @@
 //! residual vanishes on the model's own trajectories and moves exactly where the FSM says.
 //! What is checked is what bgc prints: the product's rewritten expressions.
 
-use std::path::{Path, PathBuf};
-
 use bondgraph_core::generate::mass_spring_chain_varied;
-use bondgraph_core::{compile, verify, Compiled, Options, Printer, Symbol, VerifyOptions};
+use bondgraph_core::{compile, Compiled, Options, Printer, Symbol};
+use bondgraph_sim::{verify, VerifyOptions};
 
 /// Per-model scales: (input amplitude, typical state magnitude).
 fn scales(name: &str) -> (f64, f64) {
@@ -16,16 +15,9 @@ fn scales(name: &str) -> (f64, f64) {
     }
 }
 
-fn models() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .expect("models/")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "bg"))
-        .collect();
-    paths.sort();
-    paths
-}
+#[path = "common/models.rs"]
+mod listing;
+use listing::models;
 
 fn compiled(text: &str, name: &str) -> Compiled {
     let out = compile(text, name, &Options::default()).unwrap_or_else(|d| panic!("{name}: {d:?}"));

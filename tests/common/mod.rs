@@ -2,6 +2,11 @@
 
 #![allow(dead_code)]
 
+mod models;
+
+#[allow(unused_imports)]
+pub use models::models;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
@@ -41,8 +46,23 @@ pub fn stdout(output: &Output) -> String {
 }
 
 /// Standard error as text.
+/// Standard error as text, with the lines miette wraps a message into joined again (a
+/// continuation line starts with `│` after the indent), so that a test can look for a phrase.
 pub fn stderr(output: &Output) -> String {
-    String::from_utf8_lossy(&output.stderr).into_owned()
+    let text = String::from_utf8_lossy(&output.stderr);
+    let mut out = String::with_capacity(text.len());
+    for line in text.split_inclusive('\n') {
+        let trimmed = line.trim_start();
+        match trimmed.strip_prefix("│ ") {
+            Some(rest) if line.len() - trimmed.len() == 2 && out.ends_with('\n') => {
+                out.pop();
+                out.push(' ');
+                out.push_str(rest);
+            }
+            _ => out.push_str(line),
+        }
+    }
+    out
 }
 
 /// The exit code; a signal or a panic (101) fails the test at the call site.

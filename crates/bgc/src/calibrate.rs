@@ -3,8 +3,10 @@
 
 use bondgraph::Reference;
 
-use crate::cli::Failure;
-use crate::residuals::{Data, Estimator, Generator, Integration};
+use bondgraph_interpreter::{Estimator, Generator, Integration};
+
+use crate::record::Data;
+use crate::report::Failure;
 
 /// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
 pub(crate) const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];

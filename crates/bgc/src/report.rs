@@ -1,6 +1,9 @@
-//! Core diagnostics shown with miette: file:line:col, the source line, what was expected.
+//! What bgc says on standard error, all through one miette renderer: the model's
+//! diagnostics (file:line:col, the source line, what was expected) and the command's own
+//! errors and warnings; and why a command stops without success.
 
 use std::fmt;
+use std::process::ExitCode;
 
 use bondgraph_core::diagnostic::{self, Code, Diagnostic, Diagnostics, Severity, Span};
 use bondgraph_core::{without_bom, Options, Output};
@@ -20,6 +23,96 @@ pub fn install_hook() {
                 .build(),
         )
     }));
+}
+
+/// Why bgc stops without success.
+pub(crate) enum Failure {
+    /// The model (or a record, a scenario) has errors, or an output was refused; they were
+    /// reported.
+    Invalid,
+    /// Arguments or files were wrong; the reason was reported.
+    Usage,
+}
+
+impl Failure {
+    /// The process exit code for this failure.
+    pub(crate) fn exit_code(&self) -> ExitCode {
+        match self {
+            Failure::Invalid => ExitCode::from(1),
+            Failure::Usage => ExitCode::from(2),
+        }
+    }
+}
+
+/// Reports a usage error (bad arguments, a file that cannot be read or written): exit 2.
+pub(crate) fn usage(message: impl fmt::Display) -> Failure {
+    say(Said::new(miette::Severity::Error, "bgc::usage", message));
+    Failure::Usage
+}
+
+/// Reports why a command refused its input (a record, a scenario, a failed check): exit 1.
+pub(crate) fn refused(message: impl fmt::Display) -> Failure {
+    say(Said::new(miette::Severity::Error, "bgc::refused", message));
+    Failure::Invalid
+}
+
+/// Reports what the user should know about an output that was still written.
+pub(crate) fn warn(message: impl fmt::Display) {
+    say(Said::new(
+        miette::Severity::Warning,
+        "bgc::warning",
+        message,
+    ));
+}
+
+/// Reports what a command chose or found, for the user to read (not a diagnostic).
+pub(crate) fn note(message: impl fmt::Display) {
+    eprintln!("note: {message}");
+}
+
+fn say(said: Said) {
+    eprintln!("{:?}", miette::Report::new(said));
+}
+
+/// A command's own error or warning, with no source to point into.
+struct Said {
+    severity: miette::Severity,
+    code: &'static str,
+    message: String,
+}
+
+impl Said {
+    fn new(severity: miette::Severity, code: &'static str, message: impl fmt::Display) -> Said {
+        Said {
+            severity,
+            code,
+            message: message.to_string(),
+        }
+    }
+}
+
+impl fmt::Debug for Said {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl fmt::Display for Said {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+impl std::error::Error for Said {}
+
+impl miette::Diagnostic for Said {
+    fn code<'a>(&'a self) -> Option<Box<dyn fmt::Display + 'a>> {
+        Some(Box::new(self.code))
+    }
+
+    fn severity(&self) -> Option<miette::Severity> {
+        Some(self.severity)
+    }
 }
 
 /// Compiles a model from raw bytes, printing every diagnostic; `None` if the model is invalid.

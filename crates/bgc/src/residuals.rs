@@ -11,10 +11,13 @@ use std::path::PathBuf;
 use bondgraph::{Episode, Threshold};
 use bondgraph_core::program::Stability;
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
-pub use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
+use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
 use crate::calibrate::{self, Walk};
-use crate::cli::{self, Failure};
+use crate::io;
+use crate::options::{RealiseArg, ResidualsArg};
+use crate::record::{Data, STEP_TOLERANCE};
+use crate::report::{self, Failure};
 
 /// `--estimator`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -27,7 +30,7 @@ pub(crate) enum EstimatorArg {
 
 /// What `bgc residuals` takes.
 #[derive(clap::Args, Debug)]
-pub struct ResidualArgs {
+pub(crate) struct ResidualArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
@@ -93,11 +96,11 @@ pub struct ResidualArgs {
     /// Which residuals to evaluate, as `bgc MODEL --residuals` derives them: one ARR per
     /// detector, `best` or `all`.
     #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
-    residuals: cli::ResidualsArg,
+    residuals: ResidualsArg,
     /// How the residuals are realised, as `bgc MODEL --realise`: integrated once where that
     /// lowers the derivatives they read, or as written.
     #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
-    realise: cli::RealiseArg,
+    realise: RealiseArg,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -108,19 +111,16 @@ pub struct ResidualArgs {
 }
 
 /// Runs `bgc residuals`.
-pub fn run(args: ResidualArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     if let Some(path) = &args.plot {
-        crate::plot::check_path(path).map_err(|e| {
-            eprintln!("error: {e}");
-            Failure::Usage
-        })?;
+        crate::plot::check_path(path).map_err(report::usage)?;
     }
     // The bound from parameter uncertainty is that of the relation as written.
     let realise = if args.adaptive {
         if args.realise.realise() != Realise::Direct {
-            eprintln!(
-                "note: --adaptive evaluates the ARRs as written (--realise direct): their bounds \
-                 from parameter uncertainty are derived for them"
+            report::note(
+                "--adaptive evaluates the ARRs as written (--realise direct): their bounds \
+                 from parameter uncertainty are derived for them",
             );
         }
         Realise::Direct
@@ -130,15 +130,17 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     // The expressions as `bgc MODEL --emit rust` and `bond_graph!` write them: which ARRs can
     // be integrated depends on the form they are written in, and the two must evaluate the
     // same residuals.
-    let c = cli::compile_with(
+    let c = io::compile_with(
         &args.model,
         Derive::Everything,
         Some(bondgraph_core::Limits::default()),
         (args.residuals.set(), realise),
     )?;
     if c.residual_code_refused() {
-        eprintln!("error: {}: no ARRs to evaluate", c.file_name);
-        return Err(Failure::Invalid);
+        return Err(report::refused(format!(
+            "{}: no ARRs to evaluate",
+            c.file_name
+        )));
     }
     let program = c.program();
     let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
@@ -149,21 +151,19 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                 .filter(|a| a.form == ResidualForm::Simulated)
                 .map(|a| a.name.as_str())
                 .collect();
-            eprintln!(
-                "note: {} (simulated): {}",
+            report::note(format!(
+                "{} (simulated): {}",
                 simulated.join(", "),
                 stability.meaning()
-            );
+            ));
         }
         _ => {}
     }
     let data_name = args.data.display().to_string();
-    let (_, bytes) = cli::read(&args.data)?;
+    let (_, bytes) = io::read(&args.data)?;
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
-    let data = Data::read(&bytes, &names, shortest).map_err(|e| {
-        eprintln!("error: {data_name}: {e}");
-        Failure::Invalid
-    })?;
+    let data = Data::read(&bytes, &names, shortest)
+        .map_err(|e| report::refused(format!("{data_name}: {e}")))?;
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
@@ -172,10 +172,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             estimator,
             integration: integration.to_vec(),
         };
-        Generator::new(&c, &program, params, &fit).map_err(|e| {
-            eprintln!("error: {e}");
-            Failure::Usage
-        })
+        Generator::new(&c, &program, params, &fit).map_err(report::usage)
     };
     // The kind of estimator, which `--calibrate` may choose with its window.
     let kind = std::cell::Cell::new(args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay));
@@ -195,30 +192,28 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
-        let (_, bytes) = cli::read(path)?;
-        let healthy = Data::read(&bytes, &names, shortest).map_err(|e| {
-            eprintln!("error: {name}: {e}");
-            Failure::Invalid
-        })?;
+        let (_, bytes) = io::read(path)?;
+        let healthy = Data::read(&bytes, &names, shortest)
+            .map_err(|e| report::refused(format!("{name}: {e}")))?;
         if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
-            eprintln!(
-                "error: {name}: its step ({} s) is not the record's ({} s)",
-                cli::seconds(healthy.step),
-                cli::seconds(data.step)
-            );
-            return Err(Failure::Invalid);
+            return Err(report::refused(format!(
+                "{name}: its step ({} s) is not the record's ({} s)",
+                io::seconds(healthy.step),
+                io::seconds(data.step)
+            )));
         }
         if !(0.0..1.0).contains(&args.false_alarm_rate) || !(0.0..=f64::MAX).contains(&args.margin)
         {
-            eprintln!("error: --false-alarm-rate must be in [0, 1) and --margin non-negative");
-            return Err(Failure::Usage);
+            return Err(report::usage(
+                "--false-alarm-rate must be in [0, 1) and --margin non-negative",
+            ));
         }
         if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
             window = calibrate::longest_steady_window(&|w| build(w, &integration), &healthy)?;
-            eprintln!(
-                "note: {name}: estimates over {window} samples, the longest window up to which \
+            report::note(format!(
+                "{name}: estimates over {window} samples, the longest window up to which \
                  no residual grows there"
-            );
+            ));
         }
         // Residuals linear in the signals hold on modulating functions' estimates at any
         // window: those compete with the fits.
@@ -239,11 +234,11 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                     &params,
                     args.margin,
                 )?;
-                eprintln!(
-                    "note: {name}: every residual is linear in the signals: estimates with what \
+                report::note(format!(
+                    "{name}: every residual is linear in the signals: estimates with what \
                      a fault of a fifth of a parameter moves most, in thresholds, for the \
                      parameter that moves least ({said})"
-                );
+                ));
                 let chosen;
                 (chosen, window) = match best {
                     Estimator::SavitzkyGolay { window, .. } => {
@@ -275,13 +270,13 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                     ),
                 })
                 .collect();
-            eprintln!(
-                "note: {name}: integrated residuals taken where their length is largest against \
+            report::note(format!(
+                "{name}: integrated residuals taken where their length is largest against \
                  their noise (of {} samples, or from the start where its noise is white plus a \
                  random walk): {}",
                 calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
                 said.join(", ")
-            );
+            ));
         }
         let calibrated = calibrate::thresholds(
             build(window, &integration)?,
@@ -299,11 +294,8 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
         }
     }
     if data.time.len() < window {
-        eprintln!(
-            "error: {data_name}: {} rows: the estimator's window of {window} samples needs at least {window}",
-            data.time.len()
-        );
-        return Err(Failure::Invalid);
+        return Err(report::refused(format!("{data_name}: {} rows: the estimator's window of {window} samples needs at least {window}",
+            data.time.len())));
     }
     let mut generator = build(window, &integration)?;
     if args.adaptive {
@@ -377,7 +369,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
                     _ => false,
                 };
             }
-            let at = cli::tidy_time(e.at, data.step);
+            let at = io::tidy_time(e.at, data.step);
             for (k, r) in e.residuals.iter().enumerate() {
                 if !r.is_finite() && e.unsolved.is_none() {
                     let entry = singular.entry(k).or_insert((0, at));
@@ -389,7 +381,7 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
             if let Some(slot) = e.unsolved {
                 let entry = unsolved
                     .entry(slot)
-                    .or_insert((0, cli::tidy_time(e.at, data.step)));
+                    .or_insert((0, io::tidy_time(e.at, data.step)));
                 entry.0 += 1;
             }
             estimates += 1;
@@ -407,26 +399,21 @@ pub fn run(args: ResidualArgs) -> Result<(), Failure> {
     named.report(&rows, &c);
     for (slot, (count, first)) in &unsolved {
         if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
-            eprintln!(
-                "warning: {data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are empty cells there, and the `unsolved` column names it"
-            );
+            report::warn(format!("{data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are empty cells there, and the `unsolved` column names it"));
         }
     }
     for (k, (count, first)) in &singular {
-        eprintln!(
-            "warning: {data_name}: {} is not a number at {count} estimates (the first at t = {first}): \
+        report::warn(format!(
+            "{data_name}: {} is not a number at {count} estimates (the first at t = {first}): \
              its relation is singular there (a division by a signal at zero, a law outside its \
              domain); those cells are empty and raise no alarm",
             c.arrs[*k].name
-        );
+        ));
     }
     // The residuals first: a plot that cannot be drawn leaves them written.
-    cli::write(args.output.as_deref(), &out)?;
+    io::write(args.output.as_deref(), &out)?;
     if let Some(path) = &args.plot {
-        drawn.draw(path, &c).map_err(|e| {
-            eprintln!("error: {e}");
-            Failure::Usage
-        })?;
+        drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
 }
@@ -510,11 +497,8 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
             Some((k, level)) => levels[k] = Some(level),
             None => {
                 let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
-                eprintln!(
-                    "error: --threshold `{g}`: expected ARR=LEVEL with ARR one of {} and LEVEL a non-negative number",
-                    names.join(", ")
-                );
-                return Err(Failure::Usage);
+                return Err(report::usage(format!("--threshold `{g}`: expected ARR=LEVEL with ARR one of {} and LEVEL a non-negative number",
+                    names.join(", "))));
             }
         }
     }
@@ -575,18 +559,18 @@ impl Chunk {
         for (k, &t) in self.time.iter().enumerate() {
             let span = k * n..(k + 1) * n;
             let on = &self.on[span.clone()];
-            cli::push_number(out, t);
+            io::push_number(out, t);
             for &r in &self.residuals[span.clone()] {
                 out.push(',');
                 // Not a number: the cell is empty, and standard error says where and why.
                 if r.is_finite() {
-                    cli::push_number(out, r);
+                    io::push_number(out, r);
                 }
             }
             for l in &self.levels[span] {
                 out.push(',');
                 if let Some(l) = *l {
-                    cli::push_number(out, l);
+                    io::push_number(out, l);
                 }
             }
             for &a in on {
@@ -656,12 +640,12 @@ impl Named {
         let shares: Vec<String> = (c.arrs.iter().zip(episode.shares()))
             .map(|(a, s)| format!("{} {:.1} %", a.name, 100.0 * s))
             .collect();
-        eprintln!(
-            "note: alarms from {first} s on: {} of the samples since (seen in alarm from \
+        report::note(format!(
+            "alarms from {first} s on: {} of the samples since (seen in alarm from \
              {} %); the components by how well a single fault of each explains them:",
             shares.join(", "),
             100.0 * Episode::SEEN
-        );
+        ));
         let fsm = rows.iter().map(|(n, s)| (*n, s.as_slice()));
         for (k, r) in episode.rank(fsm).iter().enumerate() {
             let why = match (r.unexplained, r.unseen) {
@@ -676,203 +660,4 @@ impl Named {
             eprintln!("  {:>2}  {}: {why}", k + 1, r.names.join(" "));
         }
     }
-}
-
-/// Recorded samples: the time and the columns asked for, checked.
-pub struct Data {
-    /// The time of each row.
-    pub time: Vec<f64>,
-    /// The step between rows.
-    pub step: f64,
-    /// One column per name asked for, in that order.
-    pub columns: Vec<Vec<f64>>,
-}
-
-/// Relative tolerance on the time step: rows must be this regular.
-const STEP_TOLERANCE: f64 = 1e-6;
-
-impl Data {
-    /// Reads CSV `bytes`, keeping `names` (and `t`); needs at least `window` rows.
-    pub fn read(bytes: &[u8], names: &[String], window: usize) -> Result<Data, String> {
-        let delimiter = delimiter(bytes);
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::Headers)
-            .delimiter(delimiter)
-            .from_reader(bytes);
-        let header = reader
-            .headers()
-            .map_err(|e| format!("cannot read the header: {e}"))?
-            .clone();
-        let find = |name: &str| header.iter().position(|h| h == name);
-        let missing = |name: &str, what: String| {
-            let near = bondgraph_core::closest(name, header.iter().collect::<Vec<_>>().into_iter());
-            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            format!(
-                "{what}{hint}; the header has {}",
-                header.iter().collect::<Vec<_>>().join(", ")
-            )
-        };
-        let t = find("t").ok_or_else(|| {
-            // A one-letter name has no near miss by edits; a time column by another name does.
-            let named = header
-                .iter()
-                .find(|h| h.to_lowercase().starts_with("time") || *h == "T");
-            let what = "no time column: the header needs a column named `t`";
-            match named {
-                Some(h) => format!("{what} (is `{h}` the time? rename it `t`)"),
-                None => missing("t", what.to_string()),
-            }
-        })?;
-        let mut at = vec![t];
-        for name in names {
-            at.push(find(name).ok_or_else(|| {
-                missing(
-                    name,
-                    format!("no column `{name}`: the ARRs read {}", names.join(", ")),
-                )
-            })?);
-        }
-        let column_names: Vec<&str> = std::iter::once("t")
-            .chain(names.iter().map(String::as_str))
-            .collect();
-        let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
-        let body = bytes.get(start..).unwrap_or_default();
-        let mut columns = parse_rows(body, &at, &column_names, delimiter)?;
-        let time = columns.remove(0);
-        let step = check_time(&time)?;
-        if time.len() < window {
-            return Err(format!(
-                "{} rows: the estimator's window of {window} samples needs at least {window}",
-                time.len()
-            ));
-        }
-        Ok(Data {
-            time,
-            step,
-            columns,
-        })
-    }
-}
-
-/// The rows of `body` (the CSV after its header, which was line 1), the cells at `at` of each
-/// as numbers, by column. A large record is parsed in two halves at once, split at a line
-/// end: parsing is a good part of `bgc residuals`' time, and a machine has two cores at
-/// least. A record with quotes, where a line end may sit inside a cell, is parsed in one go.
-fn parse_rows(
-    body: &[u8],
-    at: &[usize],
-    names: &[&str],
-    delimiter: u8,
-) -> Result<Vec<Vec<f64>>, String> {
-    let split = (body.len() > 1 << 20 && !body.contains(&b'"'))
-        .then(|| {
-            let middle = body.len() / 2;
-            body[middle..]
-                .iter()
-                .position(|&b| b == b'\n')
-                .map(|k| middle + k + 1)
-        })
-        .flatten();
-    let Some(split) = split else {
-        return parse_part(body, at, names, 2, delimiter);
-    };
-    let (first, second) = body.split_at(split);
-    let second_line = 2 + first.iter().filter(|&&b| b == b'\n').count();
-    let (head, tail) = std::thread::scope(|scope| {
-        let tail = scope.spawn(|| parse_part(second, at, names, second_line, delimiter));
-        let head = parse_part(first, at, names, 2, delimiter);
-        (head, tail.join())
-    });
-    // The first half's mistake comes first: it is on an earlier line.
-    let mut columns = head?;
-    let tail = tail.map_err(|_| "the parser of the record's second half failed".to_string())??;
-    for (column, rest) in columns.iter_mut().zip(tail) {
-        column.extend(rest);
-    }
-    Ok(columns)
-}
-
-/// The cell separator of a record: `,`, unless its header has none and is separated by `;`
-/// (what a spreadsheet writes where the decimal mark is a comma) or by tabs.
-fn delimiter(bytes: &[u8]) -> u8 {
-    let header = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
-    let has = |c: u8| header.contains(&c);
-    if has(b',') {
-        b','
-    } else if has(b';') {
-        b';'
-    } else if has(b'\t') {
-        b'\t'
-    } else {
-        b','
-    }
-}
-
-/// The rows of `part`, whose first line is `line` of the file.
-fn parse_part(
-    part: &[u8],
-    at: &[usize],
-    names: &[&str],
-    mut line: usize,
-    delimiter: u8,
-) -> Result<Vec<Vec<f64>>, String> {
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .delimiter(delimiter)
-        .from_reader(part);
-    let rows = part.iter().filter(|&&b| b == b'\n').count() + 1;
-    let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); at.len()];
-    // One record reused for every row: no allocation per row.
-    let mut record = csv::ByteRecord::new();
-    loop {
-        match reader.read_byte_record(&mut record) {
-            Ok(true) => {}
-            Ok(false) => break,
-            Err(e) => return Err(format!("line {line}: {e}")),
-        }
-        for ((column, &i), name) in columns.iter_mut().zip(at).zip(names) {
-            let cell = record.get(i).unwrap_or(b"");
-            let text = std::str::from_utf8(cell).unwrap_or("").trim();
-            let value = text
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| {
-                    format!(
-                        "line {line}, column `{name}`: `{}` is not a finite number",
-                        String::from_utf8_lossy(cell).trim()
-                    )
-                })?;
-            column.push(value);
-        }
-        line += 1;
-    }
-    Ok(columns)
-}
-
-/// The uniform step of `time`, or the first line where it is not.
-fn check_time(time: &[f64]) -> Result<f64, String> {
-    let [t0, t1, ..] = time else {
-        return Err(format!("{} rows: too few samples", time.len()));
-    };
-    let step = t1 - t0;
-    for (k, pair) in time.windows(2).enumerate() {
-        let d = pair[1] - pair[0];
-        let line = k + 3;
-        if d <= 0.0 {
-            return Err(format!(
-                "line {line}: time goes from {} to {}: it must increase",
-                cli::seconds(pair[0]),
-                cli::seconds(pair[1])
-            ));
-        }
-        if (d - step).abs() > STEP_TOLERANCE * step {
-            return Err(format!(
-                "line {line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
-                cli::seconds(d),
-                cli::seconds(step)
-            ));
-        }
-    }
-    Ok(step)
 }

@@ -7,11 +7,12 @@ use std::path::PathBuf;
 use bondgraph_core::{Derive, Goal, NamedClasses, Placement};
 use clap::ValueEnum;
 
-use crate::cli::{self, Failure};
+use crate::io;
+use crate::report::{self, Failure};
 
 /// `bgc sensors`' arguments.
 #[derive(clap::Args, Debug)]
-pub struct SensorArgs {
+pub(crate) struct SensorArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
@@ -37,13 +38,13 @@ enum GoalArg {
 }
 
 /// Runs `bgc sensors`.
-pub fn run(args: SensorArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: SensorArgs) -> Result<(), Failure> {
     // Validates the model and reports its diagnostics the way every command does.
-    let c = cli::compile(&args.model, Derive::Nothing, None)?;
+    let c = io::compile(&args.model, Derive::Nothing, None)?;
     if c.has_errors() {
         return Err(Failure::Invalid);
     }
-    let (_, bytes) = cli::read(&args.model)?;
+    let (_, bytes) = io::read(&args.model)?;
     let text = String::from_utf8_lossy(&bytes);
     let goal = match args.goal {
         GoalArg::Detectable => Goal::Detectable,
@@ -52,12 +53,11 @@ pub fn run(args: SensorArgs) -> Result<(), Failure> {
     let placement = match bondgraph_core::place_sensors(&text, &args.components, goal) {
         Ok(Ok(p)) => p,
         Ok(Err(e)) => {
-            eprintln!("error: {}: {e}", c.file_name);
-            return Err(Failure::Usage);
+            return Err(report::usage(format!("{}: {e}", c.file_name)));
         }
         Err(_) => return Err(Failure::Invalid),
     };
-    cli::write(args.output.as_deref(), &report(&c.name, &placement))
+    io::write(args.output.as_deref(), &report(&c.name, &placement))
 }
 
 fn classes(out: &mut String, title: &str, k: &NamedClasses) {

@@ -2,15 +2,16 @@
 
 use std::path::PathBuf;
 
-use bondgraph_core::{parse_scenario, Compiled, Derive, Simulation, Solver, Trajectory};
+use bondgraph_core::{Compiled, Derive};
+use bondgraph_sim::{parse_scenario, Simulation, Solver, Trajectory};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::cli::{self, Failure};
-use crate::report;
+use crate::io;
+use crate::report::{self, Failure};
 
 /// What `bgc simulate` takes.
 #[derive(clap::Args, Debug)]
-pub struct SimulateArgs {
+pub(crate) struct SimulateArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
@@ -53,14 +54,11 @@ enum SolverArg {
 }
 
 /// Runs `bgc simulate`.
-pub fn run(args: SimulateArgs) -> Result<(), Failure> {
+pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
     if let Some(path) = &args.plot {
-        crate::plot::check_path(path).map_err(|e| {
-            eprintln!("error: {e}");
-            Failure::Usage
-        })?;
+        crate::plot::check_path(path).map_err(report::usage)?;
     }
-    let c = cli::compile(&args.model, Derive::StateEquations, None)?;
+    let c = io::compile(&args.model, Derive::StateEquations, None)?;
     let (name, text) = scenario_text(&args)?;
     let (scenario, diagnostics) = parse_scenario(&text);
     report::print(&name, &text, &diagnostics);
@@ -68,11 +66,14 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
     override_settings(&mut scenario, &args);
     // The scenario's own settings were checked as it was read; the command line's are now.
     let wrong = scenario.check_settings();
-    if !wrong.is_empty() {
-        for w in wrong {
-            eprintln!("error: {name}: {w} (with --duration and --step as given)");
-        }
-        return Err(Failure::Usage);
+    let mut failure = None;
+    for w in wrong {
+        failure = Some(report::usage(format!(
+            "{name}: {w} (with --duration and --step as given)"
+        )));
+    }
+    if let Some(failure) = failure {
+        return Err(failure);
     }
     let simulation = Simulation::new(&c, &scenario).map_err(|d| {
         report::print(&name, &text, &d);
@@ -85,15 +86,12 @@ pub fn run(args: SimulateArgs) -> Result<(), Failure> {
                 bar.set_position((done * 1000.0) as u64);
             }
         })
-        .map_err(|e| {
-            eprintln!("error: {}: {e}", c.file_name);
-            Failure::Invalid
-        })?;
+        .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
     // The samples first: a plot that cannot be drawn leaves them written.
-    cli::write(args.output.as_deref(), &csv(&trajectory))?;
+    io::write(args.output.as_deref(), &csv(&trajectory))?;
     if let Some(path) = &args.plot {
         plot(path, &trajectory, &c, &scenario.fault_onsets())?;
     }
@@ -133,10 +131,7 @@ fn plot(
             marks: faults,
         })
         .collect();
-    crate::plot::draw(path, &t.values[0], &panels).map_err(|e| {
-        eprintln!("error: {e}");
-        Failure::Usage
-    })
+    crate::plot::draw(path, &t.values[0], &panels).map_err(report::usage)
 }
 
 /// `U0 [V]: armature voltage`.
@@ -155,11 +150,9 @@ fn title(name: &str, unit: Option<&str>, description: Option<&str>) -> String {
 fn scenario_text(args: &SimulateArgs) -> Result<(String, String), Failure> {
     let (mut name, mut text) = match &args.scenario {
         Some(path) => {
-            let (name, bytes) = cli::read(path)?;
-            let text = String::from_utf8(bytes).map_err(|_| {
-                eprintln!("error: `{name}` is not UTF-8 text");
-                Failure::Usage
-            })?;
+            let (name, bytes) = io::read(path)?;
+            let text = String::from_utf8(bytes)
+                .map_err(|_| report::usage(format!("`{name}` is not UTF-8 text")))?;
             (name, text)
         }
         None => ("<command line>".to_string(), String::new()),
@@ -179,7 +172,7 @@ fn scenario_text(args: &SimulateArgs) -> Result<(String, String), Failure> {
     Ok((name, text))
 }
 
-fn override_settings(s: &mut bondgraph_core::Scenario, args: &SimulateArgs) {
+fn override_settings(s: &mut bondgraph_sim::Scenario, args: &SimulateArgs) {
     if let Some(d) = args.duration {
         s.duration = d;
     }
@@ -227,9 +220,9 @@ pub fn csv(t: &Trajectory) -> String {
         for (i, column) in t.values.iter().enumerate() {
             if i > 0 {
                 out.push(',');
-                cli::push_number(&mut out, column[k]);
+                io::push_number(&mut out, column[k]);
             } else {
-                cli::push_number(&mut out, cli::tidy_time(column[k], step));
+                io::push_number(&mut out, io::tidy_time(column[k], step));
             }
         }
         out.push('\n');

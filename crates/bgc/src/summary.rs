@@ -3,7 +3,8 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use bondgraph_core::{Compiled, NodeClass, Verification};
+use bondgraph_core::{Compiled, NodeClass};
+use bondgraph_sim::Verification;
 
 /// The summary of a model: counts by kind, then parameters and inputs.
 pub fn check(c: &Compiled) -> String {

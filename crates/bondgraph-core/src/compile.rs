@@ -3,7 +3,7 @@
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::display::Unsimplified;
 use crate::fdi::ResidualSet;
-use crate::graph::{first_too_large, MAX_EXPANDED};
+use crate::graph::{first_too_large, load, MAX_EXPANDED};
 use crate::pipeline::analyse;
 use crate::product::{build, realise, Compiled};
 use crate::symbolic::rewrite::Limits;
@@ -68,7 +68,7 @@ pub struct Output {
 /// warnings and whatever a stage could not derive (then [`Compiled::has_errors`]).
 pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Output, Diagnostics> {
     let text = without_bom(source);
-    let (graph, mut diagnostics) = crate::load(text);
+    let (graph, mut diagnostics) = load(text);
     let Some(model) = graph else {
         return Err(diagnostics);
     };

@@ -82,7 +82,7 @@ mod tests {
                 (n, mass_spring_chain_varied(n, 5)),
             ]
         }) {
-            let (graph, diagnostics) = crate::load(&text);
+            let (graph, diagnostics) = crate::graph::load(&text);
             let graph = graph.unwrap_or_else(|| panic!("{diagnostics:#?}"));
             let counts = graph.counts();
             assert_eq!(counts.elements, 3 * stages + 1);

@@ -17,10 +17,9 @@ mod graph;
 mod pipeline;
 mod product;
 pub mod program;
-mod sim;
+mod state_space;
 mod symbolic;
 mod syntax;
-mod verify;
 
 pub use compile::{compile, without_bom, Derive, Options, Output, Realise};
 pub use display::Unsimplified;
@@ -30,25 +29,13 @@ pub use fdi::placement::{Goal, NamedClasses, NewDetector, Placement, PlacementEr
 pub use fdi::ResidualSet;
 pub use graph::closest;
 pub use product::*;
-pub use sim::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
-#[cfg(feature = "simulate")]
-pub use sim::{Simulation, SimulationError, Trajectory};
+pub use symbolic::hash::FastMap;
 pub use symbolic::rewrite::{Limits, Stop};
-pub use symbolic::{children, Evaluator, ExprId, LeafKind, Node, Pool, Printer, Tape};
-pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};
+pub use symbolic::{children, Derivatives, Evaluator, ExprId, LeafKind, Node, Pool, Printer, Tape};
+pub use syntax::ast::{AstExpr, Ident};
+pub use syntax::parse_expr;
 
 use diagnostic::Diagnostics;
-use graph::BondGraph;
-
-/// Parses, lowers and validates a model; the graph is `None` when any error was found.
-/// Diagnostics (warnings too) come sorted by position.
-fn load(text: &str) -> (Option<BondGraph>, Diagnostics) {
-    let (file, mut diagnostics) = syntax::parse(text);
-    let graph = graph::lower(&file, &mut diagnostics);
-    diagnostics.sort();
-    let graph = graph.filter(|_| !diagnostics.has_errors());
-    (graph, diagnostics)
-}
 
 /// Where to add detectors so that `targets` (component names; all when empty) reach `goal`:
 /// the second front door, for `bgc sensors`. `Err` holds the diagnostics of a model that is
@@ -58,7 +45,7 @@ pub fn place_sensors(
     targets: &[String],
     goal: Goal,
 ) -> Result<Result<Placement, PlacementError>, Diagnostics> {
-    let (model, diagnostics) = load(without_bom(source));
+    let (model, diagnostics) = graph::load(without_bom(source));
     match model {
         Some(model) if !diagnostics.has_errors() => {
             Ok(fdi::placement::place(&model, targets, goal))
@@ -99,7 +86,7 @@ impl CandidateSet {
 /// it, above [`MAX_DERIVATIONS`] classes).
 #[doc(hidden)]
 pub fn candidate_residuals(source: &str) -> Option<CandidateSet> {
-    let (model, diagnostics) = load(source);
+    let (model, diagnostics) = graph::load(source);
     let model = model.filter(|_| !diagnostics.has_errors())?;
     let (list, components) = pipeline::candidate_list(&model);
     Some(CandidateSet { list, components })
@@ -109,7 +96,7 @@ pub fn candidate_residuals(source: &str) -> Option<CandidateSet> {
 /// diagnosis equations and the classes, no ARR derived.
 #[doc(hidden)]
 pub fn structural_classes(source: &str) -> Option<usize> {
-    let (model, diagnostics) = load(source);
+    let (model, diagnostics) = graph::load(source);
     let model = model.filter(|_| !diagnostics.has_errors())?;
     let system = causality::equations::build(&model, causality::Mode::Diagnosis);
     let components = fdi::components(&model);

@@ -8,7 +8,7 @@ use crate::fdi::simulated::{self, Simulated};
 use crate::fdi::Component;
 use crate::fdi::{diagnose, Diagnosis, Fsm};
 use crate::graph::BondGraph;
-use crate::sim::{state_space_of, StateSpace};
+use crate::state_space::{state_space_of, StateSpace};
 
 /// What the stages derived from a model; the product is built from it.
 pub(crate) struct Analysis<'m> {

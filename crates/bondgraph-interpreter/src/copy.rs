@@ -4,7 +4,7 @@ use bondgraph::Replay;
 use bondgraph_core::program::{CopyRates, Fill, Leaf, Program};
 use bondgraph_core::Tape;
 
-use crate::generator::fold;
+use crate::fold::fold;
 
 /// The copy of the model, stepped on the raw inputs as the generated code steps it.
 pub(crate) struct CopyRun {

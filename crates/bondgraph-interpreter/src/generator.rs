@@ -2,10 +2,11 @@
 
 use bondgraph::{Differentiator, EstimatorError, Reference, RootFinder, Trapezoid};
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Source};
-use bondgraph_core::{Compiled, Pool, Tape};
+use bondgraph_core::{Compiled, Tape};
 
 use crate::copy::CopyRun;
 use crate::fit::Fit;
+use crate::fold::tape;
 
 /// What one channel of the bank is fed from the raw samples.
 enum Feed {
@@ -69,26 +70,6 @@ pub struct Estimate<'g> {
     /// The slot of the first root not found at this instant (the residuals that read it are
     /// not numbers), if any.
     pub unsolved: Option<usize>,
-}
-
-/// `roots` of `code` in a pool of their own, with the parameters folded to `params`.
-pub(crate) fn fold(code: &Pool<Leaf>, roots: &[Code], params: &[f64]) -> (Pool<Leaf>, Vec<Code>) {
-    let mut pool = Pool::default();
-    let roots = (roots.iter())
-        .map(|&r| {
-            pool.import_from(code, r, |p: &mut Pool<Leaf>, l| match l {
-                Leaf::Parameter(k) => p.num(params.get(k.index()).copied().unwrap_or(f64::NAN)),
-                other => p.leaf(other),
-            })
-        })
-        .collect();
-    (pool, roots)
-}
-
-/// `roots` of `code` as one tape, with the parameters folded to `params`.
-fn tape(code: &Pool<Leaf>, roots: &[Code], params: &[f64]) -> Tape<Leaf> {
-    let (pool, roots) = fold(code, roots, params);
-    Tape::new(&pool, &roots)
 }
 
 impl Generator {

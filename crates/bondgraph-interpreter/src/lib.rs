@@ -5,6 +5,7 @@
 
 mod copy;
 mod fit;
+mod fold;
 mod generator;
 
 pub use fit::{Estimator, Fit, Integration};

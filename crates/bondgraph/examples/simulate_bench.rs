@@ -5,7 +5,8 @@
 //!
 //! `cargo run -p bondgraph --example simulate_bench > bench.csv`
 
-use bondgraph_core::{compile, parse_scenario, Options, Simulation};
+use bondgraph_core::{compile, Options};
+use bondgraph_sim::{parse_scenario, Simulation};
 
 /// Tight enough that the record is exact to far below the residuals.
 const SCENARIO: &str = "duration 8\nstep 0.005\ntolerance 1e-12\n\

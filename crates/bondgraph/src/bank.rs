@@ -1,8 +1,8 @@
 //! Several signals sampled together, estimated together.
 
 use crate::differentiate::{check_fit, fit_weights};
+use crate::differentiate::{Differentiator, EstimatorError};
 use crate::window::Window;
-use crate::{Differentiator, EstimatorError};
 
 /// Estimates `C` signals sampled at the same instants: each sample is one value per signal,
 /// each estimate `out[k][c]` the `k`-th derivative of signal `c`, for `k` up to

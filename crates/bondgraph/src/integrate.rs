@@ -1,6 +1,6 @@
 //! Integrals of sampled signals from the start of the record.
 
-use crate::Differentiator;
+use crate::differentiate::Differentiator;
 
 /// The trapezoidal rule over irregular or regular samples: exact for signals linear between
 /// samples, error `h² T max|x''| / 12` over a record of length `T` at step `h`.

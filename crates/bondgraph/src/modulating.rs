@@ -1,8 +1,8 @@
 //! Derivatives by modulating functions: integration by parts against a smooth window.
 
 use crate::differentiate::dot;
+use crate::differentiate::{Differentiator, EstimatorError};
 use crate::window::Window;
-use crate::{Differentiator, EstimatorError};
 
 /// Estimates a signal's derivatives as `∫ φ(s) x⁽ᵏ⁾ ds = (−1)ᵏ ∫ φ⁽ᵏ⁾(s) x ds` over the last
 /// `window` samples, with `φ(s) = sᵃ (T − s)ᵃ` (`T` the window's span) normalised to unit

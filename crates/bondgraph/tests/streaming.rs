@@ -20,7 +20,8 @@
 use std::collections::HashMap;
 
 use bondgraph::SavitzkyGolay;
-use bondgraph_core::{compile, parse_scenario, Compiled, Options, Realise, Simulation};
+use bondgraph_core::{compile, Compiled, Options, Realise};
+use bondgraph_sim::{parse_scenario, Simulation};
 
 mod direct {
     bondgraph::bond_graph!("../../models/backlash_bench.bg", realise = direct);

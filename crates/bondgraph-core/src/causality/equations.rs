@@ -5,7 +5,7 @@ use std::collections::{BTreeSet, HashMap};
 
 use petgraph::Direction::{Incoming, Outgoing};
 
-use super::Mode;
+use super::mode::Mode;
 use crate::expr::{BinOp, Expr};
 use crate::graph::{
     BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,

@@ -5,23 +5,17 @@
 //! sources of their measured signal: for ARRs). See [`solve`] for the order of assignment.
 
 pub mod equations;
+mod mode;
 pub mod report;
 pub mod solve;
+
+pub use mode::Mode;
 
 use equations::{Relation, System, Var, VarId};
 use solve::{Solved, Use};
 
 use crate::graph::{BondGraph, BondId, BondKind, NodeId, NodeKind};
 use crate::symbolic::ExprId;
-
-/// Which causality storage elements should take.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Mode {
-    /// Integral causality, detectors as outputs: for simulation.
-    Integral,
-    /// Derivative causality, detectors inverted: for diagnosis.
-    Diagnosis,
-}
 
 /// The causality a storage element took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -14,7 +14,7 @@
 use std::collections::VecDeque;
 
 use super::equations::{Equation, Relation, System, VarId, ARGUMENT};
-use super::Mode;
+use super::mode::Mode;
 use crate::graph::{BondGraph, ElementKind, NodeKind};
 use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Leaf, Pool};
 

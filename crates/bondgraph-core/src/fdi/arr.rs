@@ -300,7 +300,7 @@ mod tests {
     /// The highest derivative each ARR reads, with its auxiliary signals put back, after
     /// checking that it reads its own detector's neighbours only.
     fn orders(text: &str) -> Vec<u32> {
-        let (model, diagnostics) = crate::load(text);
+        let (model, diagnostics) = crate::graph::load(text);
         let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
         let d = diagnose(&model);
         assert!(d.problems.is_empty(), "{:?}", d.problems);

@@ -20,7 +20,8 @@ use std::collections::{BTreeSet, HashMap};
 use petgraph::Direction;
 
 use super::arr::{diagnose_freeing, diagnose_in, Diagnosis};
-use super::fsm::{arr_rows_indexed, Component, ComponentKind, RowIndex};
+use super::component::{Component, ComponentKind};
+use super::fsm::{arr_rows_indexed, RowIndex};
 use super::isolability::Classes;
 use super::subsets::for_each_subset;
 use crate::causality::equations::Equation;

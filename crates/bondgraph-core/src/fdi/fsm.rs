@@ -3,42 +3,10 @@
 use std::collections::{BTreeSet, HashMap};
 
 use super::arr::Diagnosis;
+use super::component::{components, Component, ComponentKind};
 use super::sensitivity::dependences;
-use crate::graph::{
-    BondGraph, DetectorKind, ElementKind, LetId, NodeId, NodeKind, ParamId, Signal, SignalExpr,
-};
+use crate::graph::{BondGraph, LetId, NodeId};
 use crate::symbolic::Leaf;
-
-/// What kind of component a row is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ComponentKind {
-    /// An element (a source is an actuator).
-    Element(ElementKind),
-    /// A detector (a sensor).
-    Detector(DetectorKind),
-    /// A `let` with parameters of its own that modulates elements (the bench's backlash `w`).
-    Modulation,
-}
-
-/// A component that can fail.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Component {
-    /// Its name.
-    pub name: String,
-    /// What it is.
-    pub kind: ComponentKind,
-    /// The node, for elements and detectors.
-    pub node: Option<NodeId>,
-    /// The `let`, for modulations.
-    pub modulation: Option<LetId>,
-    /// The parameters that belong to it: those its law uses directly (for a modulation, those
-    /// no element law uses directly).
-    pub parameters: Vec<ParamId>,
-    /// Every parameter its law depends on, through `let`s too.
-    pub all_parameters: Vec<ParamId>,
-    /// The signals it applies or measures: a source's inputs and `let`s, a detector's name.
-    pub signals: Vec<String>,
-}
 
 /// One row of the matrix.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,165 +31,6 @@ pub struct Fsm {
     pub rows: Vec<Row>,
     /// The classes every residual the equations allow reaches (by row).
     pub possible: super::isolability::Classes,
-}
-
-/// The parameters each `let` uses, directly or through other `let`s, computed once in
-/// dependency order (so a chain of `let`s costs its length, not its length squared).
-fn let_parameters(model: &BondGraph) -> Vec<BTreeSet<ParamId>> {
-    let mut deep: Vec<BTreeSet<ParamId>> = vec![BTreeSet::new(); model.lets.len()];
-    for &l in &model.let_order {
-        let mut own = BTreeSet::new();
-        params_of(&model.lets[l.0 as usize].value, Some(&deep), &mut own);
-        deep[l.0 as usize] = own;
-    }
-    deep
-}
-
-/// Whether each `let` is a constant: it reads parameters and numbers only, through other
-/// `let`s too (in dependency order, so each is decided after those it reads).
-fn constant_lets(model: &BondGraph) -> Vec<bool> {
-    let mut constant = vec![false; model.lets.len()];
-    for &l in &model.let_order {
-        let mut only_parameters = true;
-        model.lets[l.0 as usize]
-            .value
-            .for_each_leaf(&mut |s| match *s {
-                Signal::Param(_) => {}
-                Signal::Let(m) => only_parameters &= constant[m.0 as usize],
-                _ => only_parameters = false,
-            });
-        constant[l.0 as usize] = only_parameters;
-    }
-    constant
-}
-
-/// The parameters `expr` names, and with `deep` those of the `let`s it uses.
-fn params_of(expr: &SignalExpr, deep: Option<&[BTreeSet<ParamId>]>, out: &mut BTreeSet<ParamId>) {
-    expr.for_each_leaf(&mut |s| match *s {
-        Signal::Param(p) => {
-            out.insert(p);
-        }
-        Signal::Let(l) => {
-            if let Some(set) = deep.and_then(|d| d.get(l.0 as usize)) {
-                out.extend(set.iter().copied());
-            }
-        }
-        _ => {}
-    });
-}
-
-fn lets_of(expr: &SignalExpr) -> BTreeSet<LetId> {
-    let mut out = BTreeSet::new();
-    expr.for_each_leaf(&mut |s| {
-        if let Signal::Let(l) = s {
-            out.insert(*l);
-        }
-    });
-    out
-}
-
-fn signal_names(model: &BondGraph, expr: &SignalExpr) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    expr.for_each_leaf(&mut |s| {
-        if matches!(
-            s,
-            Signal::Input(_) | Signal::Sensor(_) | Signal::Let(_) | Signal::Time
-        ) {
-            let name = model.signal_name(*s).to_string();
-            if !out.contains(&name) {
-                out.push(name);
-            }
-        }
-    });
-    out
-}
-
-/// The components of a model, in row order.
-pub fn components(model: &BondGraph) -> Vec<Component> {
-    let mut out = Vec::new();
-    let mut element_params = BTreeSet::new();
-    let mut modulating = BTreeSet::new();
-    let deep = let_parameters(model);
-    let constant = constant_lets(model);
-    for id in model.nodes() {
-        let node = model.node(id);
-        if let NodeKind::Element(kind, law) = &node.kind {
-            let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
-            params_of(law.expr(), None, &mut direct);
-            params_of(law.expr(), Some(&deep), &mut all);
-            // A constant `let` the law reads is its modulus written apart (`let Ctank =
-            // A/(rho*g)`, `C tank = Ctank`): its parameters are the element's.
-            for l in lets_of(law.expr())
-                .into_iter()
-                .filter(|l| constant[l.0 as usize])
-            {
-                direct.extend(deep[l.0 as usize].iter().copied());
-            }
-            element_params.extend(direct.iter().copied());
-            let read = deep_lets(model, law.expr()).into_iter();
-            modulating.extend(read.filter(|l| !constant[l.0 as usize]));
-            let signals = if kind.is_source() || kind.is_modulated() {
-                signal_names(model, law.expr())
-            } else {
-                Vec::new()
-            };
-            out.push(Component {
-                name: node.name.clone(),
-                kind: ComponentKind::Element(*kind),
-                node: Some(id),
-                modulation: None,
-                parameters: direct.into_iter().collect(),
-                all_parameters: all.into_iter().collect(),
-                signals,
-            });
-        }
-    }
-    for l in modulating {
-        let value = &model.lets[l.0 as usize].value;
-        let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
-        params_of(value, None, &mut direct);
-        params_of(value, Some(&deep), &mut all);
-        let own: Vec<ParamId> = direct.difference(&element_params).copied().collect();
-        if own.is_empty() {
-            continue;
-        }
-        out.push(Component {
-            name: model.lets[l.0 as usize].name.clone(),
-            kind: ComponentKind::Modulation,
-            node: None,
-            modulation: Some(l),
-            parameters: own,
-            all_parameters: all.into_iter().collect(),
-            signals: signal_names(model, value),
-        });
-    }
-    for id in model.nodes() {
-        let node = model.node(id);
-        if let NodeKind::Detector(kind) = node.kind {
-            out.push(Component {
-                name: node.name.clone(),
-                kind: ComponentKind::Detector(kind),
-                node: Some(id),
-                modulation: None,
-                parameters: Vec::new(),
-                all_parameters: Vec::new(),
-                signals: vec![node.name.clone()],
-            });
-        }
-    }
-    out
-}
-
-/// Every `let` an expression uses, through other `let`s too.
-fn deep_lets(model: &BondGraph, expr: &SignalExpr) -> BTreeSet<LetId> {
-    let mut out = BTreeSet::new();
-    let mut stack: Vec<LetId> = lets_of(expr).into_iter().collect();
-    while let Some(l) = stack.pop() {
-        if out.insert(l) {
-            stack.extend(lets_of(&model.lets[l.0 as usize].value));
-        }
-    }
-    out
 }
 
 /// For each ARR of `diagnosis`, the rows of `components` whose fault it can show, in
@@ -404,7 +213,7 @@ mod tests {
         let text = "model tank\nparam A = 0.01\nparam rho = 1000\nparam g = 9.81\n\
             param R1 = 1e7\ninput Q\nlet Ctank = A/(rho*g)\nSf pump = Q\nC tank = Ctank\n\
             R valve = R1\nDe p on n\npump -> 0:n -> tank, valve\n";
-        let (model, diagnostics) = crate::load(text);
+        let (model, diagnostics) = crate::graph::load(text);
         let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
         let rows = components(&model);
         let names: Vec<&str> = rows.iter().map(|c| c.name.as_str()).collect();
@@ -415,7 +224,7 @@ mod tests {
             .collect();
         assert_eq!(params, ["A", "rho", "g"]);
         let bench = include_str!("../../../../models/backlash_bench.bg");
-        let (model, _) = crate::load(bench);
+        let (model, _) = crate::graph::load(bench);
         let rows = components(&model.expect("the bench"));
         assert!(rows.iter().any(|c| c.name == "w" && c.modulation.is_some()));
     }

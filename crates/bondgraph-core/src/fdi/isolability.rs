@@ -12,8 +12,8 @@
 
 use std::collections::HashMap;
 
+use super::component::Component;
 use super::dominators;
-use super::fsm::Component;
 use super::structure::{Eq, Structure};
 use crate::causality::equations::{Equation, Relation, System};
 use crate::graph::{LetId, NodeId};
@@ -375,10 +375,10 @@ mod tests {
     fn check(file: &str) -> (usize, usize) {
         let path = format!("{}/../../models/{file}", env!("CARGO_MANIFEST_DIR"));
         let text = std::fs::read_to_string(&path).expect("model");
-        let (model, diagnostics) = crate::load(&text);
+        let (model, diagnostics) = crate::graph::load(&text);
         let model = model.unwrap_or_else(|| panic!("{file}: {diagnostics:?}"));
         let causal = assign(&model, Mode::Diagnosis);
-        let components = super::super::fsm::components(&model);
+        let components = super::super::component::components(&model);
         let (s, faults) = fault_structure(&causal.system, &components);
         let fast = classes(&s, &faults);
         let (slow, count) = brute_force(&s, &faults);
@@ -395,10 +395,10 @@ mod tests {
             "{}/../../models/backlash_bench.bg",
             env!("CARGO_MANIFEST_DIR")
         );
-        let (model, _) = crate::load(&std::fs::read_to_string(path).expect("model"));
+        let (model, _) = crate::graph::load(&std::fs::read_to_string(path).expect("model"));
         let model = model.expect("bench");
         let causal = assign(&model, Mode::Diagnosis);
-        let components = super::super::fsm::components(&model);
+        let components = super::super::component::components(&model);
         let (s, faults) = fault_structure(&causal.system, &components);
         let row = |name: &str| components.iter().position(|c| c.name == name).expect(name);
         let fault_var = |name: &str| s.vars(faults[row(name)])[0];
@@ -438,10 +438,10 @@ mod chain {
 
     fn chain_classes(stages: usize, check: bool) -> Classes {
         let text = crate::generate::mass_spring_chain_varied(stages, 5);
-        let (model, diagnostics) = crate::load(&text);
+        let (model, diagnostics) = crate::graph::load(&text);
         let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
         let causal = assign(&model, Mode::Diagnosis);
-        let components = super::super::fsm::components(&model);
+        let components = super::super::component::components(&model);
         let (s, faults) = fault_structure(&causal.system, &components);
         let c = classes(&s, &faults);
         if check {

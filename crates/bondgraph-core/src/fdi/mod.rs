@@ -4,6 +4,7 @@ mod arr;
 pub mod auxiliary;
 mod basis;
 pub mod candidates;
+pub mod component;
 mod dominators;
 pub mod eliminate;
 mod fsm;
@@ -18,4 +19,5 @@ mod subsets;
 
 pub use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;
-pub use fsm::{components, Component, ComponentKind, Fsm, RowIndex};
+pub use component::{components, Component, ComponentKind};
+pub use fsm::{Fsm, RowIndex};

@@ -11,7 +11,7 @@
 
 use std::collections::BTreeSet;
 
-use super::fsm::{components, Component};
+use super::component::{components, Component};
 use super::isolability::{classes, fault_structure, Classes};
 use super::structure::Eq;
 use super::subsets::for_each_subset;
@@ -308,7 +308,7 @@ mod tests {
     fn load(file: &str) -> BondGraph {
         let path = format!("{}/../../models/{file}", env!("CARGO_MANIFEST_DIR"));
         let text = std::fs::read_to_string(path).expect("model");
-        let (model, d) = crate::load(&text);
+        let (model, d) = crate::graph::load(&text);
         model.unwrap_or_else(|| panic!("{d:?}"))
     }
 

@@ -243,7 +243,7 @@ mod tests {
     /// written three times; and a parameter tiny in its unit (b = 2e-11) is still seen.
     #[test]
     fn a_parameter_that_cancels_is_not_a_dependence() {
-        let (model, d) = crate::load(
+        let (model, d) = crate::graph::load(
             "model t\nparam a = 3\nparam b = 2e-11\ninput U\nSe s = U\nR r = a\nR q = b\nu -> 1:j -> r, q\n"
                 .replace("u ->", "s ->")
                 .as_str(),

@@ -11,11 +11,12 @@
 
 use std::collections::{BTreeSet, HashMap};
 
-use super::fsm::{Component, ComponentKind, RowIndex};
+use super::component::{Component, ComponentKind};
+use super::fsm::RowIndex;
 use crate::causality::equations::Var;
 use crate::causality::Causal;
 use crate::graph::{BondGraph, LetId, NodeId, ParamId};
-use crate::sim::StateSpace;
+use crate::state_space::StateSpace;
 use crate::symbolic::{ExprId, Leaf};
 
 /// One detector's simulated residual.
@@ -152,11 +153,11 @@ mod tests {
     use super::*;
     use crate::causality::{assign, Mode};
     use crate::fdi::components;
-    use crate::sim::state_space_of;
+    use crate::state_space::state_space_of;
 
     /// The rows each detector's simulated residual shows, by component name.
     fn shown(text: &str) -> Vec<(String, Vec<String>)> {
-        let (model, diagnostics) = crate::load(text);
+        let (model, diagnostics) = crate::graph::load(text);
         let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
         let integral = assign(&model, Mode::Integral);
         let space = state_space_of(&model, &integral);

@@ -451,3 +451,13 @@ fn unknown_kind(kind: &Ident) -> Diagnostic {
         None => d.with_help("a statement starts with a keyword (model param input let), an element kind, or is a chain of bonds `a -> b`"),
     }
 }
+
+/// Parses, lowers and validates a model; the graph is `None` when any error was found.
+/// Diagnostics (warnings too) come sorted by position.
+pub(crate) fn load(text: &str) -> (Option<BondGraph>, Diagnostics) {
+    let (file, mut diagnostics) = crate::syntax::parse(text);
+    let graph = lower(&file, &mut diagnostics);
+    diagnostics.sort();
+    let graph = graph.filter(|_| !diagnostics.has_errors());
+    (graph, diagnostics)
+}

@@ -9,7 +9,7 @@ mod scope;
 mod validate;
 
 pub use lets::{first_too_large, MAX_EXPANDED};
-pub use lower::lower;
+pub(crate) use lower::load;
 pub use model::*;
 pub use scope::closest;
 

@@ -6,12 +6,12 @@ use super::*;
 use crate::diagnostic::Code;
 
 fn lowered(text: &str) -> BondGraph {
-    let (graph, diagnostics) = crate::load(text);
+    let (graph, diagnostics) = crate::graph::load(text);
     graph.unwrap_or_else(|| panic!("{diagnostics:#?}"))
 }
 
 fn codes(text: &str) -> Vec<Code> {
-    let (graph, diagnostics) = crate::load(text);
+    let (graph, diagnostics) = crate::graph::load(text);
     assert!(graph.is_none(), "expected a rejection");
     diagnostics
         .iter()
@@ -129,8 +129,12 @@ fn what_an_expression_may_use_depends_on_where_it_stands() {
     let base =
         "model c\ninput u\nparam k = 1\nDf y on j\nR r = 1\nSe s2 = 1\ns2 -> 1:j -> r\ns -> j\n";
     assert_eq!(codes(&format!("{base}Se s = y\n")), [Code::BadReference]);
-    assert!(crate::load(&format!("{base}Se s = u*sin(t)\n")).0.is_some());
-    assert!(crate::load(&format!("{base}MSe s = y*k\n")).0.is_some());
+    assert!(crate::graph::load(&format!("{base}Se s = u*sin(t)\n"))
+        .0
+        .is_some());
+    assert!(crate::graph::load(&format!("{base}MSe s = y*k\n"))
+        .0
+        .is_some());
     assert_eq!(
         codes("model c\ninput u\nSe s = 1\nTF g = u\nR r = 1\nR q = 1\ns -> 1:a -> g -> 1:b -> r\na -> q\n"),
         [Code::BadReference]

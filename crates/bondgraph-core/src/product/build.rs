@@ -143,7 +143,7 @@ impl<'m> Builder<'m> {
     }
 
     /// Names for the loops' unknowns, apart from the model's names and from each other.
-    fn loop_names(&self, c: &Compiled, loops: &[crate::sim::LoopUnknown]) -> Vec<String> {
+    fn loop_names(&self, c: &Compiled, loops: &[crate::state_space::LoopUnknown]) -> Vec<String> {
         let mut taken = model_names(self.model);
         taken.extend(c.states.iter().map(|(_, s)| s.name.clone()));
         loops

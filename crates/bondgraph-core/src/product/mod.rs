@@ -15,7 +15,8 @@ mod uncertainty;
 pub use arena::{Arena, Handle};
 pub(crate) use build::build;
 pub use readings::{LinearTerm, ModelCopy, Quantity, Readings};
-pub(crate) use realise::{realise, time_rate};
+pub(crate) use realise::realise;
+pub use realise::time_rate;
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
 use crate::symbolic::{ExprId, Pool};
@@ -433,7 +434,7 @@ impl FaultClasses {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Isolability {
     /// Which residuals [`Compiled::arrs`] holds.
-    pub residuals: crate::ResidualSet,
+    pub residuals: crate::fdi::ResidualSet,
     /// With the ARRs in [`Compiled::arrs`] (their signatures).
     pub selected: FaultClasses,
     /// With every candidate residual bgc could write (`None` when only one ARR per detector

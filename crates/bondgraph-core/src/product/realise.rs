@@ -280,7 +280,7 @@ fn product(exprs: &mut Exprs, c: Expr, x: Split) -> Option<Split> {
 
 /// A leaf's time derivative: a signal's next derivative, 0 for a parameter, 1 for time (none
 /// for what a relation realised by integration cannot read).
-pub(crate) fn time_rate(p: &mut Exprs, s: Symbol) -> Option<Expr> {
+pub fn time_rate(p: &mut Exprs, s: Symbol) -> Option<Expr> {
     match s {
         Symbol::Sensor(h, n) => Some(p.leaf(Symbol::Sensor(h, n + 1))),
         Symbol::Input(u, n) => Some(p.leaf(Symbol::Input(u, n + 1))),

@@ -51,7 +51,7 @@ impl Program {
         let mut pool = self.code.clone();
         let mut jacobian = vec![vec![0.0; n]; n];
         for (j, column) in (0..n).map(|j| (j, j as u32)) {
-            let mut partial = Derivatives::partial(|p: &mut crate::Pool<Leaf>, leaf| {
+            let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
                 Some(p.num(if leaf == Leaf::State(column) {
                     1.0
                 } else {

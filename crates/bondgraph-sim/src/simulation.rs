@@ -1,36 +1,20 @@
-//! Simulation: the model in integral causality as state equations, and their integration
-//! under a scenario (inputs, closed loops, faults, noise) into sampled signals.
+//! Simulation: the model's state equations integrated under a scenario (inputs, closed
+//! loops, faults, noise) into sampled signals.
 
-// Plain Rust: `bgc verify` solves algebraic loops with it too, with or without `simulate`.
-pub(crate) mod newton;
-#[cfg(feature = "simulate")]
-mod noise;
-#[cfg(feature = "simulate")]
-mod plant;
-#[cfg(feature = "simulate")]
-mod run;
-mod scenario;
-mod state_space;
+use bondgraph_core::diagnostic::Diagnostics;
+use bondgraph_core::Compiled;
 
-#[cfg(feature = "simulate")]
-pub use run::{SimulationError, Trajectory};
-pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
-pub(crate) use state_space::{state_space_of, LoopUnknown, StateSpace};
-
-#[cfg(feature = "simulate")]
-use crate::diagnostic::Diagnostics;
-#[cfg(feature = "simulate")]
-use crate::product::Compiled;
+use crate::plant;
+use crate::run::{self, SimulationError, Trajectory};
+use crate::scenario::Scenario;
 
 /// A model under a scenario, ready to run.
-#[cfg(feature = "simulate")]
 #[derive(Clone, Debug)]
 pub struct Simulation {
     plant: plant::Plant,
     scenario: Scenario,
 }
 
-#[cfg(feature = "simulate")]
 impl Simulation {
     /// The plant of `c` driven as `scenario` says, or the scenario's mistakes (their spans are
     /// in the scenario's text).
@@ -47,10 +31,11 @@ impl Simulation {
     }
 }
 
-#[cfg(all(test, feature = "simulate"))]
+#[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{compile, Options};
+    use crate::scenario::parse_scenario;
+    use bondgraph_core::{compile, Options};
 
     pub(super) const RC: &str = "model rc\nparam R1 = 2 [Ohm]\nparam C1 = 0.5 [F]\ninput I [A]\n\
                       Sf src = I\nC cap = C1\nR res = R1\nDe v on n\nsrc -> 0:n -> cap, res\n";

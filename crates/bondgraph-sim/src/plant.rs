@@ -9,13 +9,12 @@
 
 use std::collections::HashMap;
 
-use super::scenario::{FaultMode, FaultTarget, Onset, Scenario};
-use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
-use crate::expr::{BinOp, Expr};
-use crate::product::{Compiled, Symbol};
-use crate::symbolic::hash::FastMap;
-use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
-use crate::syntax::ast::{AstExpr, Ident};
+use bondgraph_core::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use bondgraph_core::{
+    AstExpr, BinOp, Compiled, Derivatives, ExprId, FastMap, Ident, Node, Pool, Symbol, Tape,
+};
+
+use crate::scenario::{FaultMode, FaultTarget, Onset, Scenario};
 
 /// A leaf of the simulated plant's expressions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -183,7 +182,7 @@ struct Builder<'c> {
 
 impl Builder<'_> {
     /// The state equations and outputs with the scenario's faults on actuators and sensors.
-    fn import(&mut self, space: &crate::product::StateSpace, scenario: &Scenario) {
+    fn import(&mut self, space: &bondgraph_core::StateSpace, scenario: &Scenario) {
         let c = self.c;
         let mut received: Vec<Id> = (0..c.inputs.len() as u32)
             .map(|u| self.pool.leaf(P::Input(u)))
@@ -571,8 +570,8 @@ impl Builder<'_> {
     /// A scenario expression over the plant's leaves, or `None` after reporting why not.
     fn resolve(&mut self, e: &AstExpr, names: &Names<'_>) -> Option<Id> {
         Some(match e {
-            Expr::Num(v) => self.pool.num(*v),
-            Expr::Leaf(name) => match names.find(&name.name) {
+            AstExpr::Num(v) => self.pool.num(*v),
+            AstExpr::Leaf(name) => match names.find(&name.name) {
                 Some(Name::Time) => self.pool.leaf(P::Time),
                 Some(Name::Let(id)) => id,
                 Some(Name::Parameter(k)) => {
@@ -594,24 +593,24 @@ impl Builder<'_> {
                     return None;
                 }
             },
-            Expr::Neg(a) => {
+            AstExpr::Neg(a) => {
                 let a = self.resolve(a, names)?;
                 self.pool.neg(a)
             }
-            Expr::Binary(op, a, b) => {
+            AstExpr::Binary(op, a, b) => {
                 let (a, b) = (self.resolve(a, names)?, self.resolve(b, names)?);
                 self.pool.binary(*op, a, b)
             }
-            Expr::Call(f, args) => {
+            AstExpr::Call(f, args) => {
                 let args: Option<Vec<Id>> = args.iter().map(|a| self.resolve(a, names)).collect();
                 self.pool.call(*f, &args?)
             }
-            Expr::Der(a, n) => {
+            AstExpr::Der(a, n) => {
                 let a = self.resolve(a, names)?;
                 let rhs = self.rhs.clone();
                 nth_derivative(&mut self.pool, &rhs, a, *n)?
             }
-            Expr::Int(a) => {
+            AstExpr::Int(a) => {
                 let a = self.resolve(a, names)?;
                 self.pool.int(a)
             }
@@ -646,7 +645,7 @@ impl Builder<'_> {
             .chain(c.sensors.values().map(|s| s.name.as_str()))
             .chain(c.states.values().map(|s| s.name.as_str()))
             .collect();
-        let near = crate::graph::closest(&name.name, names.into_iter());
+        let near = bondgraph_core::closest(&name.name, names.into_iter());
         let mut d = Diagnostic::error(
             Code::Undefined,
             name.span,
@@ -759,9 +758,9 @@ fn position<'a>(mut names: impl Iterator<Item = &'a str>, name: &str) -> Option<
 /// Where an expression was written: its first name, or nothing for a bare number.
 fn span_of(e: &AstExpr) -> Span {
     match e {
-        Expr::Leaf(name) => name.span,
-        Expr::Neg(a) | Expr::Der(a, _) | Expr::Int(a) => span_of(a),
-        Expr::Binary(_, a, b) => {
+        AstExpr::Leaf(name) => name.span,
+        AstExpr::Neg(a) | AstExpr::Der(a, _) | AstExpr::Int(a) => span_of(a),
+        AstExpr::Binary(_, a, b) => {
             let (a, b) = (span_of(a), span_of(b));
             if a.end == 0 {
                 b
@@ -769,11 +768,11 @@ fn span_of(e: &AstExpr) -> Span {
                 a
             }
         }
-        Expr::Call(_, args) => args
+        AstExpr::Call(_, args) => args
             .iter()
             .map(span_of)
             .find(|s| s.end > 0)
             .unwrap_or_default(),
-        Expr::Num(_) => Span::default(),
+        AstExpr::Num(_) => Span::default(),
     }
 }

@@ -4,9 +4,8 @@
 //! Names are not resolved here: the scenario is read on its own, then checked against a model
 //! when a simulation is built from both (`sim/plant.rs`).
 
-use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
-use crate::syntax::ast::{AstExpr, Ident};
-use crate::syntax::parse_expr;
+use bondgraph_core::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use bondgraph_core::{parse_expr, AstExpr, Ident};
 
 /// Which integration method runs the plant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +28,6 @@ pub(crate) enum Onset {
     Drift(f64, f64),
 }
 
-#[cfg(feature = "simulate")]
 impl Onset {
     /// How much of the fault is present at `t`, from 0 to 1.
     pub fn fraction(self, t: f64) -> f64 {
@@ -258,9 +256,9 @@ fn statement(s: &mut Scenario, text: &str, at: usize) -> Parsed {
         "initial" => {
             let (name, value) = definition(rest, rest_at)?;
             let value = match value {
-                crate::expr::Expr::Num(v) => v,
-                crate::expr::Expr::Neg(inner) => match *inner {
-                    crate::expr::Expr::Num(v) => -v,
+                AstExpr::Num(v) => v,
+                AstExpr::Neg(inner) => match *inner {
+                    AstExpr::Num(v) => -v,
                     _ => return Err(one(rest_at, rest, "expected `STATE = NUMBER`")),
                 },
                 _ => return Err(one(rest_at, rest, "expected `STATE = NUMBER`")),
@@ -466,7 +464,6 @@ mod tests {
         assert_eq!(found[3].0, "whatever");
     }
 
-    #[cfg(feature = "simulate")]
     #[test]
     fn onsets_grow_as_stated() {
         assert_eq!(Onset::Abrupt(1.0).fraction(0.5), 0.0);

@@ -27,12 +27,12 @@
 
 use std::collections::{BTreeSet, HashMap};
 
-use crate::expr::BinOp;
-use crate::product::{
+use bondgraph_core::BinOp;
+use bondgraph_core::{
     Auxiliary, Mode, Realisation, ResidualForm, Sensor, StorageCausality, Symbol,
 };
-use crate::product::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
-use crate::symbolic::{Derivatives, ExprId, Node, Pool, Tape};
+use bondgraph_core::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
+use bondgraph_core::{Derivatives, ExprId, Node, Pool, Tape};
 
 /// How the check is run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -185,9 +185,9 @@ enum V {
     Time,
     /// An unknown of a nonlinear algebraic loop of the plant, solved by Newton's method
     /// wherever the plant is evaluated.
-    Loop(Handle<crate::product::LoopUnknown>),
+    Loop(Handle<bondgraph_core::LoopUnknown>),
     /// A root an ARR reads, solved by Newton's method wherever the residuals are evaluated.
-    Root(Handle<crate::product::Root>),
+    Root(Handle<bondgraph_core::Root>),
 }
 
 type VId = ExprId<V>;
@@ -200,7 +200,7 @@ enum Root {
     /// A root's law.
     Law,
     /// A root's n-th derivative (n ≥ 1), in terms of the roots.
-    Derivative(Handle<crate::product::Root>, u32),
+    Derivative(Handle<bondgraph_core::Root>, u32),
     /// A residual evaluated as written.
     Residual,
     /// The level of an integrated residual; its rate comes next.
@@ -474,7 +474,7 @@ fn shared_marks(c: &Compiled, own: Handle<Component>, p: Handle<Parameter>) -> B
 /// The plant and the residuals in one pool; `None` when the state equations hold loops whose
 /// unknowns set each other (each loop's equation must hold its own unknown only, for its
 /// derivative along the state equations).
-fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
+fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
     let mut pool: Pool<V> = Pool::default();
     let plant_leaf = |p: &mut Pool<V>, s: Symbol| match s {
         Symbol::Parameter(k) => p.leaf(V::Plant(k)),
@@ -522,7 +522,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
     let mut auxiliary: HashMap<(Handle<Auxiliary>, u32), VId> = HashMap::new();
     let mut residuals = Vec::new();
     let mut laws = Vec::new();
-    let mut root_derivatives: HashMap<(Handle<crate::product::Root>, u32), VId> = HashMap::new();
+    let mut root_derivatives: HashMap<(Handle<bondgraph_core::Root>, u32), VId> = HashMap::new();
     let roots = c
         .auxiliaries
         .iter()
@@ -643,7 +643,7 @@ fn plant(c: &Compiled, space: &crate::product::StateSpace) -> Option<Plant> {
 /// trajectories, for the generator to evaluate the relation that is printed.
 fn split_gaps(c: &Compiled) -> Vec<f64> {
     let mut pool = c.exprs.clone();
-    let mut d = Derivatives::new(crate::product::time_rate);
+    let mut d = Derivatives::new(bondgraph_core::time_rate);
     c.arrs
         .iter()
         .map(|arr| {
@@ -692,7 +692,7 @@ fn arbitrary_value(pool: &Pool<Symbol>, e: ExprId<Symbol>, seed: f64) -> f64 {
             integrals.insert(id, spread(7e3 + id.index() as f64));
         }
     });
-    crate::symbolic::Evaluator::new(pool, leaf)
+    bondgraph_core::Evaluator::new(pool, leaf)
         .with_integrals(integrals)
         .value(e)
 }
@@ -879,7 +879,7 @@ impl Run<'_> {
             return Vec::new();
         }
         let mut r = self.root_guess.borrow().clone();
-        let solved = crate::sim::newton::solve(&mut r, |r, out| {
+        let solved = crate::newton::solve(&mut r, |r, out| {
             *out = (self.plant.root_tape).values(self.leaf(x, t, z, r), integral, &mut Vec::new());
         });
         match solved {
@@ -898,7 +898,7 @@ impl Run<'_> {
             return Vec::new();
         }
         let mut z = self.guess.borrow().clone();
-        let solved = crate::sim::newton::solve(&mut z, |z, out| {
+        let solved = crate::newton::solve(&mut z, |z, out| {
             *out =
                 (self.plant.loop_tape).values(self.leaf(x, t, z, &[]), integral, &mut Vec::new());
         });
@@ -1012,9 +1012,16 @@ mod tests {
     /// one term of relative size 1 (which failed right ARRs).
     #[test]
     fn a_quotient_is_judged_on_its_numerator_terms() {
+        let model =
+            "model m\nparam R1 = 2\ninput u\nSe s = u\nR r = R1\nDf f on j\ns -> 1:j -> r\n";
+        let c = bondgraph_core::compile(model, "m.bg", &bondgraph_core::Options::default())
+            .expect("compiles")
+            .compiled;
+        let input = c.inputs.iter().next().expect("an input").0;
+        let parameter = c.parameters.iter().next().expect("a parameter").0;
         let mut pool: Pool<V> = Pool::default();
-        let (a, b) = (pool.leaf(V::Time), pool.leaf(V::Input(Handle::new(0), 0)));
-        let k = pool.leaf(V::Nominal(Handle::new(0)));
+        let (a, b) = (pool.leaf(V::Time), pool.leaf(V::Input(input, 0)));
+        let k = pool.leaf(V::Nominal(parameter));
         let difference = pool.sub(a, b);
         let quotient = pool.div(difference, k);
         let negated = pool.neg(quotient);

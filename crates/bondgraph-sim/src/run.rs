@@ -15,10 +15,10 @@ use differential_equations::prelude::{
     IVP, ODE,
 };
 
-use super::newton;
-use super::noise::gaussian;
-use super::plant::{Plant, P};
-use super::scenario::{Scenario, Solver};
+use crate::newton;
+use crate::noise::gaussian;
+use crate::plant::{Plant, P};
+use crate::scenario::{Scenario, Solver};
 
 /// Sampled signals of a simulation: one column per name, one row per output time.
 #[derive(Clone, Debug, PartialEq)]
@@ -116,7 +116,7 @@ impl Plant {
         }
     }
 
-    fn integral<'a>(&'a self, y: &'a [f64]) -> impl Fn(crate::symbolic::ExprId<P>) -> f64 + 'a {
+    fn integral<'a>(&'a self, y: &'a [f64]) -> impl Fn(bondgraph_core::ExprId<P>) -> f64 + 'a {
         move |id| {
             self.integrals
                 .get(&id)

@@ -1,0 +1,119 @@
+//! `bgc MODEL --emit TARGET`: the model written out (text, JSON, LaTeX, state equations,
+//! DOT, Rust residual code).
+
+use std::path::Path;
+use std::path::PathBuf;
+
+use bondgraph_core::{Derive, ResidualSet};
+use clap::ValueEnum;
+
+use crate::io;
+use crate::options::{RealiseArg, ResidualsArg, SimplifyArgs};
+use crate::report::{self, Failure};
+
+/// What `bgc MODEL` takes besides the model.
+#[derive(clap::Args, Debug)]
+pub(crate) struct EmitArgs {
+    /// What to write.
+    #[arg(long, value_enum, value_name = "TARGET", default_value = "text")]
+    emit: Target,
+
+    /// With `--emit latex`: a whole document that compiles with pdflatex.
+    #[arg(long)]
+    standalone: bool,
+
+    /// With `--emit json`: the FSM's rows as a `signature` of 0 and 1 per ARR (dense), or as
+    /// the names of the ARRs each shows in (sparse, for large models).
+    #[arg(long, value_enum, value_name = "FORM", default_value = "dense")]
+    fsm: FsmArg,
+
+    /// Write the output to FILE instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+
+    /// Which residuals to derive: one ARR per detector (as the reference paper does), the
+    /// smallest set found that tells apart every fault class bgc can reach (`best`), or
+    /// every candidate with a signature of its own (`all`).
+    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+    residuals: ResidualsArg,
+
+    /// How residual generators evaluate each ARR: integrated once where that lowers the
+    /// derivatives it reads (`lowest`), or as written (`direct`).
+    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+    realise: RealiseArg,
+
+    #[command(flatten)]
+    simplify: SimplifyArgs,
+}
+
+/// The output formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Target {
+    /// Causality, state equations, ARRs and the FSM as a readable summary.
+    Text,
+    /// The same as JSON (the schema is in the README).
+    Json,
+    /// ARRs in an `align` environment and the FSM as a `tabular`.
+    Latex,
+    /// The state equations and detector outputs only.
+    State,
+    /// Graphviz DOT of the bond graph with causal strokes (`dot -Tsvg` draws it).
+    Dot,
+    /// Rust residual code (needs the `bondgraph` crate); not written when any error was found.
+    Rust,
+}
+
+/// How the JSON writes the FSM.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FsmArg {
+    /// One 0 or 1 per ARR in each row.
+    Dense,
+    /// The ARRs each row shows in.
+    Sparse,
+}
+
+/// Writes `model` as `args` ask.
+pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
+    if args.standalone && args.emit != Target::Latex {
+        return Err(report::usage("--standalone applies to --emit latex only"));
+    }
+    if args.fsm == FsmArg::Sparse && args.emit != Target::Json {
+        return Err(report::usage("--fsm applies to --emit json only"));
+    }
+    // A drawing needs the ARRs only to fill components by fault class, which
+    // `--residuals best|all` asks for.
+    let derive = match args.emit {
+        Target::Dot if args.residuals.set() != ResidualSet::PerSensor => Derive::Everything,
+        Target::State | Target::Dot => Derive::StateEquations,
+        _ => Derive::Everything,
+    };
+    let limits = match args.emit {
+        Target::Dot => None,
+        _ => args.simplify.limits()?,
+    };
+    let c = io::compile_with(
+        model,
+        derive,
+        limits,
+        (args.residuals.set(), args.realise.realise()),
+    )?;
+    let text = match args.emit {
+        Target::Text => bondgraph_codegen::text::emit(&c),
+        Target::Json => bondgraph_codegen::json::emit_with(
+            &c,
+            match args.fsm {
+                FsmArg::Dense => bondgraph_codegen::json::FsmForm::Dense,
+                FsmArg::Sparse => bondgraph_codegen::json::FsmForm::Sparse,
+            },
+        ),
+        Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
+        Target::State => bondgraph_codegen::text::state(&c),
+        Target::Dot => bondgraph_codegen::dot::emit(&c),
+        // Code that misses an ARR or reads a refused one would run and mislead; refused
+        // state equations alone leave the ARRs, and their code, as they are.
+        Target::Rust if c.residual_code_refused() => return io::succeeded(&c),
+        Target::Rust => bondgraph_codegen::rust::emit(&c),
+    };
+    io::write(args.output.as_deref(), &text)?;
+    io::succeeded(&c)
+}

@@ -1,0 +1,103 @@
+//! Options that more than one command takes: which residuals, how they are realised, how
+//! expressions are simplified.
+
+use std::time::Duration;
+
+use bondgraph_core::{Limits, Realise, ResidualSet};
+use clap::ValueEnum;
+
+use crate::report::{self, Failure};
+
+/// `--realise`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum RealiseArg {
+    /// Each ARR whose derivatives enter linearly with constant coefficients as the change of
+    /// its integral, reading one order of derivative fewer; the others as written.
+    Lowest,
+    /// Every ARR as written.
+    Direct,
+}
+
+impl RealiseArg {
+    pub(crate) fn realise(self) -> Realise {
+        match self {
+            RealiseArg::Lowest => Realise::Lowest,
+            RealiseArg::Direct => Realise::Direct,
+        }
+    }
+}
+
+/// `--residuals`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub(crate) enum ResidualsArg {
+    /// One ARR per detector.
+    PerSensor,
+    /// The smallest set found that reaches the most isolability the candidates allow.
+    Best,
+    /// Every candidate with a signature of its own.
+    All,
+}
+
+impl ResidualsArg {
+    pub(crate) fn set(self) -> ResidualSet {
+        match self {
+            ResidualsArg::PerSensor => ResidualSet::PerSensor,
+            ResidualsArg::Best => ResidualSet::Best,
+            ResidualsArg::All => ResidualSet::All,
+        }
+    }
+}
+
+/// How expressions are written: the e-graph search for their shortest form.
+#[derive(clap::Args, Debug)]
+pub(crate) struct SimplifyArgs {
+    /// Show expressions in canonical form (expanded sums of products), without the e-graph.
+    #[arg(long)]
+    canonical: bool,
+
+    /// Most e-nodes the simplifier may build for one expression; larger expressions are
+    /// shown in canonical form.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().nodes)]
+    egg_nodes: usize,
+
+    /// Most rounds of rule application in one e-graph.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().iterations)]
+    egg_iterations: usize,
+
+    /// Most e-graphs grown one after the other for one expression, each from the best form
+    /// of the one before.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().rounds)]
+    egg_rounds: usize,
+
+    /// Most e-nodes for all the expressions of the model together; expressions met after it
+    /// is spent are shown in canonical form.
+    #[arg(long, value_name = "N", default_value_t = Limits::default().budget)]
+    egg_budget: usize,
+
+    /// Wall-clock limit for one expression's search, in seconds. Reaching it stops bgc with
+    /// an error: the clock never decides what is printed, only counts do.
+    #[arg(long, value_name = "SECONDS", default_value_t = Limits::default().time.as_secs_f64())]
+    egg_seconds: f64,
+}
+
+impl SimplifyArgs {
+    /// The limits asked for, or why they make no sense.
+    pub(crate) fn limits(&self) -> Result<Option<Limits>, Failure> {
+        if self.canonical {
+            return Ok(None);
+        }
+        let time = Duration::try_from_secs_f64(self.egg_seconds).map_err(|_| {
+            report::usage(format!(
+                "--egg-seconds wants a non-negative number of seconds, not `{}`",
+                self.egg_seconds
+            ))
+        })?;
+        Ok(Some(Limits {
+            nodes: self.egg_nodes,
+            iterations: self.egg_iterations,
+            rounds: self.egg_rounds,
+            budget: self.egg_budget,
+            time,
+        }))
+    }
+}

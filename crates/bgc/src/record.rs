@@ -1,0 +1,203 @@
+//! Recorded samples read from CSV: a time column with a uniform step and the columns a
+//! model's ARRs read.
+
+use crate::io;
+
+/// Recorded samples: the time and the columns asked for, checked.
+pub(crate) struct Data {
+    /// The time of each row.
+    pub(crate) time: Vec<f64>,
+    /// The step between rows.
+    pub(crate) step: f64,
+    /// One column per name asked for, in that order.
+    pub(crate) columns: Vec<Vec<f64>>,
+}
+
+/// Relative tolerance on the time step: rows must be this regular.
+pub(crate) const STEP_TOLERANCE: f64 = 1e-6;
+
+impl Data {
+    /// Reads CSV `bytes`, keeping `names` (and `t`); needs at least `window` rows.
+    pub(crate) fn read(bytes: &[u8], names: &[String], window: usize) -> Result<Data, String> {
+        let delimiter = delimiter(bytes);
+        let mut reader = csv::ReaderBuilder::new()
+            .trim(csv::Trim::Headers)
+            .delimiter(delimiter)
+            .from_reader(bytes);
+        let header = reader
+            .headers()
+            .map_err(|e| format!("cannot read the header: {e}"))?
+            .clone();
+        let find = |name: &str| header.iter().position(|h| h == name);
+        let missing = |name: &str, what: String| {
+            let near = bondgraph_core::closest(name, header.iter().collect::<Vec<_>>().into_iter());
+            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            format!(
+                "{what}{hint}; the header has {}",
+                header.iter().collect::<Vec<_>>().join(", ")
+            )
+        };
+        let t = find("t").ok_or_else(|| {
+            // A one-letter name has no near miss by edits; a time column by another name does.
+            let named = header
+                .iter()
+                .find(|h| h.to_lowercase().starts_with("time") || *h == "T");
+            let what = "no time column: the header needs a column named `t`";
+            match named {
+                Some(h) => format!("{what} (is `{h}` the time? rename it `t`)"),
+                None => missing("t", what.to_string()),
+            }
+        })?;
+        let mut at = vec![t];
+        for name in names {
+            at.push(find(name).ok_or_else(|| {
+                missing(
+                    name,
+                    format!("no column `{name}`: the ARRs read {}", names.join(", ")),
+                )
+            })?);
+        }
+        let column_names: Vec<&str> = std::iter::once("t")
+            .chain(names.iter().map(String::as_str))
+            .collect();
+        let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
+        let body = bytes.get(start..).unwrap_or_default();
+        let mut columns = parse_rows(body, &at, &column_names, delimiter)?;
+        let time = columns.remove(0);
+        let step = check_time(&time)?;
+        if time.len() < window {
+            return Err(format!(
+                "{} rows: the estimator's window of {window} samples needs at least {window}",
+                time.len()
+            ));
+        }
+        Ok(Data {
+            time,
+            step,
+            columns,
+        })
+    }
+}
+
+/// The rows of `body` (the CSV after its header, which was line 1), the cells at `at` of each
+/// as numbers, by column. A large record is parsed in two halves at once, split at a line
+/// end: parsing is a good part of `bgc residuals`' time, and a machine has two cores at
+/// least. A record with quotes, where a line end may sit inside a cell, is parsed in one go.
+fn parse_rows(
+    body: &[u8],
+    at: &[usize],
+    names: &[&str],
+    delimiter: u8,
+) -> Result<Vec<Vec<f64>>, String> {
+    let split = (body.len() > 1 << 20 && !body.contains(&b'"'))
+        .then(|| {
+            let middle = body.len() / 2;
+            body[middle..]
+                .iter()
+                .position(|&b| b == b'\n')
+                .map(|k| middle + k + 1)
+        })
+        .flatten();
+    let Some(split) = split else {
+        return parse_part(body, at, names, 2, delimiter);
+    };
+    let (first, second) = body.split_at(split);
+    let second_line = 2 + first.iter().filter(|&&b| b == b'\n').count();
+    let (head, tail) = std::thread::scope(|scope| {
+        let tail = scope.spawn(|| parse_part(second, at, names, second_line, delimiter));
+        let head = parse_part(first, at, names, 2, delimiter);
+        (head, tail.join())
+    });
+    // The first half's mistake comes first: it is on an earlier line.
+    let mut columns = head?;
+    let tail = tail.map_err(|_| "the parser of the record's second half failed".to_string())??;
+    for (column, rest) in columns.iter_mut().zip(tail) {
+        column.extend(rest);
+    }
+    Ok(columns)
+}
+
+/// The cell separator of a record: `,`, unless its header has none and is separated by `;`
+/// (what a spreadsheet writes where the decimal mark is a comma) or by tabs.
+fn delimiter(bytes: &[u8]) -> u8 {
+    let header = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+    let has = |c: u8| header.contains(&c);
+    if has(b',') {
+        b','
+    } else if has(b';') {
+        b';'
+    } else if has(b'\t') {
+        b'\t'
+    } else {
+        b','
+    }
+}
+
+/// The rows of `part`, whose first line is `line` of the file.
+fn parse_part(
+    part: &[u8],
+    at: &[usize],
+    names: &[&str],
+    mut line: usize,
+    delimiter: u8,
+) -> Result<Vec<Vec<f64>>, String> {
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .delimiter(delimiter)
+        .from_reader(part);
+    let rows = part.iter().filter(|&&b| b == b'\n').count() + 1;
+    let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); at.len()];
+    // One record reused for every row: no allocation per row.
+    let mut record = csv::ByteRecord::new();
+    loop {
+        match reader.read_byte_record(&mut record) {
+            Ok(true) => {}
+            Ok(false) => break,
+            Err(e) => return Err(format!("line {line}: {e}")),
+        }
+        for ((column, &i), name) in columns.iter_mut().zip(at).zip(names) {
+            let cell = record.get(i).unwrap_or(b"");
+            let text = std::str::from_utf8(cell).unwrap_or("").trim();
+            let value = text
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "line {line}, column `{name}`: `{}` is not a finite number",
+                        String::from_utf8_lossy(cell).trim()
+                    )
+                })?;
+            column.push(value);
+        }
+        line += 1;
+    }
+    Ok(columns)
+}
+
+/// The uniform step of `time`, or the first line where it is not.
+fn check_time(time: &[f64]) -> Result<f64, String> {
+    let [t0, t1, ..] = time else {
+        return Err(format!("{} rows: too few samples", time.len()));
+    };
+    let step = t1 - t0;
+    for (k, pair) in time.windows(2).enumerate() {
+        let d = pair[1] - pair[0];
+        let line = k + 3;
+        if d <= 0.0 {
+            return Err(format!(
+                "line {line}: time goes from {} to {}: it must increase",
+                io::seconds(pair[0]),
+                io::seconds(pair[1])
+            ));
+        }
+        if (d - step).abs() > STEP_TOLERANCE * step {
+            return Err(format!(
+                "line {line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
+                io::seconds(d),
+                io::seconds(step)
+            ));
+        }
+    }
+    Ok(step)
+}

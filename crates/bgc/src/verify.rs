@@ -1,0 +1,72 @@
+//! `bgc verify`: the model's ARRs and FSM checked numerically on its own trajectories.
+
+use std::path::PathBuf;
+
+use bondgraph_core::Derive;
+use bondgraph_sim::VerifyOptions;
+
+use crate::io;
+use crate::options::{RealiseArg, ResidualsArg, SimplifyArgs};
+use crate::report::{self, Failure};
+use crate::summary;
+
+/// What `bgc verify` takes.
+#[derive(clap::Args, Debug)]
+pub(crate) struct VerifyArgs {
+    /// The model.
+    #[arg(value_name = "MODEL")]
+    model: PathBuf,
+    /// Amplitude of the test inputs, u_k(t) = A (1 + 0.5 sin(w_k t + k)).
+    #[arg(long, value_name = "A", default_value_t = VerifyOptions::default().input_scale)]
+    input_scale: f64,
+    /// Typical size of the initial states.
+    #[arg(long, value_name = "X", default_value_t = VerifyOptions::default().state_scale)]
+    state_scale: f64,
+    /// RK4 steps per run.
+    #[arg(long, value_name = "N", default_value_t = VerifyOptions::default().steps)]
+    steps: usize,
+    /// The step, in seconds.
+    #[arg(long, value_name = "H", default_value_t = VerifyOptions::default().step)]
+    step: f64,
+    /// Which residuals to derive and check (see `bgc --help`).
+    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+    residuals: ResidualsArg,
+    /// How the residuals are realised (see `bgc --help`); an integrated one is checked
+    /// as its rate plus its level's derivative.
+    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+    realise: RealiseArg,
+    /// Write the table to FILE instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    simplify: SimplifyArgs,
+}
+
+/// Runs `bgc verify`: exit 1 when any check fails.
+pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
+    let c = io::compile_with(
+        &args.model,
+        Derive::Everything,
+        args.simplify.limits()?,
+        (args.residuals.set(), args.realise.realise()),
+    )?;
+    io::succeeded(&c)?;
+    let options = VerifyOptions {
+        input_scale: args.input_scale,
+        state_scale: args.state_scale,
+        steps: args.steps,
+        step: args.step,
+        ..VerifyOptions::default()
+    };
+    let v = bondgraph_sim::verify(&c, &options)
+        .map_err(|e| report::refused(format!("{}: cannot verify: {e}", c.file_name)))?;
+    io::write(args.output.as_deref(), &summary::verification(&c, &v))?;
+    if v.passed() {
+        Ok(())
+    } else {
+        Err(report::refused(format!(
+            "{}: verification failed",
+            c.file_name
+        )))
+    }
+}
