@@ -13,12 +13,14 @@
 //! }
 //! ```
 //!
-//! Either expands to `pub mod MODEL_NAME { ... }`. A model with an error is a compile error
-//! naming the file, line and column of the first one.
+//! Either expands to `pub mod MODEL_NAME { ... }`. A model with errors is a compile error for
+//! each (up to ten), as `bgc check` shows them: for a file, its name, line and
+//! column, the line with the offending text marked and what was expected there; inline, at
+//! the offending token itself; and the help, when there is some.
 
 use std::path::{Path, PathBuf};
 
-use bondgraph_core::diagnostic::{Diagnostics, LineIndex};
+use bondgraph_core::diagnostic::{Diagnostic, Diagnostics, LineIndex};
 use bondgraph_core::{compile, Options, Realise, ResidualSet};
 use proc_macro::{Delimiter, Spacing, TokenStream, TokenTree};
 use quote::quote;
@@ -52,17 +54,21 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
         quote!(::core::compile_error!(#message);)
     };
     let source = read(input).map_err(fail)?;
-    let refuse = |d: &Diagnostics| {
-        let (message, offset) = first_error(&source, d);
-        // Inline, the error points at the offending token itself.
-        match source.tokens.iter().rev().find(|(at, _)| *at <= offset) {
-            Some((_, span)) if source.path.is_none() => {
-                let span: proc_macro2::Span = (*span).into();
-                let message = syn::LitStr::new(&message, span);
-                quote::quote_spanned!(span=> ::core::compile_error!(#message);)
-            }
-            _ => fail(message),
-        }
+    let refuse = |d: &Diagnostics| -> proc_macro2::TokenStream {
+        errors(&source, d)
+            .into_iter()
+            .map(|(message, offset)| {
+                // Inline, the error points at the offending token itself.
+                match source.tokens.iter().rev().find(|(at, _)| *at <= offset) {
+                    Some((_, span)) if source.path.is_none() => {
+                        let span: proc_macro2::Span = (*span).into();
+                        let message = syn::LitStr::new(&message, span);
+                        quote::quote_spanned!(span=> ::core::compile_error!(#message);)
+                    }
+                    _ => fail(message),
+                }
+            })
+            .collect()
     };
     let options = Options {
         residuals: source.residuals,
@@ -94,39 +100,82 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     })
 }
 
-/// The first error (or, without one, the first diagnostic) as `FILE:LINE:COLUMN: message`
-/// (for an inline model, the message alone: the compiler shows where), and its offset in the
-/// text.
-fn first_error(source: &Source, diagnostics: &Diagnostics) -> (String, usize) {
-    let lines = LineIndex::new(&source.text);
-    let all: Vec<_> = diagnostics.iter().collect();
-    let Some(d) = all.iter().find(|d| d.is_error()).or_else(|| all.first()) else {
-        return (
+/// How many of a model's errors become compile errors; `bgc check` lists the rest.
+const MAX_SHOWN: usize = 10;
+
+/// Each error (or, without one, the first diagnostic) as the compiler will show it, with its
+/// offset in the text.
+fn errors(source: &Source, diagnostics: &Diagnostics) -> Vec<(String, usize)> {
+    let all: Vec<&Diagnostic> = diagnostics.iter().collect();
+    let mut shown: Vec<&Diagnostic> = all.iter().copied().filter(|d| d.is_error()).collect();
+    if shown.is_empty() {
+        shown.extend(all.first());
+    }
+    if shown.is_empty() {
+        return vec![(
             format!("{}: the model could not be compiled", source.name),
             0,
-        );
-    };
-    let more = all
+        )];
+    }
+    let more = shown.len().saturating_sub(MAX_SHOWN);
+    let mut out: Vec<(String, usize)> = shown
         .iter()
-        .filter(|d| d.is_error())
-        .count()
-        .saturating_sub(1);
-    let tail = match more {
-        0 => String::new(),
-        1 => " (and 1 more error; `bgc check` lists them)".to_string(),
-        n => format!(" (and {n} more errors; `bgc check` lists them)"),
-    };
-    let message = match source.path {
+        .take(MAX_SHOWN)
+        .map(|d| (render(source, d), d.span.start))
+        .collect();
+    if more > 0 {
+        let last = out.len() - 1;
+        out[last].0.push_str(&format!(
+            "\n  = note: {more} more error{}; `bgc check` lists them",
+            if more == 1 { "" } else { "s" }
+        ));
+    }
+    out
+}
+
+/// One diagnostic as a compile error's message. From a file, the compiler can only point at
+/// the macro call, so the message carries `FILE:LINE:COLUMN`, the line and a caret under the
+/// offending text, as `bgc check` does; inline, the compiler points at the token and the
+/// message says what was expected there.
+fn render(source: &Source, d: &Diagnostic) -> String {
+    let text = &source.text;
+    let lines = LineIndex::new(text);
+    let at = lines.line_col(text, d.span.start);
+    let mut out = match source.path {
         Some(_) => {
-            let at = lines.line_col(&source.text, d.span.start);
+            let line = text.lines().nth(at.line - 1).unwrap_or("");
+            let number = at.line.to_string();
+            let pad = " ".repeat(number.len());
+            let width = text
+                .get(d.span.start..d.span.end)
+                .map_or(1, |s| s.lines().next().unwrap_or("").chars().count().max(1));
             format!(
-                "{}:{}:{}: {}{tail}",
-                source.name, at.line, at.col, d.message
+                "{}:{}:{}: {}\n{pad} |\n{number} | {line}\n{pad} | {}{} {}",
+                source.name,
+                at.line,
+                at.col,
+                d.message,
+                " ".repeat(at.col - 1),
+                "^".repeat(width),
+                d.label
             )
         }
-        None => format!("in the model: {}{tail}", d.message),
+        None if d.label.is_empty() => format!("in the model: {}", d.message),
+        None => format!("in the model: {}\n  = {}", d.message, d.label),
     };
-    (message, d.span.start)
+    let trimmed = out.trim_end().len();
+    out.truncate(trimmed);
+    for note in &d.notes {
+        let at = lines.line_col(text, note.span.start);
+        out.push_str(&format!(
+            "\n  = note: {} (line {}, column {})",
+            note.message, at.line, at.col
+        ));
+    }
+    if let Some(help) = &d.help {
+        out.push_str(&format!("\n  = help: {help}"));
+    }
+    out
 }
 
 /// The model from a path literal or inline tokens.

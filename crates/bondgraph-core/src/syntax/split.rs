@@ -1,7 +1,7 @@
 //! Cuts a file into statements, so each can be parsed, and fail, on its own.
 //!
 //! A statement is one line, or several when a line ends with `->`, `<-` or `,` (a long chain
-//! of bonds). `#` starts a comment except inside a `"description"`.
+//! of bonds). `#` and `//` start a comment except inside a `"description"`.
 
 use crate::diagnostic::Span;
 
@@ -32,13 +32,14 @@ pub fn statements(text: &str) -> Vec<Span> {
     out
 }
 
-/// The line without its comment.
+/// The line without its comment (`#`, or `//` as in the Rust around an inline model).
 fn code_part(line: &str) -> &str {
     let mut in_string = false;
     for (i, c) in line.char_indices() {
         match c {
             '"' => in_string = !in_string,
             '#' if !in_string => return &line[..i],
+            '/' if !in_string && line[i + 1..].starts_with('/') => return &line[..i],
             _ => {}
         }
     }
@@ -68,6 +69,8 @@ mod tests {
     #[test]
     fn one_statement_per_line_without_comments() {
         let text = "model m  # name\n\n  # only a comment\nR r = 1\n";
+        let slashed = "model m  // name\n\n  // only a comment\nR r = 1\n";
+        assert_eq!(pieces(slashed), ["model m", "R r = 1"]);
         assert_eq!(pieces(text), ["model m", "R r = 1"]);
     }
 

@@ -1,5 +1,5 @@
 // A law that names a parameter the model does not declare.
-bondgraph::bond_graph! {
+bondgraph_macros::bond_graph! {
     model rc
     param R1 = 2
     input I0

@@ -1,4 +1,4 @@
 // A path to a model that is not there.
-bondgraph::bond_graph!("models/missing.bg");
+bondgraph_macros::bond_graph!("models/missing.bg");
 
 fn main() {}

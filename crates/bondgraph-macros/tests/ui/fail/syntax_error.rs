@@ -1,5 +1,5 @@
 // A statement that is not one.
-bondgraph::bond_graph! {
+bondgraph_macros::bond_graph! {
     model rc
     param R1 = = 2
 }

@@ -1,4 +1,0 @@
-// A residual set that does not exist.
-bondgraph::bond_graph!("../../models/dc_motor.bg", residuals = most);
-
-fn main() {}
