@@ -523,8 +523,8 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let drawn = std::fs::read_to_string(&svg).expect("svg written");
     for text in [
-        "ARR1 (junction elec, sensor y1)",
-        "ARR2 (junction twist, sensor y2)",
+        "ARR1 (junction shaft_e, sensor y1)",
+        "ARR2 (junction shaft_s, sensor y2)",
         "alarm",
         "± threshold",
         "residual",

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 mod models;
+pub mod mutate;
 
 #[allow(unused_imports)]
 pub use models::models;

@@ -112,7 +112,8 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
         // Code that misses an ARR or reads a refused one would run and mislead; refused
         // state equations alone leave the ARRs, and their code, as they are.
         Target::Rust if c.residual_code_refused() => return io::succeeded(&c),
-        Target::Rust => bondgraph_codegen::rust::emit(&c),
+        Target::Rust => bondgraph_codegen::rust::emit(&c)
+            .map_err(|why| report::refused(format!("{}: cannot write Rust: {why}", c.file_name)))?,
     };
     io::write(args.output.as_deref(), &text)?;
     io::succeeded(&c)

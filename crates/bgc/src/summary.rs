@@ -82,7 +82,7 @@ pub fn verification(c: &Compiled, v: &Verification) -> String {
     if v.scalings > 0 {
         let _ = writeln!(
             out,
-            "  (initial states at scale {:e}: larger ones left the model's domain on the first step)",
+            "  (initial states at scale {:e}, found: larger ones left the finite numbers; --state-scale sets it)",
             v.state_scale
         );
     }

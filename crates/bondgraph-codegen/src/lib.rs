@@ -5,4 +5,5 @@ pub mod json;
 pub mod latex;
 mod names;
 pub mod rust;
+mod shared;
 pub mod text;

@@ -9,7 +9,9 @@
 //! signals they read) is computed once, as a `let`: the bench's `exp(gamma (N y2_int −
 //! y1_int))` is evaluated once per call.
 
+use std::cell::Cell;
 use std::collections::HashMap;
+use std::fmt;
 
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Slot, Source};
 use bondgraph_core::{
@@ -21,17 +23,31 @@ use quote::{format_ident, quote};
 
 use crate::names;
 
+/// Why residual code was not written: something its program holds that Rust code cannot
+/// compute (it would have stood as a NaN in the code).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Unwritable(&'static str);
+
+impl fmt::Display for Unwritable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.0)
+    }
+}
+
+impl std::error::Error for Unwritable {}
+
 /// The model's items, formatted, with a header naming the model.
-pub fn emit(c: &Compiled) -> String {
-    let file = match syn::parse2::<syn::File>(tokens(c)) {
+pub fn emit(c: &Compiled) -> Result<String, Unwritable> {
+    let tokens = tokens(c)?;
+    let file = match syn::parse2::<syn::File>(tokens.clone()) {
         Ok(file) => prettyplease::unparse(&file),
         // The generator writes only what parses; if not, the tokens as they are.
-        Err(_) => tokens(c).to_string(),
+        Err(_) => tokens.to_string(),
     };
-    format!(
+    Ok(format!(
         "// Residual code for the model `{}` ({}), written by bgc.\n// It needs the `bondgraph` runtime crate.\n\n{file}",
         c.name, c.file_name
-    )
+    ))
 }
 
 /// Rust's keywords, strict and reserved (2021 edition): a model name among them is written
@@ -152,13 +168,22 @@ struct Lowering<'p> {
     field: HashMap<Handle<Slot>, Ident>,
     /// Nodes already bound to a `let`.
     bound: HashMap<Code, Ident>,
+    /// Set when the code met something Rust cannot compute: nothing is written then.
+    refused: &'p Cell<Option<Unwritable>>,
 }
 
 impl<'p> Lowering<'p> {
-    fn new(c: &'p Compiled, program: &'p Program, fields: &[Field], place: Place) -> Self {
+    fn new(
+        c: &'p Compiled,
+        program: &'p Program,
+        fields: &[Field],
+        refused: &'p Cell<Option<Unwritable>>,
+        place: Place,
+    ) -> Self {
         Lowering {
             c,
             program,
+            refused,
             place,
             field: fields.iter().map(|f| (f.slot, ident(&f.name))).collect(),
             bound: HashMap::new(),
@@ -179,7 +204,7 @@ impl<'p> Lowering<'p> {
             return (quote!(#name), ATOM);
         }
         match self.program.code.node(e) {
-            Node::Num(bits) => number(f64::from_bits(bits)),
+            Node::Num(bits) => number(f64::from_bits(bits), self.refused),
             Node::Leaf(l) => (self.leaf(l), ATOM),
             Node::Neg(a) => {
                 let a = self.operand(a, UNARY);
@@ -248,7 +273,7 @@ impl<'p> Lowering<'p> {
                 (ts, ATOM)
             }
             // The program holds no integral (each is a slot or a state).
-            Node::Int(_) => (quote!(f64::NAN), ATOM),
+            Node::Int(_) => self.refuse("an integral the residual program did not make a slot"),
         }
     }
 
@@ -272,7 +297,10 @@ impl<'p> Lowering<'p> {
         match (l, self.place) {
             (Leaf::Slot(h), _) => match self.field.get(&h) {
                 Some(name) => quote!(s.#name),
-                None => quote!(f64::NAN),
+                None => {
+                    self.refuse("a value the residuals read with no field to read it from")
+                        .0
+                }
             },
             (Leaf::Parameter(p), _) => {
                 let name = ident(&self.c.parameters[p].name);
@@ -289,8 +317,18 @@ impl<'p> Lowering<'p> {
                 quote!(u[#j])
             }
             // Residuals read neither time nor the copy's own leaves.
-            _ => quote!(f64::NAN),
+            _ => {
+                self.refuse("time or a state of the copy read outside the copy")
+                    .0
+            }
         }
+    }
+
+    /// Records why the code cannot be written; what stands in its place is never printed.
+    fn refuse(&self, why: &'static str) -> (TokenStream, u8) {
+        self.refused
+            .set(self.refused.get().or(Some(Unwritable(why))));
+        (quote!(unwritable), ATOM)
     }
 
     /// `let`s for every node of `roots` used more than once and for each named node (named
@@ -334,11 +372,21 @@ fn count(n: usize) -> Literal {
     Literal::usize_unsuffixed(n)
 }
 
-/// A number as a Rust literal (negative ones as a negation).
-fn number(x: f64) -> (TokenStream, u8) {
-    if !x.is_finite() {
-        // Only what a context cannot read is lowered to NaN; it never occurs in one.
-        return (quote!(f64::NAN), ATOM);
+/// A number as a Rust literal (negative ones as a negation; infinities by name). A NaN
+/// cannot be computed with: the code is refused.
+fn number(x: f64, refused: &Cell<Option<Unwritable>>) -> (TokenStream, u8) {
+    if x.is_nan() {
+        refused.set(refused.get().or(Some(Unwritable(
+            "a constant that is not a number (a division of zero by zero, or a law outside its domain, in the model's numbers)",
+        ))));
+        return (quote!(unwritable), ATOM);
+    }
+    if x.is_infinite() {
+        return if x > 0.0 {
+            (quote!(f64::INFINITY), ATOM)
+        } else {
+            (quote!(f64::NEG_INFINITY), ATOM)
+        };
     }
     let lit = Literal::f64_unsuffixed(x.abs());
     if x.is_sign_negative() && x != 0.0 {
@@ -445,10 +493,14 @@ fn copy_items(lower: &mut Lowering<'_>) -> Option<TokenStream> {
 /// go unused: the code is included in a user's module (`mod m { include!(...) }`), where a
 /// bench program reads a part of it, and must not warn there, nor be linted by the user's
 /// clippy as if written by hand.
-pub fn tokens(c: &Compiled) -> TokenStream {
-    let items = items(c);
+pub fn tokens(c: &Compiled) -> Result<TokenStream, Unwritable> {
+    let refused = Cell::new(None);
+    let items = items(c, &refused);
+    if let Some(why) = refused.get() {
+        return Err(why);
+    }
     let Ok(mut file) = syn::parse2::<syn::File>(items.clone()) else {
-        return items;
+        return Ok(items);
     };
     let allow: syn::Attribute = syn::parse_quote!(#[allow(dead_code, clippy::all)]);
     for item in &mut file.items {
@@ -464,19 +516,31 @@ pub fn tokens(c: &Compiled) -> TokenStream {
         };
         attrs.push(allow.clone());
     }
-    quote!(#file)
+    Ok(quote!(#file))
 }
 
 /// The items of [`tokens`], before each is allowed to go unused.
-fn items(c: &Compiled) -> TokenStream {
+fn items(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
     let program = c.program();
     let readings = c.readings();
     let fields = fields(c, &program, &readings);
-    let params = params(c);
+    let params = params(c, refused);
     let signals = signals(&fields);
     let n = count(program.residuals.len());
-    let body = residual_body(&mut Lowering::new(c, &program, &fields, Place::Residuals));
-    let bounds = bounds_body(&mut Lowering::new(c, &program, &fields, Place::Residuals));
+    let body = residual_body(&mut Lowering::new(
+        c,
+        &program,
+        &fields,
+        refused,
+        Place::Residuals,
+    ));
+    let bounds = bounds_body(&mut Lowering::new(
+        c,
+        &program,
+        &fields,
+        refused,
+        Place::Residuals,
+    ));
     let printer = Printer::new(&c.exprs, |s| names::latex(c, s));
     let docs: Vec<String> = c
         .arrs
@@ -510,11 +574,17 @@ fn items(c: &Compiled) -> TokenStream {
         .map(|a| a.form == ResidualForm::Simulated)
         .collect();
     let fsm = fsm(c);
-    let copy = copy_items(&mut Lowering::new(c, &program, &fields, Place::Copy));
+    let copy = copy_items(&mut Lowering::new(
+        c,
+        &program,
+        &fields,
+        refused,
+        Place::Copy,
+    ));
     let generator = generator(
         &program,
         &fields,
-        &Lowering::new(c, &program, &fields, Place::Push),
+        &Lowering::new(c, &program, &fields, refused, Place::Push),
     );
     quote! {
         #params
@@ -568,7 +638,7 @@ fn items(c: &Compiled) -> TokenStream {
     }
 }
 
-fn params(c: &Compiled) -> TokenStream {
+fn params(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
     let names: Vec<Ident> = c.parameters.values().map(|p| ident(&p.name)).collect();
     let docs: Vec<String> = c
         .parameters
@@ -584,11 +654,13 @@ fn params(c: &Compiled) -> TokenStream {
             doc + &format!(" (model value {})", p.value)
         })
         .collect();
-    let values: Vec<TokenStream> = c.parameters.values().map(|p| number(p.value).0).collect();
+    let values: Vec<TokenStream> = (c.parameters.values())
+        .map(|p| number(p.value, refused).0)
+        .collect();
     let uncertainties: Vec<TokenStream> = c
         .parameters
         .values()
-        .map(|p| number(p.uncertainty.unwrap_or(0.0)).0)
+        .map(|p| number(p.uncertainty.unwrap_or(0.0), refused).0)
         .collect();
     quote! {
         /// The model's parameters; [`Default`] gives the values the model declares.
@@ -1019,6 +1091,46 @@ mod tests {
                 syn::parse_str::<syn::Ident>(&ident(k).to_string()).is_ok(),
                 "{k}"
             );
+        }
+    }
+
+    /// A number the code cannot compute with refuses the code instead of printing a NaN;
+    /// an infinity is written by name (it used to be written as a NaN too).
+    #[test]
+    fn numbers_are_written_or_refused() {
+        let refused = Cell::new(None);
+        assert_eq!(number(2.5, &refused).0.to_string(), "2.5");
+        assert_eq!(number(-2.0, &refused).0.to_string(), "- 2.0");
+        assert_eq!(
+            number(f64::INFINITY, &refused).0.to_string(),
+            quote!(f64::INFINITY).to_string()
+        );
+        assert_eq!(
+            number(f64::NEG_INFINITY, &refused).0.to_string(),
+            quote!(f64::NEG_INFINITY).to_string()
+        );
+        assert!(refused.get().is_none());
+        number(f64::NAN, &refused);
+        let why = refused.get().expect("refused");
+        assert!(why.to_string().contains("not a number"), "{why}");
+    }
+
+    /// No model's code holds a NaN: every model of `models/` is written.
+    #[test]
+    fn every_model_is_written_without_a_nan() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        let mut paths: Vec<_> = std::fs::read_dir(dir)
+            .expect("models/")
+            .map(|e| e.expect("entry").path())
+            .filter(|p| p.extension().is_some_and(|e| e == "bg"))
+            .collect();
+        paths.sort();
+        for path in paths {
+            let text = std::fs::read_to_string(&path).expect("model");
+            let out = bondgraph_core::compile(&text, "m.bg", &bondgraph_core::Options::default())
+                .expect("valid");
+            let code = emit(&out.compiled).expect("written");
+            assert!(!code.contains("NAN"), "{}", path.display());
         }
     }
 }

@@ -4,10 +4,11 @@ use std::fmt::Write as _;
 
 use bondgraph_core::{
     Arr, CausalityReport, Compiled, Mode, Printer, Realisation, ResidualForm, Setter,
-    StorageCausality, Symbol,
+    StorageCausality,
 };
 
 use crate::names;
+use crate::shared::Shared;
 
 /// The causality report of every mode that was run (what `bgc causality` prints).
 pub fn causality(c: &Compiled) -> String {
@@ -293,11 +294,7 @@ fn classes(out: &mut String, c: &Compiled, k: &bondgraph_core::FaultClasses, tit
 }
 
 /// How the residual generator evaluates `arr`, and the highest derivative it reads.
-fn realisation<F: Fn(Symbol) -> String>(
-    out: &mut String,
-    printer: &Printer<'_, Symbol, F>,
-    arr: &Arr,
-) {
+fn realisation(out: &mut String, write: &dyn Fn(bondgraph_core::Expr) -> String, arr: &Arr) {
     let order = arr.realised_order();
     match &arr.realisation {
         Realisation::Direct if arr.form == ResidualForm::Relation => {
@@ -313,16 +310,38 @@ fn realisation<F: Fn(Symbol) -> String>(
                 "    realised by integration, derivatives up to order {order}: the residual is \
                  F(t) - F(t0) + int(A) over [t0, t], where ARR = A + der(F) and\n      \
                  F = {}\n      A = {}",
-                printer.text(i.level),
-                printer.text(i.rate)
+                write(i.level),
+                write(i.rate)
             );
         }
     }
 }
 
+/// A repeated part of the ARRs this long or longer is written once, under a name.
+const SHORTEST_SHARED: usize = 30;
+
 fn arrs(out: &mut String, c: &Compiled) {
     let printer = Printer::new(&c.exprs, |s| names::text(c, s));
+    let relations: Vec<_> = c.arrs.iter().map(|a| a.expr).collect();
+    let mut realisations = Vec::new();
+    for arr in &c.arrs {
+        if let Realisation::Integrated(i) = &arr.realisation {
+            realisations.extend([i.level, i.rate]);
+        }
+    }
+    let shared = Shared::new(c, &relations, &realisations, SHORTEST_SHARED);
+    let write = |e| shared.write(e);
     let _ = writeln!(out, "ARRs");
+    let definitions = shared.definitions();
+    if !definitions.is_empty() {
+        let _ = writeln!(
+            out,
+            "  shared parts (each written once here, by name below):"
+        );
+        for d in definitions {
+            let _ = writeln!(out, "    {d}");
+        }
+    }
     if !c.diagnosed {
         let _ = writeln!(
             out,
@@ -362,7 +381,7 @@ fn arrs(out: &mut String, c: &Compiled) {
             arr.name,
             arr.junction,
             if simulated { ", simulated" } else { "" },
-            printer.text(arr.expr)
+            write(arr.expr)
         );
         if simulated {
             let _ = writeln!(
@@ -374,7 +393,7 @@ fn arrs(out: &mut String, c: &Compiled) {
                 let _ = writeln!(out, "    ({})", stability.meaning());
             }
         }
-        realisation(out, &printer, arr);
+        realisation(out, &write, arr);
         for law in &arr.inverted {
             let _ = writeln!(
                 out,

@@ -156,9 +156,9 @@ impl Func {
         }
     }
 
-    /// Its value at `args` (which has [`Func::arity`] elements).
+    /// Its value at `args`, which has [`Func::arity`] elements (a call node holds as many).
     pub fn apply(self, args: &[f64]) -> f64 {
-        let x = args.first().copied().unwrap_or(f64::NAN);
+        let x = args[0];
         match self {
             Func::Exp => x.exp(),
             Func::Log => x.ln(),
@@ -179,8 +179,8 @@ impl Func {
             Func::Tanh => x.tanh(),
             Func::Atan => x.atan(),
             Func::Atanh => x.atanh(),
-            Func::Min => x.min(args.get(1).copied().unwrap_or(f64::NAN)),
-            Func::Max => x.max(args.get(1).copied().unwrap_or(f64::NAN)),
+            Func::Min => x.min(args[1]),
+            Func::Max => x.max(args[1]),
         }
     }
 }

@@ -44,7 +44,7 @@ impl CopyRun {
     /// Advances the copy to the raw samples at `t`.
     pub(crate) fn push(&mut self, t: f64, raw: &[f64]) {
         for (u, &k) in self.u.iter_mut().zip(&self.inputs) {
-            *u = raw.get(k).copied().unwrap_or(f64::NAN);
+            *u = raw[k];
         }
         let CopyRun {
             replay,
@@ -56,8 +56,8 @@ impl CopyRun {
         } = self;
         replay.push(t, u, |t, x, u, dx| {
             let leaf = |l: Leaf| match l {
-                Leaf::State(k) => x.get(k as usize).copied().unwrap_or(f64::NAN),
-                Leaf::Input(j) => u.get(j as usize).copied().unwrap_or(f64::NAN),
+                Leaf::State(k) => x[k as usize],
+                Leaf::Input(j) => u[j as usize],
                 Leaf::Time => t,
                 Leaf::Slot(_) | Leaf::Parameter(_) => f64::NAN,
             };

@@ -9,7 +9,7 @@ pub(crate) fn fold(code: &Pool<Leaf>, roots: &[Code], params: &[f64]) -> (Pool<L
     let roots = (roots.iter())
         .map(|&r| {
             pool.import_from(code, r, |p: &mut Pool<Leaf>, l| match l {
-                Leaf::Parameter(k) => p.num(params.get(k.index()).copied().unwrap_or(f64::NAN)),
+                Leaf::Parameter(k) => p.num(params[k.index()]),
                 other => p.leaf(other),
             })
         })

@@ -157,7 +157,8 @@ impl Generator {
         })
     }
 
-    /// Takes the raw samples at `t` (in the program's raw order) and returns, once the
+    /// Takes the raw samples at `t` (in the program's raw order, one per raw signal: a
+    /// shorter slice is a caller's bug and panics) and returns, once the
     /// windows are full, the residuals at the instant of the estimates and, with `bounds`,
     /// each residual's bound from parameter uncertainty, `Σ |∂r/∂θ| Δθ` (else zeros).
     pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<Estimate<'_>> {
@@ -171,7 +172,7 @@ impl Generator {
         if let Some(copy) = &mut self.copy {
             let x = copy.replay.at(at)?;
             for &(i, k) in &copy.read {
-                self.values[i] = x.get(k).copied().unwrap_or(f64::NAN);
+                self.values[i] = x[k];
             }
         }
         let mut scratch = std::mem::take(&mut self.scratch);
@@ -187,7 +188,7 @@ impl Generator {
                 } => {
                     let leaf = |l| self.leaf(l, at);
                     integrand.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
-                    let v = buffer.first().copied().unwrap_or(f64::NAN);
+                    let v = buffer[0];
                     self.values[*slot] = rule.push(at, v);
                 }
                 Step::Root { slot, law, finder } => {
@@ -195,13 +196,17 @@ impl Generator {
                         self.values[*slot] = z;
                         let leaf = |l| self.leaf(l, at);
                         law.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
-                        let at = |k: usize| buffer.get(k).copied().unwrap_or(f64::NAN);
-                        (at(0), at(1))
+                        (buffer[0], buffer[1])
                     });
-                    if root.is_none() {
-                        self.unsolved = self.unsolved.or(Some(*slot));
-                    }
-                    self.values[*slot] = root.unwrap_or(f64::NAN);
+                    self.values[*slot] = match root {
+                        Some(z) => z,
+                        // No root at this instant: what reads it is not a number, and the
+                        // estimate says which slot was unsolved.
+                        None => {
+                            self.unsolved = self.unsolved.or(Some(*slot));
+                            f64::NAN
+                        }
+                    };
                 }
             }
         }
@@ -240,13 +245,13 @@ impl Generator {
         let channels = self.estimators.iter_mut().zip(&mut self.feeds);
         for (c, (estimator, feed)) in channels.enumerate() {
             let x = match feed {
-                Feed::Raw(k) => raw.get(*k).copied().unwrap_or(f64::NAN),
-                Feed::Integral(k, rule) => rule.push(t, raw.get(*k).copied().unwrap_or(f64::NAN)),
+                Feed::Raw(k) => raw[*k],
+                Feed::Integral(k, rule) => rule.push(t, raw[*k]),
             };
             match estimator.push(x) {
                 Some(d) => {
                     for &(n, i) in &self.scatter[c] {
-                        self.values[i] = d.get(n).copied().unwrap_or(f64::NAN);
+                        self.values[i] = d[n];
                     }
                 }
                 None => ready = false,

@@ -83,7 +83,8 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
         return Err(refuse(&c.diagnostics));
     }
     let module = bondgraph_codegen::rust::ident(&c.name);
-    let items = bondgraph_codegen::rust::tokens(&c);
+    let items = bondgraph_codegen::rust::tokens(&c)
+        .map_err(|why| fail(format!("{}: cannot write Rust: {why}", source.name)))?;
     // Cargo rebuilds the calling crate when a file it `include_bytes!`es changes.
     let track = source.path.map(|p| {
         let p = p.to_string_lossy().into_owned();

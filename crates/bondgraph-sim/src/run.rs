@@ -106,10 +106,10 @@ impl Plant {
     /// The value of each leaf at `t` in state `y`, with the loops' unknowns `z`.
     fn leaves<'a>(&'a self, t: f64, y: &'a [f64], z: &'a [f64]) -> impl Fn(P) -> f64 + 'a {
         move |leaf| match leaf {
-            P::State(k) => y.get(k as usize).copied().unwrap_or(f64::NAN),
-            P::Loop(k) => z.get(k as usize).copied().unwrap_or(f64::NAN),
-            P::Param(k) => self.params.get(k as usize).map_or(f64::NAN, |c| c.at(t)),
-            P::Fault(k) => self.faults.get(k as usize).map_or(f64::NAN, |f| f.at(t)),
+            P::State(k) => y[k as usize],
+            P::Loop(k) => z[k as usize],
+            P::Param(k) => self.params[k as usize].at(t),
+            P::Fault(k) => self.faults[k as usize].at(t),
             P::Time => t,
             // Put in when the plant was built.
             P::Input(_) | P::InputDer(..) => f64::NAN,
@@ -117,12 +117,8 @@ impl Plant {
     }
 
     fn integral<'a>(&'a self, y: &'a [f64]) -> impl Fn(bondgraph_core::ExprId<P>) -> f64 + 'a {
-        move |id| {
-            self.integrals
-                .get(&id)
-                .and_then(|&k| y.get(k).copied())
-                .unwrap_or(f64::NAN)
-        }
+        // Every `int(..)` of the plant has a state of its own, after the model's.
+        move |id| y[self.integrals[&id]]
     }
 }
 

@@ -89,6 +89,16 @@ pub enum VerifyError {
     ImplicitLoops(Vec<String>),
     /// The simulation left the finite numbers (at this time, in seconds).
     Diverged(f64),
+    /// Every scale and step tried left the finite numbers: the last try's time (s), and the
+    /// smallest state scale and step tried.
+    NoFiniteRun {
+        /// When the last try left the finite numbers, in seconds.
+        at: f64,
+        /// The smallest scale of the initial states tried.
+        state_scale: f64,
+        /// The shortest step tried, in seconds.
+        step: f64,
+    },
 }
 
 impl std::fmt::Display for VerifyError {
@@ -105,9 +115,13 @@ impl std::fmt::Display for VerifyError {
                  check the ARRs on simulated data with `bgc simulate` and `bgc residuals` instead",
                 names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
             ),
-            VerifyError::Diverged(t) => write!(
+            VerifyError::Diverged(t) => write!(f, "the simulation left the finite numbers at t = {t} s"),
+            VerifyError::NoFiniteRun { at, state_scale, step } => write!(
                 f,
-                "the simulation left the finite numbers at t = {t} s; try smaller --input-scale or --state-scale"
+                "every run left the finite numbers (the last at t = {at} s), with initial states \
+                 down to a scale of {state_scale:e} and steps down to {step:e} s: give \
+                 --state-scale the size of the model's states in its own units (a pressure in Pa \
+                 is 1e5, a volume in m^3 1e-3), and --input-scale that of its inputs"
             ),
         }
     }
@@ -153,7 +167,7 @@ pub struct Verification {
     /// of a stiff model left the finite numbers.
     pub step: f64,
     /// The scale of the initial states: the one asked for, or a tenth of it for each time
-    /// the simulation left the finite numbers on its first step.
+    /// every step tried left the finite numbers.
     pub state_scale: f64,
     /// How many times the initial states were shrunk tenfold to get there.
     pub scalings: u32,
@@ -255,27 +269,39 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
     let plant = plant(c, space).ok_or_else(|| {
         VerifyError::ImplicitLoops(space.loops.iter().map(|l| l.name.clone()).collect())
     })?;
-    let mut options = *options;
-    let (mut finer, mut smaller) = (0, 0);
-    loop {
-        match verify_with(c, &plant, &options) {
-            // Left the numbers on the first step: the start is outside the model's domain
-            // (a liquid volume past its accumulator's gas volume), not a step too long.
-            Err(VerifyError::Diverged(t)) if t == 0.0 && smaller < MAX_SCALINGS => {
-                options.state_scale /= 10.0;
-                smaller += 1;
+    // The scale that suits a model is found, not asked for: the initial states shrink
+    // tenfold while the run leaves the finite numbers, and at each scale the step shrinks
+    // tenfold while it leaves them after the start (a stiff model). Leaving them on the
+    // first step means the start is outside the model's domain (a liquid volume past its
+    // accumulator's gas volume), which no step cures.
+    let mut last = 0.0;
+    let mut tried = *options;
+    for smaller in 0..=MAX_SCALINGS {
+        let mut attempt = *options;
+        attempt.state_scale = options.state_scale / 10f64.powi(smaller as i32);
+        for _ in 0..=MAX_REFINEMENTS {
+            tried = attempt;
+            match verify_with(c, &plant, &attempt) {
+                Ok(mut v) => {
+                    v.scalings = smaller as u32;
+                    return Ok(v);
+                }
+                Err(VerifyError::Diverged(t)) => {
+                    last = t;
+                    if t == 0.0 {
+                        break;
+                    }
+                    attempt.step /= 10.0;
+                }
+                Err(other) => return Err(other),
             }
-            Ok(mut v) => {
-                v.scalings = smaller as u32;
-                return Ok(v);
-            }
-            Err(VerifyError::Diverged(_)) if finer < MAX_REFINEMENTS => {
-                options.step /= 10.0;
-                finer += 1;
-            }
-            done => return done,
         }
     }
+    Err(VerifyError::NoFiniteRun {
+        at: last,
+        state_scale: tried.state_scale,
+        step: options.step / 10f64.powi(MAX_REFINEMENTS as i32),
+    })
 }
 
 fn verify_with(
@@ -828,8 +854,9 @@ impl Run<'_> {
     ) -> impl Fn(V) -> f64 + 'r {
         move |leaf| match leaf {
             V::State(k) => x[k.index()],
-            V::Loop(k) => z.get(k.index()).copied().unwrap_or(f64::NAN),
-            V::Root(k) => roots.get(k.index()).copied().unwrap_or(f64::NAN),
+            V::Loop(k) => z[k.index()],
+            // Only the residuals read roots, and `roots` holds them when they are evaluated.
+            V::Root(k) => roots[k.index()],
             V::Estimate(k) => x[self.plant.states + k.index()],
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
@@ -860,7 +887,8 @@ impl Run<'_> {
     /// first.
     fn values(&self, tape: &Tape<V>, x: &[f64], t: f64) -> Vec<f64> {
         let integrals = self.integrals(x);
-        let integral = |id: VId| integrals.get(&id).copied().unwrap_or(f64::NAN);
+        // Every `int(..)` of the plant is integrated with it.
+        let integral = |id: VId| integrals[&id];
         let z = self.loops(x, t, &integral);
         // Only the residuals read roots.
         let roots = if std::ptr::eq(tape, &self.plant.residual_tape) {
@@ -1032,5 +1060,22 @@ mod tests {
         let mut expected = vec![a, b];
         expected.sort();
         assert_eq!(terms, expected);
+    }
+
+    /// A stiffening spring whose force runs out of the finite numbers from the default
+    /// initial states, after the start: verify finds a scale of its own and passes, where it
+    /// used to stop and ask the user for one.
+    #[test]
+    fn verify_finds_a_scale_the_model_stays_finite_at() {
+        let model = "model stiffening\nparam m = 1\nparam b = 0.5\nparam k1 = 4\nparam a = 100\n\
+                     input F\nSe src = F\nI mass = m\nR damper = b\n\
+                     C spring : e = k1*q*exp(a*q^2)\nDf v on j\n\
+                     src -> 1:j -> mass, damper, spring\n";
+        let c = bondgraph_core::compile(model, "m.bg", &bondgraph_core::Options::default())
+            .expect("compiles")
+            .compiled;
+        let v = verify(&c, &VerifyOptions::default()).expect("a finite run was found");
+        assert!(v.scalings > 0 && v.state_scale < 0.5, "{}", v.state_scale);
+        assert!(v.passed());
     }
 }

@@ -30,5 +30,8 @@ fn the_included_file_is_what_bgc_writes() {
         env!("CARGO_MANIFEST_DIR")
     ))
     .expect("included file");
-    assert_eq!(bondgraph_codegen::rust::emit(&c), written);
+    assert_eq!(
+        bondgraph_codegen::rust::emit(&c).expect("writable"),
+        written
+    );
 }

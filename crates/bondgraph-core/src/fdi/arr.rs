@@ -19,7 +19,8 @@ pub struct Arr {
     pub name: String,
     /// The node whose equation became redundant.
     pub origin: NodeId,
-    /// The junction the ARR is written at: the origin, or the junction an element is bonded to.
+    /// The junction the ARR is labelled with: its detector's, when that junction's equation
+    /// is part of it; else the origin, or the junction an element is bonded to.
     pub junction: NodeId,
     /// The detector the ARR is attributed to.
     pub sensor: Option<NodeId>,
@@ -262,6 +263,12 @@ fn attribute_sensors(model: &BondGraph, causal: &Causal, arrs: &mut [Arr]) {
             .copied();
         if let Some(s) = arr.sensor {
             taken.insert(s);
+            // A reader finds an ARR by its detector: it is labelled with the detector's
+            // junction when that junction's equation is part of it, not with the junction
+            // whose equation happened to be combined last.
+            if let Some(j) = model.detector_junction(s).filter(|j| arr.nodes.contains(j)) {
+                arr.junction = j;
+            }
         }
     }
 }

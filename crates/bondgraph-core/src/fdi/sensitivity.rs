@@ -211,7 +211,8 @@ impl Point<'_> {
                 }
             }
         }
-        (value.last().copied().unwrap_or(f64::NAN), out)
+        // `root` is reached last: the order ends with it.
+        (value[order.len() - 1], out)
     }
 }
 

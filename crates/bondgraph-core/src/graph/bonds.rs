@@ -23,30 +23,44 @@ struct Draft {
 }
 
 /// Adds the bonds of every chain, then those of `Df y on J` attachments, to `graph`.
+/// Returns the nodes of a statement that had an error: some of their bonds may be missing,
+/// so their bond counts prove nothing.
 pub(crate) fn build(
     graph: &mut DiGraph<Node, Bond>,
     chains: &[&Chain],
     attachments: &[(NodeId, &Ident)],
     scope: &Scope,
     diagnostics: &mut Diagnostics,
-) {
+) -> Vec<NodeId> {
     let mut drafts = Vec::new();
+    let mut uncertain = Vec::new();
     for chain in chains {
-        chain_bonds(graph, chain, scope, diagnostics, &mut drafts);
+        let before = diagnostics.len();
+        let complete = chain_bonds(graph, chain, scope, diagnostics, &mut drafts);
+        if !complete || diagnostics.len() > before {
+            let named = chain.groups.iter().flatten();
+            uncertain.extend(named.filter_map(|n| match scope.node(&n.name.name) {
+                Lookup::Found((id, _)) => Some(id),
+                _ => None,
+            }));
+        }
     }
     for &(detector, junction) in attachments {
-        if let Some(j) = resolve(scope, junction, diagnostics) {
-            if is_junction(graph, j) {
-                drafts.push(Draft {
-                    tail: j,
-                    head: detector,
-                    kind: BondKind::Signal,
-                    number: None,
-                    span: junction.span,
-                });
-            } else {
-                diagnostics.push(not_a_junction(graph, detector, junction.span));
-            }
+        let Some(j) = resolve(scope, junction, diagnostics) else {
+            uncertain.push(detector);
+            continue;
+        };
+        if is_junction(graph, j) {
+            drafts.push(Draft {
+                tail: j,
+                head: detector,
+                kind: BondKind::Signal,
+                number: None,
+                span: junction.span,
+            });
+        } else {
+            diagnostics.push(not_a_junction(graph, detector, junction.span));
+            uncertain.push(detector);
         }
     }
     for (draft, number) in number(&drafts, diagnostics) {
@@ -60,25 +74,28 @@ pub(crate) fn build(
             },
         );
     }
+    uncertain
 }
 
+/// Drafts the bonds of one chain; whether every node it names was found.
 fn chain_bonds(
     graph: &DiGraph<Node, Bond>,
     chain: &Chain,
     scope: &Scope,
     diagnostics: &mut Diagnostics,
     drafts: &mut Vec<Draft>,
-) {
+) -> bool {
     let groups: Vec<Vec<Option<(NodeId, Span)>>> = chain
         .groups
         .iter()
         .map(|group| {
             group
                 .iter()
-                .map(|n| resolve_ref(scope, n, diagnostics).map(|id| (id, n.span)))
+                .map(|n| resolve_ref(graph, scope, n, diagnostics).map(|id| (id, n.span)))
                 .collect()
         })
         .collect();
+    let complete = groups.iter().flatten().all(Option::is_some);
     for (i, arrow) in chain.arrows.iter().enumerate() {
         let (left, right) = (&groups[i], &groups[i + 1]);
         let number = arrow.number.map(|(n, _)| n);
@@ -112,6 +129,7 @@ fn chain_bonds(
             }
         }
     }
+    complete
 }
 
 /// Whether a bond between these nodes can exist, and of which kind.
@@ -175,11 +193,18 @@ fn not_a_junction(graph: &DiGraph<Node, Bond>, detector: NodeId, span: Span) -> 
     .with_label("expected a 0-junction (for De) or a 1-junction (for Df)")
 }
 
-fn resolve_ref(scope: &Scope, node: &NodeRef, diagnostics: &mut Diagnostics) -> Option<NodeId> {
-    if node.junction.is_some() {
-        // Declared (or reported) when the chain was first read.
+fn resolve_ref(
+    graph: &DiGraph<Node, Bond>,
+    scope: &Scope,
+    node: &NodeRef,
+    diagnostics: &mut Diagnostics,
+) -> Option<NodeId> {
+    if let Some(kind) = node.junction {
+        // Declared (or reported) when the chain was first read. A declaration that lost to
+        // another node of the same name was reported as a duplicate: its bonds are not
+        // made to that other node.
         return match scope.node(&node.name.name) {
-            Lookup::Found((id, _)) => Some(id),
+            Lookup::Found((id, _)) if graph[id.0].kind == NodeKind::Junction(kind) => Some(id),
             _ => None,
         };
     }

@@ -165,7 +165,8 @@ impl<'a> Lowerer<'a, '_> {
         if self.declare_signal(&decl.name, SignalSlot::Param(id), "parameter") {
             self.params.push(Param {
                 name: decl.name.name.clone(),
-                value: value.unwrap_or(f64::NAN),
+                // Without a value an error was reported, and the graph is not used.
+                value: value.unwrap_or_default(),
                 unit: decl.unit.clone(),
                 uncertainty,
                 description: decl.description.clone(),
@@ -269,22 +270,29 @@ impl<'a> Lowerer<'a, '_> {
         self.check_unknown_kinds(&variability);
         let mut graph = DiGraph::with_capacity(self.pending.len(), self.pending.len());
         let mut attachments = Vec::new();
+        // Nodes whose bond counts prove nothing: their declaration or a statement bonding
+        // them had an error.
+        let mut uncertain = HashSet::new();
         for pending in std::mem::take(&mut self.pending) {
             let kind = self.node_kind(&pending, &variability, &mut attachments);
-            graph.add_node(Node {
+            let failed = kind.is_none();
+            let index = graph.add_node(Node {
                 name: pending.name.name.clone(),
                 kind: kind.unwrap_or(NodeKind::Junction(JunctionKind::Zero)),
                 description: pending.description,
                 span: pending.name.span,
             });
+            if failed {
+                uncertain.insert(NodeId(index));
+            }
         }
-        bonds::build(
+        uncertain.extend(bonds::build(
             &mut graph,
             &self.chains,
             &attachments,
             &self.scope,
             self.diagnostics,
-        );
+        ));
         let model = BondGraph {
             name: self.model.map(|m| m.name.clone()).unwrap_or_default(),
             params: std::mem::take(&mut self.params),
@@ -293,9 +301,14 @@ impl<'a> Lowerer<'a, '_> {
             let_order,
             graph,
         };
-        if !self.diagnostics.has_errors() {
-            validate::structure(&model, self.model.map(|m| m.span), self.diagnostics);
-        }
+        // Every error at once: the structure of what was declared and bonded without error
+        // is checked even when other statements had errors.
+        validate::structure(
+            &model,
+            self.model.map(|m| m.span),
+            &uncertain,
+            self.diagnostics,
+        );
         // With errors, a declaration may look unused only because its user was rejected.
         if !self.diagnostics.has_errors() {
             self.warn_unused(&model);

@@ -1,17 +1,22 @@
 //! Structural checks on a lowered graph: port counts, power directions, detector placement.
 
+use std::collections::HashSet;
+
 use petgraph::Direction::{Incoming, Outgoing};
 
 use super::model::{BondGraph, BondId, BondKind, DetectorKind, ElementKind, NodeId, NodeKind};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 
-/// Checks every node's bonds against its kind; `model_span` locates whole-model errors.
+/// Checks every node's bonds against its kind, but for the `uncertain` ones (a statement
+/// declaring or bonding them had an error, already reported); `model_span` locates
+/// whole-model errors.
 pub(crate) fn structure(
     model: &BondGraph,
     model_span: Option<Span>,
+    uncertain: &HashSet<NodeId>,
     diagnostics: &mut Diagnostics,
 ) {
-    if model.graph.edge_count() == 0 {
+    if model.graph.edge_count() == 0 && !diagnostics.has_errors() {
         diagnostics.push(
             Diagnostic::error(
                 Code::Empty,
@@ -22,7 +27,10 @@ pub(crate) fn structure(
         );
         return;
     }
-    for id in model.nodes() {
+    if model.graph.edge_count() == 0 {
+        return;
+    }
+    for id in model.nodes().filter(|id| !uncertain.contains(id)) {
         let bonds = Ports::of(model, id);
         match model.node(id).kind {
             NodeKind::Junction(_) => junction(model, id, &bonds, diagnostics),

@@ -373,7 +373,7 @@ mod tests {
             Symbol::Input(u, n) => slot(Quantity::Derivative(Signal::Input(u), n)),
             Symbol::Sensor(h, n) => slot(Quantity::Derivative(Signal::Sensor(h), n)),
             Symbol::State(k) => slot(Quantity::Simulated(k)),
-            Symbol::Auxiliary(a, n) => aux.get(&(a.index(), n)).copied().unwrap_or(f64::NAN),
+            Symbol::Auxiliary(a, n) => aux[&(a.index(), n)],
             Symbol::Root(h, 0) => slot(Quantity::Root(h)),
             // Over the roots' values and signals only.
             Symbol::Root(h, n) => {

@@ -63,7 +63,7 @@ impl Program {
                     return Some(Stability::Unknown);
                 };
                 jacobian[i][j] = Evaluator::new(&pool, |leaf| match leaf {
-                    Leaf::Parameter(p) => params.get(p.index()).copied().unwrap_or(f64::NAN),
+                    Leaf::Parameter(p) => params[p.index()],
                     _ => 0.0,
                 })
                 .value(d);

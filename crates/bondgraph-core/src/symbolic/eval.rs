@@ -41,7 +41,8 @@ impl<'p, L: LeafKind, F: Fn(L) -> f64> Evaluator<'p, L, F> {
             .reachable_unless(root, |id| self.values.contains_key(&id));
         for id in order {
             let node = self.pool.node(id);
-            let v = |x: ExprId<L>| self.values.get(&x).copied().unwrap_or(f64::NAN);
+            // Children come first in `order` or were evaluated before.
+            let v = |x: ExprId<L>| self.values[&x];
             let value = match node {
                 Node::Num(bits) => f64::from_bits(bits),
                 Node::Leaf(l) => (self.leaf)(l),
@@ -49,11 +50,15 @@ impl<'p, L: LeafKind, F: Fn(L) -> f64> Evaluator<'p, L, F> {
                 Node::Binary(op, a, b) => op.apply(v(a), v(b)),
                 Node::Call1(f, a) => f.apply(&[v(a)]),
                 Node::Call2(f, a, b) => f.apply(&[v(a), v(b)]),
-                Node::Int(_) => self.integrals.get(&id).copied().unwrap_or(f64::NAN),
+                Node::Int(_) => match self.integrals.get(&id) {
+                    Some(&value) => value,
+                    // An integral no value was given for has none.
+                    None => f64::NAN,
+                },
             };
             self.values.insert(id, value);
         }
-        self.values.get(&root).copied().unwrap_or(f64::NAN)
+        self.values[&root]
     }
 }
 
