@@ -647,70 +647,70 @@ fn calibrate_alone_keeps_a_wider_dead_zone_in_alarm_at_steady_speed() {
 
 /// Every model of `models/` compiled by `bond_graph!`, realised as by default.
 mod every {
-    pub mod backlash_bench_table3 {
+    pub(crate) mod backlash_bench_table3 {
         bondgraph::bond_graph!("../../models/backlash_bench_table3.bg");
     }
-    pub mod coulomb_friction {
+    pub(crate) mod coulomb_friction {
         bondgraph::bond_graph!("../../models/coulomb_friction.bg");
     }
-    pub mod dc_motor {
+    pub(crate) mod dc_motor {
         bondgraph::bond_graph!("../../models/dc_motor.bg");
     }
-    pub mod four_mass_chain {
+    pub(crate) mod four_mass_chain {
         bondgraph::bond_graph!("../../models/four_mass_chain.bg");
     }
-    pub mod gas_accumulator {
+    pub(crate) mod gas_accumulator {
         bondgraph::bond_graph!("../../models/gas_accumulator.bg");
     }
-    pub mod heat_exchanger {
+    pub(crate) mod heat_exchanger {
         bondgraph::bond_graph!("../../models/heat_exchanger.bg");
     }
-    pub mod heated_tank {
+    pub(crate) mod heated_tank {
         bondgraph::bond_graph!("../../models/heated_tank.bg");
     }
-    pub mod orifice_tank {
+    pub(crate) mod orifice_tank {
         bondgraph::bond_graph!("../../models/orifice_tank.bg");
     }
-    pub mod hardening_spring {
+    pub(crate) mod hardening_spring {
         bondgraph::bond_graph!("../../models/hardening_spring.bg");
     }
-    pub mod hydraulic_cylinder {
+    pub(crate) mod hydraulic_cylinder {
         bondgraph::bond_graph!("../../models/hydraulic_cylinder.bg");
     }
-    pub mod loudspeaker {
+    pub(crate) mod loudspeaker {
         bondgraph::bond_graph!("../../models/loudspeaker.bg");
     }
-    pub mod parallel_rlc {
+    pub(crate) mod parallel_rlc {
         bondgraph::bond_graph!("../../models/parallel_rlc.bg");
     }
-    pub mod quarter_car {
+    pub(crate) mod quarter_car {
         bondgraph::bond_graph!("../../models/quarter_car.bg");
     }
-    pub mod resistive_loop {
+    pub(crate) mod resistive_loop {
         bondgraph::bond_graph!("../../models/resistive_loop.bg");
     }
-    pub mod rigid_gear_drive {
+    pub(crate) mod rigid_gear_drive {
         bondgraph::bond_graph!("../../models/rigid_gear_drive.bg");
     }
-    pub mod rlc_series {
+    pub(crate) mod rlc_series {
         bondgraph::bond_graph!("../../models/rlc_series.bg");
     }
-    pub mod thermal_two_zone {
+    pub(crate) mod thermal_two_zone {
         bondgraph::bond_graph!("../../models/thermal_two_zone.bg");
     }
-    pub mod three_tank {
+    pub(crate) mod three_tank {
         bondgraph::bond_graph!("../../models/three_tank.bg");
     }
-    pub mod torque_sensor_drive {
+    pub(crate) mod torque_sensor_drive {
         bondgraph::bond_graph!("../../models/torque_sensor_drive.bg");
     }
-    pub mod two_tank {
+    pub(crate) mod two_tank {
         bondgraph::bond_graph!("../../models/two_tank.bg");
     }
-    pub mod varistor_loop {
+    pub(crate) mod varistor_loop {
         bondgraph::bond_graph!("../../models/varistor_loop.bg");
     }
-    pub mod wheatstone_bridge {
+    pub(crate) mod wheatstone_bridge {
         bondgraph::bond_graph!("../../models/wheatstone_bridge.bg");
     }
 }

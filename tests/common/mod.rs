@@ -3,21 +3,21 @@
 #![allow(dead_code)]
 
 mod models;
-pub mod mutate;
+pub(crate) mod mutate;
 
 #[allow(unused_imports)]
-pub use models::models;
+pub(crate) use models::models;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 /// The workspace root, where `models/` and `tests/` are.
-pub fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 /// A path relative to the workspace root, with `/` separators, as shown in diagnostics.
-pub fn relative(path: &Path) -> String {
+pub(crate) fn relative(path: &Path) -> String {
     let root = root().canonicalize().expect("workspace root");
     let path = path.canonicalize().expect("test file");
     path.strip_prefix(&root)
@@ -29,7 +29,7 @@ pub fn relative(path: &Path) -> String {
 }
 
 /// Runs bgc with `args` from the workspace root, colours off.
-pub fn bgc(args: &[&str]) -> Output {
+pub(crate) fn bgc(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_bgc"))
         .args(args)
         .current_dir(root())
@@ -42,14 +42,14 @@ pub fn bgc(args: &[&str]) -> Output {
 }
 
 /// Standard output as text.
-pub fn stdout(output: &Output) -> String {
+pub(crate) fn stdout(output: &Output) -> String {
     String::from_utf8_lossy(&output.stdout).into_owned()
 }
 
 /// Standard error as text.
 /// Standard error as text, with the lines miette wraps a message into joined again (a
 /// continuation line starts with `│` after the indent), so that a test can look for a phrase.
-pub fn stderr(output: &Output) -> String {
+pub(crate) fn stderr(output: &Output) -> String {
     let text = String::from_utf8_lossy(&output.stderr);
     let mut out = String::with_capacity(text.len());
     for line in text.split_inclusive('\n') {
@@ -67,12 +67,12 @@ pub fn stderr(output: &Output) -> String {
 }
 
 /// The exit code; a signal or a panic (101) fails the test at the call site.
-pub fn code(output: &Output) -> i32 {
+pub(crate) fn code(output: &Output) -> i32 {
     output.status.code().unwrap_or(-1)
 }
 
 /// Whether `report` names `file:LINE:COL` somewhere.
-pub fn names_line_and_column(report: &str, file: &str) -> bool {
+pub(crate) fn names_line_and_column(report: &str, file: &str) -> bool {
     let located = format!("{file}:");
     report.match_indices(&located).any(|(at, _)| {
         let mut parts = report[at + located.len()..].splitn(3, ':');
@@ -84,7 +84,7 @@ pub fn names_line_and_column(report: &str, file: &str) -> bool {
 }
 
 /// A fresh directory for one test's files, named after the test and this process.
-pub fn scratch(name: &str) -> PathBuf {
+pub(crate) fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bgc-{name}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir

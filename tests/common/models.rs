@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 /// Every `.bg` file in `models/`, sorted.
-pub fn models() -> Vec<PathBuf> {
+pub(crate) fn models() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .expect("models/")

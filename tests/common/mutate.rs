@@ -2,11 +2,11 @@
 //! truncation, random bytes. A fixed-seed SplitMix64 picks them, so a failure reproduces.
 
 /// SplitMix64: small, fast, good enough to pick mutations.
-pub struct Rng(pub u64);
+pub(crate) struct Rng(pub u64);
 
 impl Rng {
     /// The next 64 random bits.
-    pub fn next(&mut self) -> u64 {
+    pub(crate) fn next(&mut self) -> u64 {
         self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -15,7 +15,7 @@ impl Rng {
     }
 
     /// A number in `0..n` (0 when `n` is 0).
-    pub fn below(&mut self, n: usize) -> usize {
+    pub(crate) fn below(&mut self, n: usize) -> usize {
         if n == 0 {
             0
         } else {
@@ -25,7 +25,7 @@ impl Rng {
 }
 
 /// One random mutation of `text`, and what it was.
-pub fn mutate(text: &[u8], rng: &mut Rng) -> (Vec<u8>, &'static str) {
+pub(crate) fn mutate(text: &[u8], rng: &mut Rng) -> (Vec<u8>, &'static str) {
     let lines: Vec<&[u8]> = text.split_inclusive(|&b| b == b'\n').collect();
     let mut lines: Vec<Vec<u8>> = lines.into_iter().map(<[u8]>::to_vec).collect();
     let what = match rng.below(8) {

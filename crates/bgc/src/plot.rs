@@ -17,7 +17,7 @@ const MAX_POINTS: usize = 4000;
 const PANEL: u32 = 220;
 
 /// One panel: a named series over time, with what else to draw on it.
-pub struct Panel<'a> {
+pub(crate) struct Panel<'a> {
     /// Its title.
     pub name: &'a str,
     /// The values, one per time.
@@ -31,7 +31,7 @@ pub struct Panel<'a> {
 }
 
 /// Draws `panels` over `time` into the SVG file `path`, one under the other.
-pub fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), String> {
+pub(crate) fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), String> {
     check_path(path)?;
     let height = PANEL * panels.len().max(1) as u32;
     let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
@@ -46,7 +46,7 @@ pub fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), Strin
 
 /// Whether a plot can be written at `path`: an `.svg` name in a directory that exists. Checked
 /// before any work, so that a typo costs no run.
-pub fn check_path(path: &Path) -> Result<(), String> {
+pub(crate) fn check_path(path: &Path) -> Result<(), String> {
     if path.extension().and_then(|e| e.to_str()) != Some("svg") {
         return Err(format!(
             "`{}`: plots are written as SVG only; name the file `.svg`",

@@ -12,7 +12,7 @@ use miette::{LabeledSpan, MietteHandlerOpts, NamedSource, SourceSpan};
 /// Sets how reports look: no terminal hyperlinks (they break copy-paste and snapshots); a fixed
 /// width and character set, so output does not depend on the terminal it was produced on.
 /// Colour still follows the terminal and `NO_COLOR`.
-pub fn install_hook() {
+pub(crate) fn install_hook() {
     // Fails only if a hook is already set, in which case that one is kept.
     let _ = miette::set_hook(Box::new(|_| {
         Box::new(
@@ -116,7 +116,7 @@ impl miette::Diagnostic for Said {
 }
 
 /// Compiles a model from raw bytes, printing every diagnostic; `None` if the model is invalid.
-pub fn compile(name: &str, bytes: Vec<u8>, options: &Options) -> Option<Output> {
+pub(crate) fn compile(name: &str, bytes: Vec<u8>, options: &Options) -> Option<Output> {
     let text = match String::from_utf8(bytes) {
         Ok(text) => text,
         Err(e) => {
@@ -160,7 +160,7 @@ fn not_text(e: &std::string::FromUtf8Error) -> (String, Diagnostics) {
 }
 
 /// Prints each diagnostic against `text` (named `name`), then a count of the errors.
-pub fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
+pub(crate) fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
     for d in diagnostics.iter() {
         let report = Report {
             diagnostic: d.clone(),

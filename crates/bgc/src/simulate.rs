@@ -206,7 +206,7 @@ fn progress(samples: f64) -> Option<ProgressBar> {
 
 /// The samples as CSV: a header of column names, then one row per sample. Numbers are
 /// written in the shortest form that reads back to the same `f64`.
-pub fn csv(t: &Trajectory) -> String {
+pub(crate) fn csv(t: &Trajectory) -> String {
     let rows = t.values.first().map_or(0, Vec::len);
     let mut out = String::with_capacity(rows * t.columns.len() * 20);
     out.push_str(&t.columns.join(","));

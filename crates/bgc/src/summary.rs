@@ -7,7 +7,7 @@ use bondgraph_core::{Compiled, NodeClass};
 use bondgraph_sim::Verification;
 
 /// The summary of a model: counts by kind, then parameters and inputs.
-pub fn check(c: &Compiled) -> String {
+pub(crate) fn check(c: &Compiled) -> String {
     let mut by_kind: BTreeMap<&str, usize> = BTreeMap::new();
     let (mut elements, mut junctions) = (0, 0);
     for node in c.graph.nodes.values() {
@@ -71,7 +71,7 @@ fn size(x: f64) -> String {
 }
 
 /// The table `bgc verify` prints: each ARR on the healthy plant, then each FSM entry.
-pub fn verification(c: &Compiled, v: &Verification) -> String {
+pub(crate) fn verification(c: &Compiled, v: &Verification) -> String {
     let verdict = |pass: bool| if pass { "pass" } else { "FAIL" };
     let mut out = String::new();
     let _ = writeln!(

@@ -21,7 +21,7 @@ fn loop_name(c: &Compiled, k: Handle<LoopUnknown>) -> String {
 }
 
 /// The plain-text name of a leaf: `Re`, `U0`, `der(y1)`, `der(y1, 2)`, `t`, `p_Lm`.
-pub fn text(c: &Compiled, symbol: Symbol) -> String {
+pub(crate) fn text(c: &Compiled, symbol: Symbol) -> String {
     match symbol {
         Symbol::Parameter(p) => c.parameters[p].name.clone(),
         Symbol::Input(u, n) => derivative(&c.inputs[u].name, n),
@@ -42,7 +42,7 @@ const GREEK: [&str; 24] = [
 
 /// A name in LaTeX: `gamma` → `\gamma`, `y1` → `y_{1}`, `theta_e` → `\theta_{e}`; other
 /// multi-letter names stay upright words (`\mathrm{Re}`), since `Re` is not `R·e`.
-pub fn latex_name(name: &str) -> String {
+pub(crate) fn latex_name(name: &str) -> String {
     let (stem, sub) = match name.split_once('_') {
         Some((stem, sub)) => (stem.to_string(), Some(sub.to_string())),
         None => {
@@ -69,7 +69,7 @@ pub fn latex_name(name: &str) -> String {
 }
 
 /// The n-th time derivative of a named signal: `\dot{y}_{1}`, `\ddot{y}_{1}`, `{y_{1}}^{(3)}`.
-pub fn latex_derivative(name: &str, n: u32) -> String {
+pub(crate) fn latex_derivative(name: &str, n: u32) -> String {
     {
         let base = latex_name(name);
         match n {
@@ -88,7 +88,7 @@ pub fn latex_derivative(name: &str, n: u32) -> String {
 }
 
 /// The LaTeX name of a leaf.
-pub fn latex(c: &Compiled, symbol: Symbol) -> String {
+pub(crate) fn latex(c: &Compiled, symbol: Symbol) -> String {
     match symbol {
         Symbol::Parameter(p) => latex_name(&c.parameters[p].name),
         Symbol::Input(u, n) => latex_derivative(&c.inputs[u].name, n),

@@ -73,7 +73,7 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
         return Err(diagnostics);
     };
     if let Some((l, size)) = first_too_large(&model).filter(|_| options.derive != Derive::Nothing) {
-        let decl = &model.lets[l.0 as usize];
+        let decl = &model.lets[l.index()];
         let size = if size == u64::MAX {
             "more than 10^19".to_string()
         } else {

@@ -30,7 +30,7 @@ impl Analysis<'_> {
     /// For `--canonical`: every shown expression with the terms that share reciprocals of
     /// sums over their common denominator (see [`Simplifier::together`]), where that is
     /// shorter to read.
-    pub fn normalise(&mut self) {
+    pub(crate) fn normalise(&mut self) {
         let shorter = |pool: &mut Pool, simplifier: &mut Simplifier, e: ExprId| {
             let mut best = e;
             let together = simplifier.together(pool, e);
@@ -72,7 +72,7 @@ impl Analysis<'_> {
     /// detector outputs) into the cheapest form egg finds within `limits`. The FSM and the
     /// derivations are already done on the canonical forms; only how each is written changes.
     /// Only counts decide the forms; the clock can only abort the whole run.
-    pub fn simplify(&mut self, limits: Limits) -> Simplified {
+    pub(crate) fn simplify(&mut self, limits: Limits) -> Simplified {
         let rewriter = Rewriter::new(limits);
         let mut spent = 0usize;
         let mut skipped = Vec::new();

@@ -14,6 +14,7 @@ mod fdi;
 #[doc(hidden)]
 pub mod generate;
 mod graph;
+mod index;
 mod pipeline;
 mod product;
 pub mod program;

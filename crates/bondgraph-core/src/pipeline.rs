@@ -49,7 +49,7 @@ pub(crate) struct Diagnosed {
 
 impl Diagnosed {
     /// The whole model's derivation.
-    pub fn base(&self) -> &Diagnosis {
+    pub(crate) fn base(&self) -> &Diagnosis {
         &self.sources[0]
     }
 }

@@ -11,7 +11,7 @@ use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
 
 /// One state equation, `d(name)/dt = rhs`.
 #[derive(Clone, Debug)]
-pub struct StateEquation {
+pub(crate) struct StateEquation {
     /// `p_NAME` or `q_NAME`; `e_NAME` or `f_NAME` for a co-energy state.
     pub name: String,
     /// The storage element.
@@ -25,7 +25,7 @@ pub struct StateEquation {
 
 /// An unknown of a nonlinear algebraic loop that the state equations hold implicitly.
 #[derive(Clone, Debug)]
-pub struct LoopUnknown {
+pub(crate) struct LoopUnknown {
     /// Its symbol, `Leaf::Var(var)`, in the state equations and outputs.
     pub var: u32,
     /// A name for it from the model's names: `e_b` for a 0-junction's effort, `f_a_r1` for
@@ -40,7 +40,7 @@ pub struct LoopUnknown {
 }
 
 /// The state-space form of a model.
-pub struct StateSpace {
+pub(crate) struct StateSpace {
     /// The expressions.
     pub pool: Pool,
     /// One equation per state, in declaration order of the storage elements.
@@ -54,7 +54,7 @@ pub struct StateSpace {
 }
 
 /// The state equations of `model` from its equations in integral causality.
-pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
+pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     let mut pool = causal.system.pool.clone();
     let mut problems = report::refusals(model, causal);
     // What a refused law leaves unsolved follows from it: reported once, at the law.
@@ -96,7 +96,7 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     let mut states: Vec<StateEquation> = Vec::new();
     let mut rates: Vec<u32> = Vec::new();
     for (s, _) in causal.system.states.iter().zip(&kept).filter(|(_, k)| **k) {
-        let rhs = causal.solved.values[s.rate.0 as usize].unwrap_or(nan);
+        let rhs = causal.solved.values[s.rate.index()].unwrap_or(nan);
         rates.push(s.rate.0);
         states.push(StateEquation {
             name: s.name.clone(),
@@ -110,7 +110,7 @@ pub fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         .implicit
         .iter()
         .map(|i| {
-            let var = causal.system.vars[i.var.0 as usize];
+            let var = causal.system.vars[i.var.index()];
             LoopUnknown {
                 var: i.var.0,
                 name: var.short_name(model),

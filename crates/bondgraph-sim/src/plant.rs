@@ -45,7 +45,7 @@ pub(crate) struct Course {
 }
 
 impl Course {
-    pub fn at(&self, t: f64) -> f64 {
+    pub(crate) fn at(&self, t: f64) -> f64 {
         self.changes.iter().fold(self.nominal, |v, &(onset, to)| {
             v + (to - self.nominal) * onset.fraction(t)
         })
@@ -62,7 +62,7 @@ pub(crate) struct SignalFault {
 
 impl SignalFault {
     /// Its gain (1 when absent) or offset (0 when absent) at `t`.
-    pub fn at(&self, t: f64) -> f64 {
+    pub(crate) fn at(&self, t: f64) -> f64 {
         let f = self.onset.fraction(t);
         match self.mode {
             FaultMode::Additive => self.size * f,

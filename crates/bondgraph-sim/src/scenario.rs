@@ -30,7 +30,7 @@ pub(crate) enum Onset {
 
 impl Onset {
     /// How much of the fault is present at `t`, from 0 to 1.
-    pub fn fraction(self, t: f64) -> f64 {
+    pub(crate) fn fraction(self, t: f64) -> f64 {
         match self {
             Onset::Abrupt(at) => f64::from(u8::from(t >= at)),
             Onset::Drift(from, to) if to > from => ((t - from) / (to - from)).clamp(0.0, 1.0),
@@ -39,7 +39,7 @@ impl Onset {
     }
 
     /// The times at which the fault's course has a kink: where the integration restarts.
-    pub fn breaks(self) -> Vec<f64> {
+    pub(crate) fn breaks(self) -> Vec<f64> {
         match self {
             Onset::Abrupt(at) => vec![at],
             Onset::Drift(from, to) => vec![from, to],

@@ -35,10 +35,10 @@ bondgraph::bond_graph!("../../models/wheatstone_bridge.bg");
 /// two tanks', whose residual without the first level reads the valve's law the other way
 /// (no simulated one).
 mod best {
-    pub mod bench {
+    pub(crate) mod bench {
         bondgraph::bond_graph!("../../models/backlash_bench.bg", residuals = best);
     }
-    pub mod tanks {
+    pub(crate) mod tanks {
         bondgraph::bond_graph!("../../models/two_tank.bg", residuals = best);
     }
 }

@@ -1,6 +1,7 @@
 //! The equations of a bond graph, as relations between bond variables that can be solved in
 //! chosen directions: what causality assignment orients.
 
+use crate::index::typed_index;
 use std::collections::{BTreeSet, HashMap};
 
 use petgraph::Direction::{Incoming, Outgoing};
@@ -15,13 +16,14 @@ use crate::symbolic::{
     invert, known_signal_rule, Condition, Derivatives, ExprId, Leaf, Node, Pool,
 };
 
-/// An unknown of the system, by index into [`System::vars`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct VarId(pub u32);
+typed_index! {
+    /// An unknown of the system, by index into [`System::vars`].
+    pub(crate) struct VarId;
+}
 
 /// What an unknown is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Var {
+pub(crate) enum Var {
     /// The effort on a bond.
     Effort(BondId),
     /// The flow on a bond.
@@ -35,7 +37,7 @@ pub enum Var {
 
 impl Var {
     /// The unknown as a reader of the model names it: "the flow of bond 3 (`res -> a`)".
-    pub fn describe(self, model: &BondGraph) -> String {
+    pub(crate) fn describe(self, model: &BondGraph) -> String {
         let bond = |b: BondId| {
             let (tail, head) = model.ends(b);
             format!(
@@ -56,13 +58,13 @@ impl Var {
                 };
                 format!("the common {what} of junction `{}`", node.name)
             }
-            Var::Let(l) => format!("the value of `{}`", model.lets[l.0 as usize].name),
+            Var::Let(l) => format!("the value of `{}`", model.lets[l.index()].name),
         }
     }
 
     /// A short name from the model's names: `e_J` or `f_J` for a junction's common
     /// variable, `e_TAIL_HEAD` or `f_TAIL_HEAD` for a bond's.
-    pub fn short_name(self, model: &BondGraph) -> String {
+    pub(crate) fn short_name(self, model: &BondGraph) -> String {
         let ends = |b: BondId| {
             let (tail, head) = model.ends(b);
             format!("{}_{}", model.node(tail).name, model.node(head).name)
@@ -77,12 +79,12 @@ impl Var {
                     _ => format!("f_{}", node.name),
                 }
             }
-            Var::Let(l) => model.lets[l.0 as usize].name.clone(),
+            Var::Let(l) => model.lets[l.index()].name.clone(),
         }
     }
 
     /// The nodes this unknown belongs to, for pointing at the model's text.
-    pub fn nodes(self, model: &BondGraph) -> Vec<NodeId> {
+    pub(crate) fn nodes(self, model: &BondGraph) -> Vec<NodeId> {
         match self {
             Var::Effort(b) | Var::Flow(b) => {
                 let (tail, head) = model.ends(b);
@@ -96,7 +98,7 @@ impl Var {
 
 /// How an equation relates its unknowns.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Relation {
+pub(crate) enum Relation {
     /// `var = value`, `value` over knowns (a source; an inverted detector; a state output).
     Assign {
         /// The unknown defined.
@@ -145,7 +147,7 @@ pub enum Relation {
 
 /// One equation and whose it is.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Equation {
+pub(crate) struct Equation {
     /// The element, junction or detector whose law this is.
     pub owner: NodeId,
     /// The relation.
@@ -158,7 +160,7 @@ pub struct Equation {
 
 /// A state variable of the integral-causality model.
 #[derive(Clone, Debug, PartialEq)]
-pub struct State {
+pub(crate) struct State {
     /// `p_NAME` for an `I`, `q_NAME` for a `C`; `f_NAME` or `e_NAME` for a co-energy state.
     pub name: String,
     /// The storage element.
@@ -173,7 +175,7 @@ pub struct State {
 
 /// A law read the other way: its closed-form inverse, and where that holds.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Inversion {
+pub(crate) struct Inversion {
     /// The element whose law it is.
     pub element: NodeId,
     /// The variable the law gives, now the inverse's argument.
@@ -190,13 +192,13 @@ pub struct Inversion {
 }
 
 /// The leaf standing for an inverse's argument in [`Inversion::value`].
-pub const ARGUMENT: Leaf = Leaf::Tear(u32::MAX, 1);
+pub(crate) const ARGUMENT: Leaf = Leaf::Tear(u32::MAX, 1);
 /// The leaf standing for a law's input while it is inverted.
 const INPUT: Leaf = Leaf::Tear(u32::MAX, 0);
 
 /// A storage element that cannot take the causality its mode requires, and why.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Refusal {
+pub(crate) struct Refusal {
     /// The element.
     pub element: NodeId,
     /// Why.
@@ -205,7 +207,7 @@ pub struct Refusal {
 
 /// The equations of a model for one mode, over one expression pool.
 #[derive(Clone, Debug)]
-pub struct System {
+pub(crate) struct System {
     /// The unknowns.
     pub vars: Vec<Var>,
     /// The equations.
@@ -223,26 +225,31 @@ pub struct System {
 
 impl System {
     /// The id of an unknown.
-    pub fn var(&self, var: Var) -> Option<VarId> {
+    pub(crate) fn var(&self, var: Var) -> Option<VarId> {
         self.index.get(&var).copied()
     }
 }
 
 /// Writes the equations of `model` for `mode`.
-pub fn build(model: &BondGraph, mode: Mode) -> System {
+pub(crate) fn build(model: &BondGraph, mode: Mode) -> System {
     build_freeing(model, mode, &[])
 }
 
 /// Writes the equations of `model` for `mode`, with the `let`s of `free` held as unknowns in
 /// the sources that scale them (`MSe W = N*w`): one source then gives the value, and the
 /// others check it. Other laws that use them keep their expressions.
-pub fn build_freeing(model: &BondGraph, mode: Mode, free: &[LetId]) -> System {
+pub(crate) fn build_freeing(model: &BondGraph, mode: Mode, free: &[LetId]) -> System {
     build_in(model, mode, free, None)
 }
 
 /// [`build_freeing`] for the nodes of `scope` only (in increasing order), when given: the
 /// equations of a part of the model, in time proportional to that part (and the `let`s).
-pub fn build_in(model: &BondGraph, mode: Mode, free: &[LetId], scope: Option<&[NodeId]>) -> System {
+pub(crate) fn build_in(
+    model: &BondGraph,
+    mode: Mode,
+    free: &[LetId],
+    scope: Option<&[NodeId]>,
+) -> System {
     let mut b = Builder {
         model,
         mode,
@@ -369,14 +376,10 @@ impl Builder<'_> {
     fn lets(&mut self) {
         for &id in &self.model.let_order {
             let mut used = Vec::new();
-            let e = self.expr(
-                &self.model.lets[id.0 as usize].value,
-                &mut |_| None,
-                &mut used,
-            );
+            let e = self.expr(&self.model.lets[id.index()].value, &mut |_| None, &mut used);
             used.sort();
             used.dedup();
-            self.lets[id.0 as usize] = Some((e, used));
+            self.lets[id.index()] = Some((e, used));
         }
     }
 
@@ -397,7 +400,7 @@ impl Builder<'_> {
                 Signal::Sensor(id) => p.leaf(Leaf::Sensor(id, 0)),
                 Signal::Time => p.leaf(Leaf::Time),
                 Signal::Port(v) => port(v).unwrap_or_else(|| p.num(f64::NAN)),
-                Signal::Let(id) => match &self.lets[id.0 as usize] {
+                Signal::Let(id) => match &self.lets[id.index()] {
                     Some((e, _)) => {
                         used.push(id);
                         *e
@@ -442,7 +445,7 @@ impl Builder<'_> {
         let mut stack = direct;
         while let Some(l) = stack.pop() {
             if seen.insert(l) {
-                if let Some((_, named)) = &self.lets[l.0 as usize] {
+                if let Some((_, named)) = &self.lets[l.index()] {
                     stack.extend(named.iter().copied());
                 }
             }

@@ -4,12 +4,12 @@
 //! equations) and [`Mode::Diagnosis`] (storage in derivative causality, detectors inverted into
 //! sources of their measured signal: for ARRs). See [`solve`] for the order of assignment.
 
-pub mod equations;
+pub(crate) mod equations;
 mod mode;
-pub mod report;
-pub mod solve;
+pub(crate) mod report;
+pub(crate) mod solve;
 
-pub use mode::Mode;
+pub(crate) use mode::Mode;
 
 use equations::{Relation, System, Var, VarId};
 use solve::{Solved, Use};
@@ -19,7 +19,7 @@ use crate::symbolic::ExprId;
 
 /// The causality a storage element took.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StorageCausality {
+pub(crate) enum StorageCausality {
     /// It holds a state: its co-energy variable comes from the integral of its input.
     Integral,
     /// Its output is the derivative of a function of its input.
@@ -29,7 +29,7 @@ pub enum StorageCausality {
 }
 
 /// A model's equations, oriented for one mode.
-pub struct Causal {
+pub(crate) struct Causal {
     /// The mode.
     pub mode: Mode,
     /// The equations and their expressions.
@@ -39,7 +39,7 @@ pub struct Causal {
 }
 
 /// Orients the equations of `model` for `mode`.
-pub fn assign(model: &BondGraph, mode: Mode) -> Causal {
+pub(crate) fn assign(model: &BondGraph, mode: Mode) -> Causal {
     let mut system = equations::build(model, mode);
     let solved = solve::solve(model, &mut system, mode);
     Causal {
@@ -54,7 +54,7 @@ pub fn assign(model: &BondGraph, mode: Mode) -> Causal {
 /// those components cannot reach. The `let`s of `free` are held as unknowns in the sources
 /// that scale them (see [`equations::build_freeing`]): a modulation left out is eliminated
 /// between its sources instead of losing them all.
-pub fn assign_freeing(
+pub(crate) fn assign_freeing(
     model: &BondGraph,
     free: &[crate::graph::LetId],
     drop: &dyn Fn(&equations::Equation) -> bool,
@@ -63,7 +63,7 @@ pub fn assign_freeing(
 }
 
 /// [`assign_freeing`] on the equations of the nodes of `scope` only (increasing), when given.
-pub fn assign_in(
+pub(crate) fn assign_in(
     model: &BondGraph,
     free: &[crate::graph::LetId],
     scope: Option<&[crate::graph::NodeId]>,
@@ -81,16 +81,16 @@ pub fn assign_in(
 
 impl Causal {
     /// The value of an unknown, if it was computed.
-    pub fn value(&self, var: Var) -> Option<ExprId> {
+    pub(crate) fn value(&self, var: Var) -> Option<ExprId> {
         self.system
             .var(var)
-            .and_then(|v| self.solved.values[v.0 as usize])
+            .and_then(|v| self.solved.values[v.index()])
     }
 
     /// The node that sets the effort of a power bond (the stroke is at the other end).
-    pub fn effort_setter(&self, model: &BondGraph, bond: BondId) -> Option<NodeId> {
+    pub(crate) fn effort_setter(&self, model: &BondGraph, bond: BondId) -> Option<NodeId> {
         let v = self.system.var(Var::Effort(bond))?;
-        let eq = self.solved.solved_by[v.0 as usize]?;
+        let eq = self.solved.solved_by[v.index()]?;
         let owner = self.system.equations[eq].owner;
         let (tail, head) = model.ends(bond);
         // A detector imposes through its junction.
@@ -106,7 +106,7 @@ impl Causal {
     /// The causality each storage element took: derivative when its equation computed the
     /// rate (the derivative of its energy variable), integral when it computed the co-energy
     /// variable from a state or an integral.
-    pub fn storage(&self, model: &BondGraph) -> Vec<(NodeId, StorageCausality)> {
+    pub(crate) fn storage(&self, model: &BondGraph) -> Vec<(NodeId, StorageCausality)> {
         let mut out = Vec::new();
         for (i, eq) in self.system.equations.iter().enumerate() {
             let NodeKind::Element(kind, _) = model.node(eq.owner).kind else {
@@ -152,7 +152,7 @@ impl Causal {
     }
 
     /// Unknowns that could not be computed.
-    pub fn unsolved(&self) -> Vec<VarId> {
+    pub(crate) fn unsolved(&self) -> Vec<VarId> {
         (0..self.system.vars.len())
             .filter(|&i| self.solved.values[i].is_none())
             .map(|i| VarId(i as u32))
@@ -160,7 +160,7 @@ impl Causal {
     }
 
     /// Equations left over: (equation index, residual).
-    pub fn redundant(&self) -> Vec<(usize, ExprId)> {
+    pub(crate) fn redundant(&self) -> Vec<(usize, ExprId)> {
         self.solved
             .uses
             .iter()
@@ -173,12 +173,12 @@ impl Causal {
     }
 
     /// The bond (or detector) that sets the common variable of a junction.
-    pub fn strong_bond(&self, model: &BondGraph, junction: NodeId) -> Option<Strong> {
+    pub(crate) fn strong_bond(&self, model: &BondGraph, junction: NodeId) -> Option<Strong> {
         let v = self.system.var(Var::Common(junction))?;
-        let eq = &self.system.equations[self.solved.solved_by[v.0 as usize]?];
+        let eq = &self.system.equations[self.solved.solved_by[v.index()]?];
         match (&eq.relation, &model.node(eq.owner).kind) {
             (_, NodeKind::Detector(_)) => Some(Strong::Detector(eq.owner)),
-            (Relation::Scale { a, .. }, _) => match self.system.vars[a.0 as usize] {
+            (Relation::Scale { a, .. }, _) => match self.system.vars[a.index()] {
                 Var::Effort(b) | Var::Flow(b) if model.bond(b).kind == BondKind::Power => {
                     Some(Strong::Bond(b))
                 }
@@ -191,7 +191,7 @@ impl Causal {
 
 /// What sets a junction's common variable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Strong {
+pub(crate) enum Strong {
     /// A power bond.
     Bond(BondId),
     /// An inverted detector.

@@ -2,7 +2,7 @@
 
 /// Which causality storage elements should take.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Mode {
+pub(crate) enum Mode {
     /// Integral causality, detectors as outputs: for simulation.
     Integral,
     /// Derivative causality, detectors inverted: for diagnosis.

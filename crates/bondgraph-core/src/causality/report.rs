@@ -14,7 +14,7 @@ use crate::graph::NodeId;
 const MAX_NOTES: usize = 8;
 
 /// A diagnostic at the first of `nodes`, with the others as notes.
-pub fn at_nodes(
+pub(crate) fn at_nodes(
     model: &BondGraph,
     severity: Severity,
     code: Code,
@@ -48,7 +48,7 @@ pub fn at_nodes(
 }
 
 /// Storage elements that cannot take the causality the mode needs, each once.
-pub fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
+pub(crate) fn refusals(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
     let unsolved = unsolved_roots(model, causal);
     causal
         .system
@@ -124,7 +124,7 @@ fn unsolved_roots(model: &BondGraph, causal: &Causal) -> Vec<super::equations::R
 }
 
 /// Equations over-determined in integral causality: two causes impose one variable.
-pub fn conflicts(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
+pub(crate) fn conflicts(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
     causal
         .redundant()
         .into_iter()
@@ -133,7 +133,7 @@ pub fn conflicts(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
             let imposed: Vec<String> = causal.system.equations[eq]
                 .vars
                 .iter()
-                .map(|v| causal.system.vars[v.0 as usize].describe(model))
+                .map(|v| causal.system.vars[v.index()].describe(model))
                 .collect();
             at_nodes(
                 model,
@@ -157,14 +157,14 @@ pub fn conflicts(model: &BondGraph, causal: &Causal) -> Vec<Diagnostic> {
 /// The unknowns that could not be computed, with the equations still waiting for them: a
 /// nonlinear algebraic loop when one of those is a nonlinear law, else an under-determined
 /// part (or one no detector observes, in diagnosis).
-pub fn unsolved(model: &BondGraph, causal: &Causal) -> Option<Diagnostic> {
+pub(crate) fn unsolved(model: &BondGraph, causal: &Causal) -> Option<Diagnostic> {
     let unknowns = causal.unsolved();
     if unknowns.is_empty() {
         return None;
     }
     let names: Vec<String> = unknowns
         .iter()
-        .map(|v| causal.system.vars[v.0 as usize].describe(model))
+        .map(|v| causal.system.vars[v.index()].describe(model))
         .collect();
     let open: BTreeSet<_> = unknowns.iter().copied().collect();
     let mut waiting: Vec<NodeId> = Vec::new();
@@ -208,7 +208,7 @@ pub fn unsolved(model: &BondGraph, causal: &Causal) -> Option<Diagnostic> {
     if nodes.is_empty() {
         nodes = unknowns
             .iter()
-            .flat_map(|v| causal.system.vars[v.0 as usize].nodes(model))
+            .flat_map(|v| causal.system.vars[v.index()].nodes(model))
             .collect();
     }
     Some(

@@ -20,7 +20,7 @@ use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Le
 
 /// Why an equation was used to compute an unknown (lower is preferred).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Class {
+pub(crate) enum Class {
     /// Sources, inverted detectors, junctions, TF, GY.
     Structural = 0,
     /// Storage in the mode's preferred causality.
@@ -43,7 +43,7 @@ pub enum Class {
 
 /// What became of an equation.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Use {
+pub(crate) enum Use {
     /// Still waiting: some unknown of it could not be computed.
     Pending,
     /// It computes `var`.
@@ -64,7 +64,7 @@ pub enum Use {
 /// [`Leaf::Tear`] downstream, so that each ARR holds only what its own part of the graph says
 /// (see [`crate::fdi::eliminate`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Torn {
+pub(crate) struct Torn {
     /// The unknown.
     pub var: VarId,
     /// The balance that computes it, and its value over known signals and earlier torn
@@ -78,7 +78,7 @@ pub struct Torn {
 /// [`Leaf::Var`] wherever it is read, and set by `residual = 0`, which has no closed-form
 /// root; a simulation finds it numerically.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Implicit {
+pub(crate) struct Implicit {
     /// The unknown.
     pub var: VarId,
     /// The equation that closes its loop.
@@ -91,7 +91,7 @@ pub struct Implicit {
 /// symbol [`Leaf::Root`] wherever it is read, it is the root of `residual`, which a residual
 /// generator finds numerically at each sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Root {
+pub(crate) struct Root {
     /// The unknown (for a storage element read through its law, the rate is the root's
     /// derivative and the unknown the root's is the energy variable).
     pub var: VarId,
@@ -102,7 +102,7 @@ pub struct Root {
 }
 
 /// The oriented system.
-pub struct Solved {
+pub(crate) struct Solved {
     /// Each unknown's expression over known signals, when it could be computed.
     pub values: Vec<Option<ExprId>>,
     /// What became of each equation.
@@ -175,7 +175,7 @@ fn class_of(
 }
 
 /// Orients `sys` by propagation from what is known, tearing linear algebraic loops.
-pub fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
+pub(crate) fn solve(model: &BondGraph, sys: &mut System, mode: Mode) -> Solved {
     let mut solver = Solver::new(model, sys, mode);
     for i in 0..solver.sys.equations.len() {
         solver.settle(i);
@@ -242,7 +242,7 @@ impl<'a> Solver<'a> {
         let mut var_eqs: Vec<Vec<usize>> = vec![Vec::new(); n_vars];
         for (i, eq) in sys.equations.iter().enumerate() {
             for v in &eq.vars {
-                var_eqs[v.0 as usize].push(i);
+                var_eqs[v.index()].push(i);
             }
         }
         // Junctions that carry a detector.
@@ -297,7 +297,7 @@ impl<'a> Solver<'a> {
             }
             1 => {
                 let eq = &self.sys.equations[i];
-                if let Some(&v) = eq.vars.iter().find(|v| self.values[v.0 as usize].is_none()) {
+                if let Some(&v) = eq.vars.iter().find(|v| self.values[v.index()].is_none()) {
                     if let Some(class) = class_of(self.model, &self.sensed, eq, v, self.mode) {
                         self.queues[class as usize].push_back(i);
                     }
@@ -316,13 +316,13 @@ impl<'a> Solver<'a> {
 
     /// Records the value of `v` and lets the equations that use it move on.
     fn know(&mut self, v: VarId, value: ExprId, by: Option<usize>) {
-        self.values[v.0 as usize] = Some(value);
-        self.solved_by[v.0 as usize] = by;
+        self.values[v.index()] = Some(value);
+        self.solved_by[v.index()] = by;
         if let Some((vars, _)) = &mut self.journal {
-            vars.push(v.0 as usize);
+            vars.push(v.index());
         }
-        for k in 0..self.var_eqs[v.0 as usize].len() {
-            let j = self.var_eqs[v.0 as usize][k];
+        for k in 0..self.var_eqs[v.index()].len() {
+            let j = self.var_eqs[v.index()][k];
             self.unknown[j] -= 1;
             self.settle(j);
         }
@@ -375,7 +375,7 @@ impl<'a> Solver<'a> {
             Relation::Storage {
                 integral: Some((co, _)),
                 ..
-            } if self.values[co.0 as usize].is_none() => Some(co),
+            } if self.values[co.index()].is_none() => Some(co),
             _ => None,
         }
     }
@@ -394,7 +394,7 @@ impl<'a> Solver<'a> {
                 eq.vars
                     .iter()
                     .copied()
-                    .find(|v| self.values[v.0 as usize].is_none())
+                    .find(|v| self.values[v.index()].is_none())
             }) else {
                 continue;
             };
@@ -500,7 +500,7 @@ impl<'a> Solver<'a> {
                     eq.vars
                         .iter()
                         .copied()
-                        .find(|v| self.values[v.0 as usize].is_none() && !tried.contains(v))
+                        .find(|v| self.values[v.index()].is_none() && !tried.contains(v))
                 })
                 .flatten()
         })
@@ -548,8 +548,8 @@ impl<'a> Solver<'a> {
                         };
                     }
                 }
-                self.values[v.0 as usize] = Some(value);
-                self.solved_by[v.0 as usize] = Some(i);
+                self.values[v.index()] = Some(value);
+                self.solved_by[v.index()] = Some(i);
                 self.uses[i] = Use::Solves {
                     var: v,
                     class: Class::Structural,
@@ -564,7 +564,7 @@ impl<'a> Solver<'a> {
                         residual,
                     });
                 }
-                self.solved_by[v.0 as usize] = Some(i);
+                self.solved_by[v.index()] = Some(i);
                 self.uses[i] = Use::Solves {
                     var: v,
                     class: Class::Structural,
@@ -582,13 +582,12 @@ impl<'a> Solver<'a> {
         for &j in eqs {
             self.uses[j] = Use::Pending;
         }
-        self.torn
-            .retain(|t| self.values[t.var.0 as usize].is_some());
+        self.torn.retain(|t| self.values[t.var.index()].is_some());
         for (i, eq) in self.sys.equations.iter().enumerate() {
             self.unknown[i] = eq
                 .vars
                 .iter()
-                .filter(|v| self.values[v.0 as usize].is_none())
+                .filter(|v| self.values[v.index()].is_none())
                 .count();
         }
         self.queues = Default::default();
@@ -634,7 +633,7 @@ fn known(pool: &mut Pool, e: ExprId, values: &[Option<ExprId>]) -> ExprId {
 }
 
 fn value_of(pool: &mut Pool, v: VarId, values: &[Option<ExprId>]) -> ExprId {
-    values[v.0 as usize].unwrap_or_else(|| pool.num(f64::NAN))
+    values[v.index()].unwrap_or_else(|| pool.num(f64::NAN))
 }
 
 /// How leaves vary in time while the equations are oriented: known signals get derivatives

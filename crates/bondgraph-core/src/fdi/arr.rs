@@ -14,7 +14,7 @@ use crate::symbolic::{ExprId, Leaf};
 
 /// One ARR: `residual = 0` while the machine is healthy.
 #[derive(Clone, Debug)]
-pub struct Arr {
+pub(crate) struct Arr {
     /// `ARR1`, `ARR2`…
     pub name: String,
     /// The node whose equation became redundant.
@@ -36,7 +36,7 @@ pub struct Arr {
 }
 
 /// The ARRs of a model, with the oriented equations they came from.
-pub struct Diagnosis {
+pub(crate) struct Diagnosis {
     /// The equations in diagnosis causality.
     pub causal: Causal,
     /// The ARRs, in the order of the nodes they come from.
@@ -51,13 +51,13 @@ pub struct Diagnosis {
 }
 
 /// Derives the ARRs of `model`.
-pub fn diagnose(model: &BondGraph) -> Diagnosis {
+pub(crate) fn diagnose(model: &BondGraph) -> Diagnosis {
     from_causal(model, assign(model, Mode::Diagnosis), true)
 }
 
 /// Derives the ARRs of `model` with the `let`s of `free` held as unknowns where sources scale
 /// them, and the equations `drop` accepts left out.
-pub fn diagnose_freeing(
+pub(super) fn diagnose_freeing(
     model: &BondGraph,
     free: &[LetId],
     drop: &dyn Fn(&Equation) -> bool,
@@ -68,7 +68,7 @@ pub fn diagnose_freeing(
 /// The ARRs of the equations of the nodes of `scope` (increasing), with the `let`s of `free`
 /// held as unknowns and those `drop` accepts left out: a part of a large model, in time
 /// proportional to the part. What keeps the part's detectors from ARRs is not reported.
-pub fn diagnose_in(
+pub(super) fn diagnose_in(
     model: &BondGraph,
     free: &[LetId],
     scope: &[NodeId],
@@ -228,7 +228,7 @@ fn cone(
         nodes.insert(eqs[i].owner);
         lets.extend(eqs[i].lets.iter().copied());
         for v in eqs[i].vars.iter().filter(|v| !torn.contains(v)) {
-            if let Some(j) = causal.solved.solved_by[v.0 as usize] {
+            if let Some(j) = causal.solved.solved_by[v.index()] {
                 if j != i {
                     stack.push(j);
                 }

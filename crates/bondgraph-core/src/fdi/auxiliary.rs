@@ -18,7 +18,7 @@ use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool, Simpli
 
 /// A named combination of known signals.
 #[derive(Clone, Debug)]
-pub struct Auxiliary {
+pub(crate) struct Auxiliary {
     /// Its time derivatives, in canonical form: `derivatives[n]` is the n-th (the 0-th is its
     /// definition), as far as an ARR or a later auxiliary signal reads them.
     pub derivatives: Vec<ExprId>,
@@ -26,7 +26,7 @@ pub struct Auxiliary {
 
 impl Auxiliary {
     /// A new auxiliary signal defined as `definition`.
-    pub fn new(definition: ExprId) -> Auxiliary {
+    pub(crate) fn new(definition: ExprId) -> Auxiliary {
         Auxiliary {
             derivatives: vec![definition],
         }
@@ -49,7 +49,7 @@ fn orders_read(pool: &Pool, roots: &[ExprId], top: &mut [Option<u32>]) {
 /// Gives every auxiliary signal the derivatives that `roots`, or later auxiliary signals'
 /// derivatives, read. `None` if one cannot be differentiated (it holds no unknown, so this
 /// is not expected).
-pub fn differentiate(
+pub(crate) fn differentiate(
     pool: &mut Pool,
     auxiliaries: &mut [Auxiliary],
     roots: &[ExprId],
@@ -74,7 +74,7 @@ pub fn differentiate(
 
 /// `roots` with every auxiliary signal replaced by what it is defined as, in one pool, with
 /// subexpressions shared: the size is that of the definitions, not of the text written out.
-pub fn expand(pool: &mut Pool, auxiliaries: &[Auxiliary], roots: &[ExprId]) -> Vec<ExprId> {
+pub(crate) fn expand(pool: &mut Pool, auxiliaries: &[Auxiliary], roots: &[ExprId]) -> Vec<ExprId> {
     if auxiliaries.is_empty() {
         return roots.to_vec();
     }

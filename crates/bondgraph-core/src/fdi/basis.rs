@@ -32,7 +32,7 @@ const MAX_PRODUCT: usize = 20_000;
 const MAX_TERMS: usize = 4_000;
 
 /// Replaces ARRs by sparser combinations of pairs, as long as one is found.
-pub fn sparsen(pool: &mut Pool, model: &BondGraph, relations: &mut [Constraint]) {
+pub(super) fn sparsen(pool: &mut Pool, model: &BondGraph, relations: &mut [Constraint]) {
     let n = relations.len();
     if !(2..=MAX_RELATIONS).contains(&n) {
         return;

@@ -65,11 +65,11 @@ pub enum ResidualSet {
 
 /// The cost of a simulated residual in the choice of a set: above any derivative order an ARR
 /// reads, because it holds only from a known initial state and drifts with the model's errors.
-pub const SIMULATED_COST: u32 = 1_000;
+pub(crate) const SIMULATED_COST: u32 = 1_000;
 
 /// Where a candidate residual comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Origin {
+pub(crate) enum Origin {
     /// An ARR of one of the derivations.
     Derived {
         /// The derivation (0: the whole model).
@@ -84,7 +84,7 @@ pub enum Origin {
 
 /// A residual: an ARR of one of the derivations, or a detector's simulated residual.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Candidate {
+pub(crate) struct Candidate {
     /// Where it comes from.
     pub origin: Origin,
     /// The components (rows) whose fault it shows, increasing.
@@ -97,13 +97,13 @@ pub struct Candidate {
 
 impl Candidate {
     /// Whether it is one of the whole model's ARRs, one per detector.
-    pub fn is_per_sensor(&self) -> bool {
+    pub(crate) fn is_per_sensor(&self) -> bool {
         matches!(self.origin, Origin::Derived { source: 0, .. })
     }
 
     /// What choosing it costs: its derivative order, and [`SIMULATED_COST`] for a simulated
     /// residual, so that one is chosen only for what no relation shows.
-    pub fn cost(&self) -> u32 {
+    pub(crate) fn cost(&self) -> u32 {
         match self.origin {
             Origin::Derived { .. } => self.order,
             Origin::Simulated(_) => SIMULATED_COST,
@@ -111,7 +111,7 @@ impl Candidate {
     }
 
     /// The derivation and ARR it is, unless it is simulated.
-    pub fn derived(&self) -> Option<(usize, usize)> {
+    pub(crate) fn derived(&self) -> Option<(usize, usize)> {
         match self.origin {
             Origin::Derived { source, arr } => Some((source, arr)),
             Origin::Simulated(_) => None,
@@ -122,7 +122,7 @@ impl Candidate {
 /// A derivation without a class that should have given residuals seeing some components,
 /// and gave none that bgc can write.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Unrealised {
+pub(crate) struct Unrealised {
     /// The components left out.
     pub without: Vec<usize>,
     /// The components a residual without them could show and no written one does.
@@ -141,7 +141,7 @@ pub struct Unrealised {
 }
 
 /// The derivations and the residuals found in them, one per signature.
-pub struct Candidates {
+pub(crate) struct Candidates {
     /// The derivations that fell short of the structure, and why.
     pub unrealised: Vec<Unrealised>,
     /// The derivations: the whole model first, then one per class left out.
@@ -172,7 +172,7 @@ fn order(d: &Diagnosis, k: usize) -> u32 {
 /// The candidates of `model`: its own ARRs (`base`, showing `base_rows` each, as its FSM
 /// found), then those of the model without each class of `possible` in turn: derived on the
 /// whole model up to [`MAX_DERIVATIONS`] classes, on a part around each class above.
-pub fn candidates(
+pub(crate) fn candidates(
     model: &BondGraph,
     base: Diagnosis,
     base_rows: Vec<Vec<usize>>,
@@ -343,7 +343,7 @@ fn shortfall(
         return None;
     }
     let mut active = vec![true; structure.len()];
-    active[faults[first].0 as usize] = false;
+    active[faults[first].index()] = false;
     let redundancy = active.iter().filter(|&&a| a).count() - structure.matching(&active).size();
     let complete = offered.written.len() >= redundancy;
     let used = |i: usize| {
@@ -401,18 +401,18 @@ pub const WINDOW_DETECTORS: usize = 4;
 /// The most nodes a part may hold (then it stops at the end of a layer): twenty stages of a
 /// mass–spring chain, enough for the residuals that span three stretches between detectors
 /// five masses apart (on such a chain they tell every stage apart).
-pub const MAX_WINDOW: usize = 100;
+pub(crate) const MAX_WINDOW: usize = 100;
 
 /// A part that holds this many nodes stops growing (at the end of a layer) once its laws hold
 /// more than [`MAX_WINDOW_PARAMETERS`] parameters: about eight stages of a chain.
-pub const SMALL_WINDOW: usize = 40;
+pub(crate) const SMALL_WINDOW: usize = 40;
 
 /// The parameters a part may hold past [`SMALL_WINDOW`] nodes. The residuals of a part grow
 /// with the product of its stretches' operators, whose coefficients are polynomials in the
 /// parameters: with a parameter per element, a part of 100 nodes takes minutes and gigabytes
 /// where one of 40 takes milliseconds; with parameters shared along the chain, 100 nodes
 /// take milliseconds.
-pub const MAX_WINDOW_PARAMETERS: usize = 16;
+pub(crate) const MAX_WINDOW_PARAMETERS: usize = 16;
 
 /// Candidates of a model with more than [`MAX_DERIVATIONS`] classes: each class left out of
 /// the part of the model around it, grown layer by layer from its nodes until it holds
@@ -507,7 +507,7 @@ fn window(model: &BondGraph, seeds: &[NodeId]) -> Vec<NodeId> {
 /// terms of a component of class `X` cancel in each, every residual that shows `X` shows
 /// `C` too. That containment is transitive, so classes that contain each other in a cycle
 /// show in the same residuals: one class. O(classes²) on at most [`MAX_DERIVATIONS`].
-pub fn bound(possible: &Classes, unrealised: &[Unrealised]) -> Classes {
+pub(crate) fn bound(possible: &Classes, unrealised: &[Unrealised]) -> Classes {
     let n = possible.classes.len();
     let mut class_of: HashMap<usize, usize> = HashMap::new();
     for (k, class) in possible.classes.iter().enumerate() {
@@ -549,7 +549,7 @@ pub fn bound(possible: &Classes, unrealised: &[Unrealised]) -> Classes {
 }
 
 /// The classes a set of residuals tells apart, over `n` components.
-pub fn classes_of(list: &[&Candidate], n: usize) -> Classes {
+pub(crate) fn classes_of(list: &[&Candidate], n: usize) -> Classes {
     let mut marks: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (k, c) in list.iter().enumerate() {
         for &r in &c.rows {
@@ -560,7 +560,7 @@ pub fn classes_of(list: &[&Candidate], n: usize) -> Classes {
 }
 
 /// The candidates (by position in `list`) that `set` keeps, over `n` components.
-pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
+pub(crate) fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
     match set {
         ResidualSet::PerSensor => (0..list.len())
             .filter(|&k| list[k].is_per_sensor())
@@ -571,11 +571,11 @@ pub fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usize> {
 }
 
 /// Set evaluations the exact search of [`best`] may make before it turns greedy.
-pub const MAX_SELECTIONS: usize = 100_000;
+pub(crate) const MAX_SELECTIONS: usize = 100_000;
 
 /// Work (set evaluations times components) the exact search may do: on a large model fewer
 /// sets are tried, so that the search stays within about a second whatever the size.
-pub const MAX_SELECTION_WORK: usize = 20_000_000;
+pub(crate) const MAX_SELECTION_WORK: usize = 20_000_000;
 
 /// The smallest set of candidates whose classes are those of every candidate together: every
 /// set of one, then two… candidates while the budget lasts ([`MAX_SELECTIONS`] sets, at most

@@ -9,7 +9,7 @@ use crate::graph::{
 
 /// What kind of component a row is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ComponentKind {
+pub(crate) enum ComponentKind {
     /// An element (a source is an actuator).
     Element(ElementKind),
     /// A detector (a sensor).
@@ -20,7 +20,7 @@ pub enum ComponentKind {
 
 /// A component that can fail.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Component {
+pub(crate) struct Component {
     /// Its name.
     pub name: String,
     /// What it is.
@@ -44,8 +44,8 @@ fn let_parameters(model: &BondGraph) -> Vec<BTreeSet<ParamId>> {
     let mut deep: Vec<BTreeSet<ParamId>> = vec![BTreeSet::new(); model.lets.len()];
     for &l in &model.let_order {
         let mut own = BTreeSet::new();
-        params_of(&model.lets[l.0 as usize].value, Some(&deep), &mut own);
-        deep[l.0 as usize] = own;
+        params_of(&model.lets[l.index()].value, Some(&deep), &mut own);
+        deep[l.index()] = own;
     }
     deep
 }
@@ -56,14 +56,14 @@ fn constant_lets(model: &BondGraph) -> Vec<bool> {
     let mut constant = vec![false; model.lets.len()];
     for &l in &model.let_order {
         let mut only_parameters = true;
-        model.lets[l.0 as usize]
+        model.lets[l.index()]
             .value
             .for_each_leaf(&mut |s| match *s {
                 Signal::Param(_) => {}
-                Signal::Let(m) => only_parameters &= constant[m.0 as usize],
+                Signal::Let(m) => only_parameters &= constant[m.index()],
                 _ => only_parameters = false,
             });
-        constant[l.0 as usize] = only_parameters;
+        constant[l.index()] = only_parameters;
     }
     constant
 }
@@ -75,7 +75,7 @@ fn params_of(expr: &SignalExpr, deep: Option<&[BTreeSet<ParamId>]>, out: &mut BT
             out.insert(p);
         }
         Signal::Let(l) => {
-            if let Some(set) = deep.and_then(|d| d.get(l.0 as usize)) {
+            if let Some(set) = deep.and_then(|d| d.get(l.index())) {
                 out.extend(set.iter().copied());
             }
         }
@@ -110,7 +110,7 @@ fn signal_names(model: &BondGraph, expr: &SignalExpr) -> Vec<String> {
 }
 
 /// The components of a model, in row order.
-pub fn components(model: &BondGraph) -> Vec<Component> {
+pub(crate) fn components(model: &BondGraph) -> Vec<Component> {
     let mut out = Vec::new();
     let mut element_params = BTreeSet::new();
     let mut modulating = BTreeSet::new();
@@ -126,13 +126,13 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
             // A/(rho*g)`, `C tank = Ctank`): its parameters are the element's.
             for l in lets_of(law.expr())
                 .into_iter()
-                .filter(|l| constant[l.0 as usize])
+                .filter(|l| constant[l.index()])
             {
-                direct.extend(deep[l.0 as usize].iter().copied());
+                direct.extend(deep[l.index()].iter().copied());
             }
             element_params.extend(direct.iter().copied());
             let read = deep_lets(model, law.expr()).into_iter();
-            modulating.extend(read.filter(|l| !constant[l.0 as usize]));
+            modulating.extend(read.filter(|l| !constant[l.index()]));
             let signals = if kind.is_source() || kind.is_modulated() {
                 signal_names(model, law.expr())
             } else {
@@ -150,7 +150,7 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
         }
     }
     for l in modulating {
-        let value = &model.lets[l.0 as usize].value;
+        let value = &model.lets[l.index()].value;
         let (mut direct, mut all) = (BTreeSet::new(), BTreeSet::new());
         params_of(value, None, &mut direct);
         params_of(value, Some(&deep), &mut all);
@@ -159,7 +159,7 @@ pub fn components(model: &BondGraph) -> Vec<Component> {
             continue;
         }
         out.push(Component {
-            name: model.lets[l.0 as usize].name.clone(),
+            name: model.lets[l.index()].name.clone(),
             kind: ComponentKind::Modulation,
             node: None,
             modulation: Some(l),
@@ -191,7 +191,7 @@ fn deep_lets(model: &BondGraph, expr: &SignalExpr) -> BTreeSet<LetId> {
     let mut stack: Vec<LetId> = lets_of(expr).into_iter().collect();
     while let Some(l) = stack.pop() {
         if out.insert(l) {
-            stack.extend(lets_of(&model.lets[l.0 as usize].value));
+            stack.extend(lets_of(&model.lets[l.index()].value));
         }
     }
     out

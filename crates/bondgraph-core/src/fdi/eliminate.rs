@@ -30,7 +30,7 @@ use crate::symbolic::{
 
 /// A relation `expr = 0` over known signals.
 #[derive(Clone, Debug)]
-pub struct Constraint {
+pub(crate) struct Constraint {
     /// The residual, in canonical form.
     pub expr: ExprId,
     /// The model equations it was combined from.
@@ -40,7 +40,7 @@ pub struct Constraint {
 }
 
 /// The relations left once every torn unknown is gone, and what could not be done.
-pub struct Eliminated {
+pub(crate) struct Eliminated {
     /// The ARRs.
     pub relations: Vec<Constraint>,
     /// Torn unknowns (by index) that enter their relations nonlinearly after their value
@@ -100,7 +100,11 @@ struct Eliminator<'p> {
 
 /// Eliminates the `torn` unknowns from their definitions and the `redundant` equations
 /// (equation index, residual), in the order they were torn.
-pub fn eliminate(pool: &mut Pool, torn: &[Torn], redundant: &[(usize, ExprId)]) -> Eliminated {
+pub(crate) fn eliminate(
+    pool: &mut Pool,
+    torn: &[Torn],
+    redundant: &[(usize, ExprId)],
+) -> Eliminated {
     let mut e = Eliminator::new(pool);
     let mut items: Vec<Option<Item>> = Vec::with_capacity(torn.len() + redundant.len());
     for t in torn {

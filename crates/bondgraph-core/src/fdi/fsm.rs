@@ -10,7 +10,7 @@ use crate::symbolic::Leaf;
 
 /// One row of the matrix.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Row {
+pub(crate) struct Row {
     /// The component.
     pub component: Component,
     /// The ARRs (by index) in which a fault of the component can show, in increasing order.
@@ -24,7 +24,7 @@ pub struct Row {
 
 /// The fault signature matrix.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Fsm {
+pub(crate) struct Fsm {
     /// Residual names, `r1`…
     pub residuals: Vec<String>,
     /// Rows: elements in declaration order, then modulations, then detectors.
@@ -35,7 +35,7 @@ pub struct Fsm {
 
 /// For each ARR of `diagnosis`, the rows of `components` whose fault it can show, in
 /// increasing order; in time linear in the total size of the ARRs' cones.
-pub fn arr_rows(
+pub(super) fn arr_rows(
     model: &BondGraph,
     diagnosis: &Diagnosis,
     components: &[Component],
@@ -44,14 +44,14 @@ pub fn arr_rows(
 }
 
 /// The row of each component's node and `let`: built once for many derivations.
-pub struct RowIndex {
+pub(crate) struct RowIndex {
     node_row: HashMap<NodeId, usize>,
     let_row: HashMap<LetId, usize>,
 }
 
 impl RowIndex {
     /// The index of `components`.
-    pub fn new(components: &[Component]) -> RowIndex {
+    pub(crate) fn new(components: &[Component]) -> RowIndex {
         let mut node_row: HashMap<NodeId, usize> = HashMap::new();
         let mut let_row: HashMap<LetId, usize> = HashMap::new();
         for (i, c) in components.iter().enumerate() {
@@ -66,18 +66,18 @@ impl RowIndex {
     }
 
     /// The row of an element's or a detector's node.
-    pub fn node(&self, n: NodeId) -> Option<usize> {
+    pub(crate) fn node(&self, n: NodeId) -> Option<usize> {
         self.node_row.get(&n).copied()
     }
 
     /// The row of a modulation.
-    pub fn modulation(&self, l: LetId) -> Option<usize> {
+    pub(crate) fn modulation(&self, l: LetId) -> Option<usize> {
         self.let_row.get(&l).copied()
     }
 }
 
 /// [`arr_rows`] with the index of `components` built already.
-pub fn arr_rows_indexed(
+pub(super) fn arr_rows_indexed(
     model: &BondGraph,
     diagnosis: &Diagnosis,
     components: &[Component],
@@ -160,7 +160,7 @@ pub fn arr_rows_indexed(
 impl Fsm {
     /// The matrix of a diagnosed model, with the classes every residual of its equations
     /// could reach.
-    pub fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
+    pub(crate) fn new(model: &BondGraph, diagnosis: &Diagnosis) -> Fsm {
         let components = components(model);
         let possible = super::isolability::structural(&diagnosis.causal.system, &components);
         let mut marks: Vec<Vec<usize>> = vec![Vec::new(); components.len()];
@@ -220,7 +220,7 @@ mod tests {
         assert_eq!(names, ["pump", "tank", "valve", "p"]);
         let tank = &rows[1];
         let params: Vec<&str> = (tank.parameters.iter())
-            .map(|p| model.params[p.0 as usize].name.as_str())
+            .map(|p| model.params[p.index()].name.as_str())
             .collect();
         assert_eq!(params, ["A", "rho", "g"]);
         let bench = include_str!("../../../../models/backlash_bench.bg");

@@ -14,14 +14,15 @@ use std::collections::HashMap;
 
 use super::component::Component;
 use super::dominators;
-use super::structure::{Eq, Structure};
+use super::structure::{Eq, Structure, Unknown};
 use crate::causality::equations::{Equation, Relation, System};
 use crate::graph::{LetId, NodeId};
+use crate::index::IndexVec;
 use crate::symbolic::{ExprId, Leaf};
 
 /// Faults grouped by what can tell them apart.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Classes {
+pub(crate) struct Classes {
     /// The detectable faults (by component index), in classes that nothing tells apart;
     /// each class in increasing order, the classes by their first member.
     pub classes: Vec<Vec<usize>>,
@@ -52,7 +53,7 @@ impl Classes {
 
 /// The classes of a set of residuals, from each component's signature (the residuals it
 /// shows in): with single faults, two components are told apart when their signatures differ.
-pub fn of_signatures(marks: &[Vec<usize>]) -> Classes {
+pub(crate) fn of_signatures(marks: &[Vec<usize>]) -> Classes {
     let mut seen: HashMap<&[usize], usize> = HashMap::new();
     let labels: Vec<Option<usize>> = marks
         .iter()
@@ -69,12 +70,12 @@ pub fn of_signatures(marks: &[Vec<usize>]) -> Classes {
 
 /// The structure of a model's equations with one fault equation per component, and those
 /// equations, in component order.
-pub fn fault_structure(system: &System, components: &[Component]) -> (Structure, Vec<Eq>) {
+pub(crate) fn fault_structure(system: &System, components: &[Component]) -> (Structure, Vec<Eq>) {
     let mut s = Structure::new(system.vars.len());
     let rows: Vec<Eq> = system
         .equations
         .iter()
-        .map(|eq| s.push(eq.vars.iter().map(|v| v.0).collect()))
+        .map(|eq| s.push(eq.vars.iter().map(|v| Unknown(v.0)).collect()))
         .collect();
     let mut by_owner: HashMap<NodeId, Vec<usize>> = HashMap::new();
     let mut by_let: HashMap<LetId, Vec<usize>> = HashMap::new();
@@ -138,18 +139,18 @@ pub(crate) fn sensors_read(system: &System, eq: &Equation) -> Vec<NodeId> {
 }
 
 /// The classes every residual the equations allow can reach together.
-pub fn structural(system: &System, components: &[Component]) -> Classes {
+pub(crate) fn structural(system: &System, components: &[Component]) -> Classes {
     let (s, faults) = fault_structure(system, components);
     classes(&s, &faults)
 }
 
 /// For each fault of `faults`, whether a residual of the model without fault `f`'s
 /// equation can show it: its equation stays in `(M \ {f})⁺`. O(E·√V).
-pub fn seen_without(s: &Structure, faults: &[Eq], f: Eq) -> Vec<bool> {
+pub(crate) fn seen_without(s: &Structure, faults: &[Eq], f: Eq) -> Vec<bool> {
     let mut active = vec![true; s.len()];
-    active[f.0 as usize] = false;
+    active[f.index()] = false;
     let plus = s.overdetermined(&active, &s.matching(&active));
-    faults.iter().map(|g| plus[g.0 as usize]).collect()
+    faults.iter().map(|g| plus[g.index()]).collect()
 }
 
 /// The classes of the faults `faults` (one equation each) in `s`.
@@ -162,39 +163,39 @@ pub fn seen_without(s: &Structure, faults: &[Eq], f: Eq) -> Vec<bool> {
 /// free equation, the nearest. On a model whose redundancy is spread (a chain measured every
 /// few stages), the rounds are as many as the faults near one detector, not in the model:
 /// near-linear. At worst one fault per round: O(faults · E log V).
-pub fn classes(s: &Structure, faults: &[Eq]) -> Classes {
+pub(crate) fn classes(s: &Structure, faults: &[Eq]) -> Classes {
     let all = vec![true; s.len()];
     let plus = s.overdetermined(&all, &s.matching(&all));
     let mut m = s.matching(&plus);
-    let mut fault_of: Vec<Option<usize>> = vec![None; s.len()];
-    for (i, f) in faults.iter().enumerate() {
-        fault_of[f.0 as usize] = Some(i);
+    let mut fault_of: IndexVec<Eq, Option<usize>> = IndexVec::from_elem(None, s.len());
+    for (i, &f) in faults.iter().enumerate() {
+        fault_of[f] = Some(i);
     }
     let mut labels: Vec<Option<usize>> = vec![None; faults.len()];
-    let mut left = faults.iter().filter(|f| plus[f.0 as usize]).count();
+    let mut left = faults.iter().filter(|f| plus[f.index()]).count();
     let mut next_label = 0;
     while left > 0 {
         let mut graph = s.alternating(&plus, &m);
-        let root = graph.len() as u32;
-        let free: Vec<u32> = (0..s.len() as u32)
-            .filter(|&e| plus[e as usize] && m.is_free(e))
+        let free: Vec<Eq> = (s.equations())
+            .filter(|&e| plus[e.index()] && m.is_free(e))
             .collect();
-        graph.push(free.clone());
+        // A root above the free equations, past the last equation: no equation's.
+        let root = graph.push(free.clone());
         let idom = dominators::immediate(&graph, root);
-        let mut children: Vec<Vec<u32>> = vec![Vec::new(); graph.len()];
-        for (v, d) in idom.iter().enumerate() {
-            if let Some(d) = d {
-                children[*d as usize].push(v as u32);
+        let mut children: IndexVec<Eq, Vec<Eq>> = IndexVec::from_elem(Vec::new(), graph.len());
+        for (v, d) in idom.iter_enumerated() {
+            if let Some(d) = *d {
+                children[d].push(v);
             }
         }
         for &r in &free {
             let mut class = Vec::new();
             let mut stack = vec![r];
             while let Some(v) = stack.pop() {
-                if let Some(i) = fault_of[v as usize].filter(|&i| labels[i].is_none()) {
+                if let Some(i) = fault_of[v].filter(|&i| labels[i].is_none()) {
                     class.push(i);
                 }
-                stack.extend(&children[v as usize]);
+                stack.extend(&children[v]);
             }
             if !class.is_empty() {
                 left -= class.len();
@@ -207,7 +208,7 @@ pub fn classes(s: &Structure, faults: &[Eq]) -> Classes {
         if left == 0 {
             break;
         }
-        let unclassified = |e: u32| fault_of[e as usize].is_some_and(|i| labels[i].is_none());
+        let unclassified = |e: Eq| fault_of[e].is_some_and(|i| labels[i].is_none());
         for path in nearest(&graph, &free, unclassified) {
             m.shift(&path);
         }
@@ -217,33 +218,36 @@ pub fn classes(s: &Structure, faults: &[Eq]) -> Classes {
 
 /// From each of `sources`, the path to the nearest node that is `wanted`, all disjoint: the
 /// paths of one breadth-first forest grown from every source at once.
-fn nearest(graph: &[Vec<u32>], sources: &[u32], wanted: impl Fn(u32) -> bool) -> Vec<Vec<u32>> {
-    const NONE: u32 = u32::MAX;
-    let mut parent = vec![NONE; graph.len()];
-    let mut source = vec![NONE; graph.len()];
+fn nearest(
+    graph: &IndexVec<Eq, Vec<Eq>>,
+    sources: &[Eq],
+    wanted: impl Fn(Eq) -> bool,
+) -> Vec<Vec<Eq>> {
+    let mut parent: IndexVec<Eq, Option<Eq>> = IndexVec::from_elem(None, graph.len());
+    let mut source: IndexVec<Eq, Option<Eq>> = IndexVec::from_elem(None, graph.len());
     let mut queue = std::collections::VecDeque::new();
     for &r in sources {
-        source[r as usize] = r;
+        source[r] = Some(r);
         queue.push_back(r);
     }
     let mut served = std::collections::HashSet::new();
     let mut paths = Vec::new();
     while let Some(v) = queue.pop_front() {
-        let from = source[v as usize];
+        let from = source[v];
         if wanted(v) && served.insert(from) {
             let mut path = vec![v];
             let mut u = v;
-            while parent[u as usize] != NONE {
-                u = parent[u as usize];
+            while let Some(p) = parent[u] {
+                u = p;
                 path.push(u);
             }
             path.reverse();
             paths.push(path);
         }
-        for &w in &graph[v as usize] {
-            if source[w as usize] == NONE {
-                source[w as usize] = from;
-                parent[w as usize] = v;
+        for &w in &graph[v] {
+            if source[w].is_none() {
+                source[w] = from;
+                parent[w] = Some(v);
                 queue.push_back(w);
             }
         }
@@ -260,12 +264,12 @@ fn classes_by_removal(s: &Structure, faults: &[Eq]) -> Classes {
     let m = s.matching(&plus);
     let mut labels: Vec<Option<usize>> = vec![None; faults.len()];
     for (i, &f) in faults.iter().enumerate() {
-        if labels[i].is_some() || !plus[f.0 as usize] {
+        if labels[i].is_some() || !plus[f.index()] {
             continue;
         }
         let rest = s.without(&plus, &m, f);
         for (j, &g) in faults.iter().enumerate() {
-            if labels[j].is_none() && plus[g.0 as usize] && !rest[g.0 as usize] {
+            if labels[j].is_none() && plus[g.index()] && !rest[g.index()] {
                 labels[j] = Some(i);
             }
         }
@@ -277,6 +281,7 @@ fn classes_by_removal(s: &Structure, faults: &[Eq]) -> Classes {
 mod tests {
     use super::*;
     use crate::causality::{assign, Mode};
+    use crate::index::Idx;
     use std::collections::{BTreeSet, HashSet};
 
     /// The size of a maximum matching of `set` (Kuhn's algorithm: small models only).
@@ -343,13 +348,13 @@ mod tests {
     /// The classes from every MSO: `i` is isolable from `j` when some MSO holds `i`'s fault
     /// equation and not `j`'s.
     fn brute_force(s: &Structure, faults: &[Eq]) -> (Classes, usize) {
-        let rows: Vec<Vec<u32>> = (0..s.len())
-            .map(|e| s.vars(Eq(e as u32)).to_vec())
+        let rows: Vec<Vec<u32>> = (s.equations())
+            .map(|e| s.vars(e).iter().map(|v| v.0).collect())
             .collect();
         let all: Vec<usize> = (0..rows.len()).collect();
         let mut found = BTreeSet::new();
         msos(&rows, &all, &mut HashSet::new(), &mut found);
-        let holds = |m: &Vec<usize>, f: Eq| m.binary_search(&(f.0 as usize)).is_ok();
+        let holds = |m: &Vec<usize>, f: Eq| m.binary_search(&(f.index())).is_ok();
         let isolable = |i: usize, j: usize| {
             found
                 .iter()
@@ -404,7 +409,7 @@ mod tests {
         let fault_var = |name: &str| s.vars(faults[row(name)])[0];
         for sensor in ["y1", "y2"] {
             let mut owners: Vec<&str> = (0..causal.system.equations.len())
-                .filter(|&e| s.vars(Eq(e as u32)).contains(&fault_var(sensor)))
+                .filter(|&e| s.vars(Eq::new(e)).contains(&fault_var(sensor)))
                 .map(|e| model.node(causal.system.equations[e].owner).name.as_str())
                 .collect();
             owners.sort();

@@ -1,23 +1,23 @@
 //! Fault detection and isolation: the ARRs of a model and its fault signature matrix.
 
 mod arr;
-pub mod auxiliary;
+pub(crate) mod auxiliary;
 mod basis;
-pub mod candidates;
-pub mod component;
+pub(crate) mod candidates;
+pub(crate) mod component;
 mod dominators;
-pub mod eliminate;
+pub(crate) mod eliminate;
 mod fsm;
-pub mod isolability;
+pub(crate) mod isolability;
 mod operator;
-pub mod placement;
-pub mod roots;
+pub(crate) mod placement;
+pub(crate) mod roots;
 mod sensitivity;
-pub mod simulated;
-pub mod structure;
+pub(crate) mod simulated;
+pub(crate) mod structure;
 mod subsets;
 
-pub use arr::{diagnose, Diagnosis};
+pub(crate) use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;
-pub use component::{components, Component, ComponentKind};
-pub use fsm::{Fsm, RowIndex};
+pub(crate) use component::{components, Component, ComponentKind};
+pub(crate) use fsm::{Fsm, RowIndex};

@@ -17,7 +17,7 @@
 use crate::symbolic::Polynomial;
 
 /// `Σₖ c[k] Dᵏ`.
-pub type Operator = Vec<Polynomial>;
+pub(super) type Operator = Vec<Polynomial>;
 
 /// Terms a coefficient may reach during Euclid's algorithm before the search gives up.
 const MAX_COEFFICIENT_TERMS: usize = 2_000;
@@ -73,7 +73,7 @@ fn remainder(mut a: Operator, b: &[Polynomial]) -> Option<Operator> {
 }
 
 /// `a / g` when `g` divides `a` exactly and `g`'s leading coefficient is one term.
-pub fn divide(a: &[Polynomial], g: &[Polynomial]) -> Option<Operator> {
+pub(super) fn divide(a: &[Polynomial], g: &[Polynomial]) -> Option<Operator> {
     let dg = degree(g)?;
     let Some(da) = degree(a) else {
         return Some(Vec::new());
@@ -116,7 +116,7 @@ fn monic(g: Operator) -> Option<Operator> {
 }
 
 /// `a · b`.
-pub fn product(a: &[Polynomial], b: &[Polynomial]) -> Operator {
+pub(super) fn product(a: &[Polynomial], b: &[Polynomial]) -> Operator {
     if a.is_empty() || b.is_empty() {
         return Vec::new();
     }
@@ -130,7 +130,7 @@ pub fn product(a: &[Polynomial], b: &[Polynomial]) -> Operator {
 }
 
 /// `g` normalised as [`monic`] does: a candidate divisor.
-pub fn normalised(g: &[Polynomial]) -> Option<Operator> {
+pub(super) fn normalised(g: &[Polynomial]) -> Option<Operator> {
     monic(trimmed(g.to_vec())).filter(|g| degree(g).is_some_and(|d| d >= 1))
 }
 
@@ -138,7 +138,7 @@ pub fn normalised(g: &[Polynomial]) -> Option<Operator> {
 /// as it does; `None` when none does. This finds a common factor whose content in the
 /// parameters is not one term, which Euclid's algorithm cannot normalise without a gcd of
 /// multivariate polynomials: the factors an elimination produces are the operators it met.
-pub fn common_known_factor(
+pub(super) fn common_known_factor(
     a: &[Polynomial],
     b: &[Polynomial],
     candidates: &[Operator],
@@ -161,7 +161,7 @@ pub fn common_known_factor(
 
 /// A common divisor of `a` and `b` of degree ≥ 1 in `D`, monic, dividing both exactly; `None`
 /// when they are coprime or when that cannot be established within the bounds.
-pub fn common_factor(a: &[Polynomial], b: &[Polynomial]) -> Option<Operator> {
+pub(super) fn common_factor(a: &[Polynomial], b: &[Polynomial]) -> Option<Operator> {
     let (mut x, mut y) = (trimmed(a.to_vec()), trimmed(b.to_vec()));
     if degree(&x)? < degree(&y)? {
         std::mem::swap(&mut x, &mut y);

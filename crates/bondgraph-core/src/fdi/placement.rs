@@ -13,14 +13,14 @@ use std::collections::BTreeSet;
 
 use super::component::{components, Component};
 use super::isolability::{classes, fault_structure, Classes};
-use super::structure::Eq;
+use super::structure::{Eq, Unknown};
 use super::subsets::for_each_subset;
 use crate::causality::equations::{self, Var};
 use crate::causality::Mode;
 use crate::graph::{BondGraph, JunctionKind, NodeId, NodeKind};
 
 /// Structural analyses the exhaustive search may make before it turns greedy.
-pub const MAX_EVALUATIONS: usize = 20_000;
+pub(crate) const MAX_EVALUATIONS: usize = 20_000;
 
 /// Proposals listed at most, of the smallest size.
 const MAX_PROPOSALS: usize = 10;
@@ -116,7 +116,7 @@ struct Search<'m> {
     components: Vec<Component>,
     system: equations::System,
     /// Unmeasured junctions, with the unknown a detector there would measure.
-    junctions: Vec<(NodeId, u32)>,
+    junctions: Vec<(NodeId, Unknown)>,
 }
 
 impl Search<'_> {
@@ -177,7 +177,7 @@ impl Search<'_> {
 
 /// The smallest sets of detectors that make `targets` (component names; all when empty)
 /// reach `goal`, in `model`.
-pub fn place(
+pub(crate) fn place(
     model: &BondGraph,
     targets: &[String],
     goal: Goal,
@@ -189,10 +189,10 @@ pub fn place(
         .filter(|&d| matches!(model.node(d).kind, NodeKind::Detector(_)))
         .filter_map(|d| model.detector_junction(d))
         .collect();
-    let junctions: Vec<(NodeId, u32)> = model
+    let junctions: Vec<(NodeId, Unknown)> = model
         .nodes()
         .filter(|&j| model.node(j).is_junction() && !measured.contains(&j))
-        .filter_map(|j| system.var(Var::Common(j)).map(|v| (j, v.0)))
+        .filter_map(|j| system.var(Var::Common(j)).map(|v| (j, Unknown(v.0))))
         .collect();
     let wanted: Vec<usize> = if targets.is_empty() {
         (0..components.len()).collect()

@@ -8,7 +8,7 @@ use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool};
 
 /// A root as a residual generator solves it.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RootLaw {
+pub(crate) struct RootLaw {
     /// `g`, zero at the root: over known signals, earlier roots and the root itself
     /// ([`Leaf::Root`] of order 0 only).
     pub residual: ExprId,
@@ -20,7 +20,7 @@ pub struct RootLaw {
 }
 
 /// Each root's derivatives, in terms of the roots themselves.
-pub struct Explicit {
+pub(crate) struct Explicit {
     /// `table[k][n]`: the n-th derivative of root `k` (`table[k][0]` is its leaf).
     table: Vec<Vec<ExprId>>,
     /// The laws, in root order.
@@ -29,7 +29,7 @@ pub struct Explicit {
 
 /// Makes the roots of `roots` evaluable: their laws, with the derivatives of earlier roots
 /// put back. `None` if a law cannot be differentiated.
-pub fn explicit(pool: &mut Pool, roots: &[Root]) -> Option<Explicit> {
+pub(crate) fn explicit(pool: &mut Pool, roots: &[Root]) -> Option<Explicit> {
     let mut e = Explicit {
         table: Vec::with_capacity(roots.len()),
         laws: Vec::with_capacity(roots.len()),
@@ -65,7 +65,7 @@ pub fn explicit(pool: &mut Pool, roots: &[Root]) -> Option<Explicit> {
 impl Explicit {
     /// The laws, each with the derivatives of its root that `exprs` read (directly or
     /// through the derivatives of other roots). `None` if one cannot be differentiated.
-    pub fn laws_for(&mut self, pool: &mut Pool, exprs: &[ExprId]) -> Option<Vec<RootLaw>> {
+    pub(crate) fn laws_for(&mut self, pool: &mut Pool, exprs: &[ExprId]) -> Option<Vec<RootLaw>> {
         let mut top: Vec<u32> = vec![0; self.laws.len()];
         let mut stack: Vec<ExprId> = exprs.to_vec();
         while let Some(e) = stack.pop() {
@@ -96,7 +96,7 @@ impl Explicit {
     }
 
     /// `e` with every derivative of a root replaced by its expression in the roots.
-    pub fn put_back(&mut self, pool: &mut Pool, e: ExprId) -> Option<ExprId> {
+    pub(crate) fn put_back(&mut self, pool: &mut Pool, e: ExprId) -> Option<ExprId> {
         for leaf in pool.leaves(e) {
             if let Leaf::Root(k, n @ 1..) = leaf {
                 self.extend(pool, k, n)?;

@@ -25,7 +25,7 @@ const ZERO: f64 = 1e-9;
 /// The parameters `root` depends on, judged at random points: one reverse (adjoint) pass per
 /// point gives the derivative in every parameter at once, so the cost is the size of the
 /// residual, not that times its number of parameters.
-pub fn dependences(pool: &Pool, root: ExprId, model: &BondGraph) -> BTreeSet<ParamId> {
+pub(super) fn dependences(pool: &Pool, root: ExprId, model: &BondGraph) -> BTreeSet<ParamId> {
     let mut found = BTreeSet::new();
     pool.visit_reachable(&[root], |_, node| {
         if let Node::Int(a) = node {
@@ -94,7 +94,7 @@ impl Point<'_> {
     /// `k = 2e5`, a term in `A²` is 1e-13 of its residual at signals of size one and reads
     /// as round-off).
     fn param(&self, p: ParamId) -> f64 {
-        debug_assert!((p.0 as usize) < self.model.params.len());
+        debug_assert!((p.index()) < self.model.params.len());
         self.uniform(u64::from(p.0) << 8 | 1)
     }
 

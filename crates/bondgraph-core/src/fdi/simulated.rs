@@ -21,7 +21,7 @@ use crate::symbolic::{ExprId, Leaf};
 
 /// One detector's simulated residual.
 #[derive(Clone, Debug)]
-pub struct Simulated {
+pub(crate) struct Simulated {
     /// The detector.
     pub sensor: NodeId,
     /// Every node whose equation the output was computed from, through the states it reads.
@@ -35,7 +35,11 @@ pub struct Simulated {
 /// The simulated residual of each detector, when the state equations are explicit, complete
 /// and read the inputs' values only (none otherwise: a copy of the model could not be run on
 /// recorded samples).
-pub fn simulated(model: &BondGraph, integral: &Causal, space: &StateSpace) -> Vec<Simulated> {
+pub(crate) fn simulated(
+    model: &BondGraph,
+    integral: &Causal,
+    space: &StateSpace,
+) -> Vec<Simulated> {
     // A copy that needs an input's derivatives would differentiate recorded samples: the
     // residuals that do so are the ARRs' business.
     let differentiates = space.states.iter().any(|s| {
@@ -48,7 +52,7 @@ pub fn simulated(model: &BondGraph, integral: &Causal, space: &StateSpace) -> Ve
         .system
         .states
         .iter()
-        .filter_map(|s| Some((s.element, integral.solved.solved_by[s.rate.0 as usize]?)))
+        .filter_map(|s| Some((s.element, integral.solved.solved_by[s.rate.index()]?)))
         .collect();
     space
         .outputs
@@ -70,7 +74,7 @@ pub fn simulated(model: &BondGraph, integral: &Causal, space: &StateSpace) -> Ve
 fn computed_at(model: &BondGraph, integral: &Causal, sensor: NodeId) -> Option<usize> {
     let junction = model.detector_junction(sensor)?;
     let v = integral.system.var(Var::Common(junction))?;
-    integral.solved.solved_by[v.0 as usize]
+    integral.solved.solved_by[v.index()]
 }
 
 /// The nodes and `let`s of every equation `start` depends on: through the unknowns it reads,
@@ -95,7 +99,7 @@ fn cone(
         stack.extend(
             eq.vars
                 .iter()
-                .filter_map(|v| integral.solved.solved_by[v.0 as usize]),
+                .filter_map(|v| integral.solved.solved_by[v.index()]),
         );
         stack.extend(rate.get(&eq.owner).copied());
         for s in super::isolability::sensors_read(&integral.system, eq) {
@@ -129,7 +133,7 @@ fn parameters(space: &StateSpace, output: ExprId) -> BTreeSet<ParamId> {
 
 /// The rows of `components` a simulated residual shows, increasing: the elements and `let`s
 /// its output was computed from whose parameters it still holds, and its own detector.
-pub fn rows(s: &Simulated, components: &[Component], index: &RowIndex) -> Vec<usize> {
+pub(crate) fn rows(s: &Simulated, components: &[Component], index: &RowIndex) -> Vec<usize> {
     let survives = |c: &Component| {
         c.parameters.is_empty() || c.parameters.iter().any(|p| s.parameters.contains(p))
     };

@@ -3,7 +3,7 @@
 
 /// Calls `f` on every `size`-subset of `0..n` in lexicographic order while `budget` lasts;
 /// whether all were visited.
-pub fn for_each_subset(
+pub(super) fn for_each_subset(
     n: usize,
     size: usize,
     budget: &mut usize,

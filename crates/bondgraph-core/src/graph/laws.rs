@@ -65,7 +65,7 @@ pub(crate) struct Resolver<'a> {
 
 impl Resolver<'_> {
     /// The expression with names resolved, or `None` after reporting every bad name in it.
-    pub fn expr(&mut self, expr: &AstExpr, context: Context<'_>) -> Option<SignalExpr> {
+    pub(super) fn expr(&mut self, expr: &AstExpr, context: Context<'_>) -> Option<SignalExpr> {
         let mut ok = true;
         expr.for_each_leaf(&mut |ident| ok &= self.leaf(ident, context, true).is_some());
         if !ok {
@@ -147,7 +147,7 @@ impl Resolver<'_> {
             SignalSlot::Input(id) => (Signal::Input(id), Variability::Known),
             SignalSlot::Sensor(id) => (Signal::Sensor(id), Variability::Measured),
             SignalSlot::Let(id) => {
-                let variability = match self.let_variability.get(id.0 as usize) {
+                let variability = match self.let_variability.get(id.index()) {
                     Some(Some(v)) => *v,
                     // While the lets themselves are being resolved, any let is acceptable.
                     _ if self.let_variability.is_empty() => Variability::Constant,

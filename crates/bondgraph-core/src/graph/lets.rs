@@ -107,7 +107,7 @@ pub(crate) fn variability(expr: &SignalExpr, lets: &[Option<Variability>]) -> Op
             Signal::Param(_) => Some(Variability::Constant),
             Signal::Input(_) | Signal::Time => Some(Variability::Known),
             Signal::Sensor(_) => Some(Variability::Measured),
-            Signal::Let(LetId(i)) => lets.get(*i as usize).copied().flatten(),
+            Signal::Let(l) => lets.get(l.index()).copied().flatten(),
             Signal::Port(_) => None,
         };
         most = most.zip(v).map(|(a, b)| a.max(b));
@@ -118,26 +118,26 @@ pub(crate) fn variability(expr: &SignalExpr, lets: &[Option<Variability>]) -> Op
 /// Most nodes a `let`'s definition may have once every `let` it uses is written out. Past it,
 /// the expressions bgc prints (which are trees) would be too large to read or to write:
 /// `let l_i = l_{i-1} * l_{i-1} + a`, 20 deep, is 3 million nodes.
-pub const MAX_EXPANDED: u64 = 200_000;
+pub(crate) const MAX_EXPANDED: u64 = 200_000;
 
 /// The first `let` (in dependency order) whose written-out size passes [`MAX_EXPANDED`],
 /// with that size (saturated at `u64::MAX`).
-pub fn first_too_large(model: &super::BondGraph) -> Option<(LetId, u64)> {
+pub(crate) fn first_too_large(model: &super::BondGraph) -> Option<(LetId, u64)> {
     let mut size = vec![0u64; model.lets.len()];
     for &l in &model.let_order {
-        let expr = &model.lets[l.0 as usize].value;
+        let expr = &model.lets[l.index()].value;
         let mut leaves = 0u64;
         expr.for_each_leaf(&mut |s| {
             let n = match s {
-                Signal::Let(k) => size.get(k.0 as usize).copied().unwrap_or(1),
+                Signal::Let(k) => size.get(k.index()).copied().unwrap_or(1),
                 _ => 1,
             };
             leaves = leaves.saturating_add(n);
         });
         let inner = nodes(expr);
-        size[l.0 as usize] = leaves.saturating_add(inner);
-        if size[l.0 as usize] > MAX_EXPANDED {
-            return Some((l, size[l.0 as usize]));
+        size[l.index()] = leaves.saturating_add(inner);
+        if size[l.index()] > MAX_EXPANDED {
+            return Some((l, size[l.index()]));
         }
     }
     None

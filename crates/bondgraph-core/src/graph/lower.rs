@@ -19,7 +19,7 @@ use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use crate::syntax::ast::{self, ElementBody, Ident, StatementKind};
 
 /// Lowers a parsed file; `None` when any error was reported.
-pub fn lower(file: &ast::File, diagnostics: &mut Diagnostics) -> Option<BondGraph> {
+pub(super) fn lower(file: &ast::File, diagnostics: &mut Diagnostics) -> Option<BondGraph> {
     let mut lowerer = Lowerer {
         diagnostics,
         scope: Scope::default(),
@@ -332,7 +332,7 @@ impl<'a> Lowerer<'a, '_> {
         let order = super::lets::order(&self.let_decls, &resolved, self.diagnostics);
         let mut variability = vec![None; resolved.len()];
         for id in &order {
-            variability[id.0 as usize] = resolved[id.0 as usize]
+            variability[id.index()] = resolved[id.index()]
                 .as_ref()
                 .and_then(|expr| super::lets::variability(expr, &variability));
         }

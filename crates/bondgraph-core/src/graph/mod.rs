@@ -4,13 +4,13 @@ mod bonds;
 mod laws;
 mod lets;
 mod lower;
-pub mod model;
+pub(crate) mod model;
 mod scope;
 mod validate;
 
-pub use lets::{first_too_large, MAX_EXPANDED};
+pub(crate) use lets::{first_too_large, MAX_EXPANDED};
 pub(crate) use lower::load;
-pub use model::*;
+pub(crate) use model::*;
 pub use scope::closest;
 
 #[cfg(test)]

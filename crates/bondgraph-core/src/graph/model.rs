@@ -3,13 +3,14 @@
 //! Everything here is resolved: names are ids, laws are normalised, bonds are numbered. Spans
 //! stay attached so later stages can still point at the source.
 
+use crate::index::typed_index;
 use petgraph::graph::{DiGraph, EdgeIndex, NodeIndex};
 use petgraph::visit::EdgeRef;
 use petgraph::Direction;
 
 use crate::diagnostic::Span;
 use crate::expr::Expr;
-pub use crate::syntax::ast::JunctionKind;
+pub(crate) use crate::syntax::ast::JunctionKind;
 
 /// A node of the graph: an element, a junction or a detector.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -17,23 +18,26 @@ pub struct NodeId(pub NodeIndex);
 
 /// A bond of the graph.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct BondId(pub EdgeIndex);
+pub(crate) struct BondId(pub EdgeIndex);
 
-/// A parameter, by its place in [`BondGraph::params`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct ParamId(pub u32);
+typed_index! {
+    /// A parameter, by its place in [`BondGraph::params`].
+    pub struct ParamId;
+}
 
-/// An input, by its place in [`BondGraph::inputs`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct InputId(pub u32);
+typed_index! {
+    /// An input, by its place in [`BondGraph::inputs`].
+    pub struct InputId;
+}
 
-/// A `let` definition, by its place in [`BondGraph::lets`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct LetId(pub u32);
+typed_index! {
+    /// A `let` definition, by its place in [`BondGraph::lets`].
+    pub(crate) struct LetId;
+}
 
 /// What a name in an expression stands for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Signal {
+pub(crate) enum Signal {
     /// A constant parameter.
     Param(ParamId),
     /// A known input signal.
@@ -50,7 +54,7 @@ pub enum Signal {
 
 /// The variables at an element's port, usable in its own law.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum PortVar {
+pub(crate) enum PortVar {
     /// Effort.
     E,
     /// Flow.
@@ -63,7 +67,7 @@ pub enum PortVar {
 
 impl PortVar {
     /// The name as written in a law.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             PortVar::E => "e",
             PortVar::F => "f",
@@ -73,7 +77,7 @@ impl PortVar {
     }
 
     /// The port variable called `name`, if any.
-    pub fn from_name(name: &str) -> Option<PortVar> {
+    pub(crate) fn from_name(name: &str) -> Option<PortVar> {
         match name {
             "e" => Some(PortVar::E),
             "f" => Some(PortVar::F),
@@ -85,11 +89,11 @@ impl PortVar {
 }
 
 /// An expression over resolved signals.
-pub type SignalExpr = Expr<Signal>;
+pub(crate) type SignalExpr = Expr<Signal>;
 
 /// A constant parameter.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Param {
+pub(crate) struct Param {
     /// Its name.
     pub name: String,
     /// Its nominal value.
@@ -106,7 +110,7 @@ pub struct Param {
 
 /// A known input signal (a voltage command, a pump flow…).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Input {
+pub(crate) struct Input {
     /// Its name.
     pub name: String,
     /// Its unit, as written.
@@ -119,7 +123,7 @@ pub struct Input {
 
 /// A named helper expression.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Let {
+pub(crate) struct Let {
     /// Its name.
     pub name: String,
     /// Its definition.
@@ -131,7 +135,7 @@ pub struct Let {
 /// The element kinds of the language.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[allow(clippy::upper_case_acronyms)] // MTF, MGY: the names every bond-graph text uses
-pub enum ElementKind {
+pub(crate) enum ElementKind {
     /// Effort source.
     Se,
     /// Flow source.
@@ -164,7 +168,7 @@ pub enum ElementKind {
 
 impl ElementKind {
     /// Every kind, in the order the docs list them.
-    pub const ALL: [ElementKind; 14] = [
+    pub(crate) const ALL: [ElementKind; 14] = [
         ElementKind::Se,
         ElementKind::Sf,
         ElementKind::MSe,
@@ -182,7 +186,7 @@ impl ElementKind {
     ];
 
     /// The name as written.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             ElementKind::Se => "Se",
             ElementKind::Sf => "Sf",
@@ -203,7 +207,7 @@ impl ElementKind {
 
     /// The kind whose equations this one has: `R` for `MR`, `C` for `MC`, `I` for `MI`,
     /// itself otherwise (a modulated source or two-port keeps its own kind).
-    pub fn base(self) -> ElementKind {
+    pub(crate) fn base(self) -> ElementKind {
         match self {
             ElementKind::MR => ElementKind::R,
             ElementKind::MC => ElementKind::C,
@@ -213,7 +217,7 @@ impl ElementKind {
     }
 
     /// Whether its law may read inputs, measured signals and `t`.
-    pub fn is_modulated(self) -> bool {
+    pub(crate) fn is_modulated(self) -> bool {
         matches!(
             self,
             ElementKind::MSe
@@ -227,17 +231,17 @@ impl ElementKind {
     }
 
     /// `C`, `I` and their modulated forms: elements that store energy.
-    pub fn is_storage(self) -> bool {
+    pub(crate) fn is_storage(self) -> bool {
         matches!(self.base(), ElementKind::C | ElementKind::I)
     }
 
     /// The kind called `name`, if any.
-    pub fn from_name(name: &str) -> Option<ElementKind> {
+    pub(crate) fn from_name(name: &str) -> Option<ElementKind> {
         ElementKind::ALL.into_iter().find(|k| k.name() == name)
     }
 
     /// Sources: one bond, pointing out.
-    pub fn is_source(self) -> bool {
+    pub(crate) fn is_source(self) -> bool {
         matches!(
             self,
             ElementKind::Se | ElementKind::Sf | ElementKind::MSe | ElementKind::MSf
@@ -245,7 +249,7 @@ impl ElementKind {
     }
 
     /// TF, GY and their modulated forms: one bond in, one out.
-    pub fn is_two_port(self) -> bool {
+    pub(crate) fn is_two_port(self) -> bool {
         matches!(
             self,
             ElementKind::TF | ElementKind::GY | ElementKind::MTF | ElementKind::MGY
@@ -255,7 +259,7 @@ impl ElementKind {
 
 /// The two detector kinds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum DetectorKind {
+pub(crate) enum DetectorKind {
     /// Measures the effort of a 0-junction.
     De,
     /// Measures the flow of a 1-junction.
@@ -264,7 +268,7 @@ pub enum DetectorKind {
 
 impl DetectorKind {
     /// The name as written.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             DetectorKind::De => "De",
             DetectorKind::Df => "Df",
@@ -272,7 +276,7 @@ impl DetectorKind {
     }
 
     /// The kind called `name`, if any.
-    pub fn from_name(name: &str) -> Option<DetectorKind> {
+    pub(crate) fn from_name(name: &str) -> Option<DetectorKind> {
         match name {
             "De" => Some(DetectorKind::De),
             "Df" => Some(DetectorKind::Df),
@@ -281,7 +285,7 @@ impl DetectorKind {
     }
 
     /// The junction kind whose common variable this detector reads.
-    pub fn junction(self) -> JunctionKind {
+    pub(crate) fn junction(self) -> JunctionKind {
         match self {
             DetectorKind::De => JunctionKind::Zero,
             DetectorKind::Df => JunctionKind::One,
@@ -291,7 +295,7 @@ impl DetectorKind {
 
 /// The constitutive law of an element, normalised.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Law {
+pub(crate) enum Law {
     /// A source's value: the effort of `Se`/`MSe`, the flow of `Sf`/`MSf`.
     Source(SignalExpr),
     /// A linear one-port with coefficient `x`: `R`: e = x·f; `C`: e = x·q; `I`: f = x·p.
@@ -309,7 +313,7 @@ pub enum Law {
 
 impl Law {
     /// The expression the law is made of.
-    pub fn expr(&self) -> &SignalExpr {
+    pub(crate) fn expr(&self) -> &SignalExpr {
         match self {
             Law::Source(x) | Law::Linear(x) | Law::Modulus(x) => x,
             Law::Explicit { rhs, .. } => rhs,
@@ -319,7 +323,7 @@ impl Law {
 
 /// What a node is.
 #[derive(Clone, Debug, PartialEq)]
-pub enum NodeKind {
+pub(crate) enum NodeKind {
     /// A 0- or 1-junction.
     Junction(JunctionKind),
     /// An element and its law.
@@ -330,7 +334,7 @@ pub enum NodeKind {
 
 /// A node with its name.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Node {
+pub(crate) struct Node {
     /// Its name.
     pub name: String,
     /// What it is.
@@ -343,7 +347,7 @@ pub struct Node {
 
 impl Node {
     /// The junction kind, if this node is a junction.
-    pub fn junction_kind(&self) -> Option<JunctionKind> {
+    pub(crate) fn junction_kind(&self) -> Option<JunctionKind> {
         match self.kind {
             NodeKind::Junction(k) => Some(k),
             _ => None,
@@ -351,14 +355,14 @@ impl Node {
     }
 
     /// Whether this node is a 0- or 1-junction.
-    pub fn is_junction(&self) -> bool {
+    pub(crate) fn is_junction(&self) -> bool {
         self.junction_kind().is_some()
     }
 }
 
 /// Whether a bond carries power or only information.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum BondKind {
+pub(crate) enum BondKind {
     /// A power bond: effort and flow, power positive along the half-arrow.
     Power,
     /// An activated bond from a junction to a detector: a measurement, no power.
@@ -367,7 +371,7 @@ pub enum BondKind {
 
 /// A bond, directed along positive power (from `tail` to `head` in the graph).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Bond {
+pub(crate) struct Bond {
     /// Its number, as shown on drawings and used in equations.
     pub number: u32,
     /// Power or signal.
@@ -378,7 +382,7 @@ pub struct Bond {
 
 /// A whole model: its signals and its graph.
 #[derive(Clone, Debug)]
-pub struct BondGraph {
+pub(crate) struct BondGraph {
     /// The model's name.
     pub name: String,
     /// Parameters, in declaration order.
@@ -395,27 +399,27 @@ pub struct BondGraph {
 
 impl BondGraph {
     /// The node `id`.
-    pub fn node(&self, id: NodeId) -> &Node {
+    pub(crate) fn node(&self, id: NodeId) -> &Node {
         &self.graph[id.0]
     }
 
     /// The bond `id`.
-    pub fn bond(&self, id: BondId) -> &Bond {
+    pub(crate) fn bond(&self, id: BondId) -> &Bond {
         &self.graph[id.0]
     }
 
     /// Every node, in declaration order.
-    pub fn nodes(&self) -> impl Iterator<Item = NodeId> + '_ {
+    pub(crate) fn nodes(&self) -> impl Iterator<Item = NodeId> + '_ {
         self.graph.node_indices().map(NodeId)
     }
 
     /// Every bond, in the order the chains wrote them.
-    pub fn bonds(&self) -> impl Iterator<Item = BondId> + '_ {
+    pub(crate) fn bonds(&self) -> impl Iterator<Item = BondId> + '_ {
         self.graph.edge_indices().map(BondId)
     }
 
     /// The two ends of a bond, in power direction.
-    pub fn ends(&self, id: BondId) -> (NodeId, NodeId) {
+    pub(crate) fn ends(&self, id: BondId) -> (NodeId, NodeId) {
         let (a, b) = self
             .graph
             .edge_endpoints(id.0)
@@ -424,7 +428,7 @@ impl BondGraph {
     }
 
     /// The bonds at a node whose power flows into it (`Incoming`) or out of it (`Outgoing`).
-    pub fn bonds_at(&self, node: NodeId, direction: Direction) -> Vec<BondId> {
+    pub(crate) fn bonds_at(&self, node: NodeId, direction: Direction) -> Vec<BondId> {
         let mut bonds: Vec<BondId> = self
             .graph
             .edges_directed(node.0, direction)
@@ -435,7 +439,7 @@ impl BondGraph {
     }
 
     /// The junction a detector is attached to (`None` for other nodes, or an unattached one).
-    pub fn detector_junction(&self, detector: NodeId) -> Option<NodeId> {
+    pub(crate) fn detector_junction(&self, detector: NodeId) -> Option<NodeId> {
         if !matches!(self.node(detector).kind, NodeKind::Detector(_)) {
             return None;
         }
@@ -447,11 +451,11 @@ impl BondGraph {
     }
 
     /// The name of a signal.
-    pub fn signal_name(&self, signal: Signal) -> &str {
+    pub(crate) fn signal_name(&self, signal: Signal) -> &str {
         match signal {
-            Signal::Param(ParamId(i)) => &self.params[i as usize].name,
-            Signal::Input(InputId(i)) => &self.inputs[i as usize].name,
-            Signal::Let(LetId(i)) => &self.lets[i as usize].name,
+            Signal::Param(p) => &self.params[p.index()].name,
+            Signal::Input(u) => &self.inputs[u.index()].name,
+            Signal::Let(l) => &self.lets[l.index()].name,
             Signal::Sensor(node) => &self.node(node).name,
             Signal::Time => "t",
             Signal::Port(var) => var.name(),
@@ -459,7 +463,7 @@ impl BondGraph {
     }
 
     /// An expression as the user would write it.
-    pub fn show(&self, expr: &SignalExpr) -> String {
+    pub(crate) fn show(&self, expr: &SignalExpr) -> String {
         let mut out = String::new();
         // Writing into a String cannot fail.
         let _ = expr.write_with(&mut out, &|s| self.signal_name(*s).to_string());
@@ -468,7 +472,7 @@ impl BondGraph {
 
     /// Counts of what the model holds, for `bgc check`.
     #[cfg(test)]
-    pub fn counts(&self) -> Counts {
+    pub(crate) fn counts(&self) -> Counts {
         let mut counts = Counts::default();
         for node in self.graph.node_weights() {
             match node.kind {
@@ -485,7 +489,7 @@ impl BondGraph {
 /// How many of each thing a model holds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg(test)]
-pub struct Counts {
+pub(crate) struct Counts {
     /// Elements (sources, R, C, I, TF, GY and modulated forms).
     pub elements: usize,
     /// Bonds, power and signal.

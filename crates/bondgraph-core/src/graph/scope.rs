@@ -38,7 +38,12 @@ pub(crate) enum Lookup<T> {
 
 impl Scope {
     /// Declares a signal; on a clash returns the span of the first declaration.
-    pub fn declare_signal(&mut self, name: &str, slot: SignalSlot, span: Span) -> Result<(), Span> {
+    pub(super) fn declare_signal(
+        &mut self,
+        name: &str,
+        slot: SignalSlot,
+        span: Span,
+    ) -> Result<(), Span> {
         if let Some((_, first)) = self.signals.get(name) {
             return Err(*first);
         }
@@ -47,7 +52,7 @@ impl Scope {
     }
 
     /// Declares a node; on a clash returns the first declaration.
-    pub fn declare_node(
+    pub(super) fn declare_node(
         &mut self,
         name: &str,
         id: NodeId,
@@ -61,17 +66,17 @@ impl Scope {
     }
 
     /// Marks a signal name as declared in error.
-    pub fn break_signal(&mut self, name: &str) {
+    pub(super) fn break_signal(&mut self, name: &str) {
         self.broken_signals.insert(name.to_string());
     }
 
     /// Marks a node name as declared in error.
-    pub fn break_node(&mut self, name: &str) {
+    pub(super) fn break_node(&mut self, name: &str) {
         self.broken_nodes.insert(name.to_string());
     }
 
     /// Looks a signal up.
-    pub fn signal(&self, name: &str) -> Lookup<(SignalSlot, Span)> {
+    pub(super) fn signal(&self, name: &str) -> Lookup<(SignalSlot, Span)> {
         match self.signals.get(name) {
             Some(found) => Lookup::Found(*found),
             None if self.broken_signals.contains(name) => Lookup::Broken,
@@ -80,7 +85,7 @@ impl Scope {
     }
 
     /// Looks a node up.
-    pub fn node(&self, name: &str) -> Lookup<(NodeId, Span)> {
+    pub(super) fn node(&self, name: &str) -> Lookup<(NodeId, Span)> {
         match self.nodes.get(name) {
             Some(found) => Lookup::Found(*found),
             None if self.broken_nodes.contains(name) => Lookup::Broken,
@@ -89,12 +94,12 @@ impl Scope {
     }
 
     /// The declared signal closest to `name`, if one is close enough to be a typo.
-    pub fn similar_signal(&self, name: &str) -> Option<&str> {
+    pub(super) fn similar_signal(&self, name: &str) -> Option<&str> {
         closest(name, self.signals.keys().map(String::as_str))
     }
 
     /// The declared node closest to `name`, if one is close enough to be a typo.
-    pub fn similar_node(&self, name: &str) -> Option<&str> {
+    pub(super) fn similar_node(&self, name: &str) -> Option<&str> {
         closest(name, self.nodes.keys().map(String::as_str))
     }
 }

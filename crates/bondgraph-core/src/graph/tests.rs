@@ -115,7 +115,7 @@ fn lets_are_ordered_after_what_they_use_and_cycles_rejected() {
     let order: Vec<&str> = m
         .let_order
         .iter()
-        .map(|id| m.lets[id.0 as usize].name.as_str())
+        .map(|id| m.lets[id.index()].name.as_str())
         .collect();
     assert_eq!(order, ["a", "b"]);
     assert_eq!(

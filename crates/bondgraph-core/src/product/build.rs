@@ -219,8 +219,8 @@ impl<'m> Builder<'m> {
     ) -> Result<Expr, Refusal> {
         let e = exprs.try_import(pool, root, &mut |p, leaf| {
             let symbol = match leaf {
-                Leaf::Param(k) => Symbol::Parameter(Handle::new(k.0 as usize)),
-                Leaf::Input(u, n) => Symbol::Input(Handle::new(u.0 as usize), n),
+                Leaf::Param(k) => Symbol::Parameter(Handle::new(k.index())),
+                Leaf::Input(u, n) => Symbol::Input(Handle::new(u.index()), n),
                 Leaf::Sensor(s, n) if !states => {
                     Symbol::Sensor(*self.sensor_of.get(&s).ok_or(Refusal::Unknown)?, n)
                 }
@@ -430,7 +430,7 @@ impl<'m> Builder<'m> {
         let element = m.node(owner).name.clone();
         let letter = match (
             &m.node(owner).kind,
-            d.causal.system.vars[solved.var.0 as usize],
+            d.causal.system.vars[solved.var.index()],
         ) {
             (NodeKind::Element(kind, _), _) if kind.is_storage() => {
                 if kind.base() == ElementKind::I {
@@ -559,7 +559,7 @@ impl<'m> Builder<'m> {
                     .component
                     .parameters
                     .iter()
-                    .map(|p| Handle::new(p.0 as usize))
+                    .map(|p| Handle::new(p.index()))
                     .collect(),
                 signals: row.component.signals.clone(),
                 detectable: !marks.is_empty(),
@@ -885,8 +885,8 @@ fn inverted_laws(model: &BondGraph, causal: &Causal, nodes: &BTreeSet<NodeId>) -
     };
     let name = |leaf: Leaf, given: PortVar| match leaf {
         l if l == ARGUMENT => given.name().to_string(),
-        Leaf::Param(id) => model.params[id.0 as usize].name.clone(),
-        Leaf::Input(id, _) => model.inputs[id.0 as usize].name.clone(),
+        Leaf::Param(id) => model.params[id.index()].name.clone(),
+        Leaf::Input(id, _) => model.inputs[id.index()].name.clone(),
         Leaf::Sensor(id, _) => model.node(id).name.clone(),
         Leaf::Time => "t".to_string(),
         // Laws read parameters and their own port only.

@@ -194,7 +194,7 @@ fn outer_derivative<L: LeafKind>(
 /// input signal is its next derivative, as is a torn unknown's and an auxiliary signal's;
 /// dt/dt = 1. States and
 /// unknowns have no rule.
-pub fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
+pub(crate) fn known_signal_rule(p: &mut Pool, leaf: Leaf) -> Option<ExprId> {
     match leaf {
         Leaf::Param(_) => Some(p.num(0.0)),
         Leaf::Input(u, n) => Some(p.leaf(Leaf::Input(u, n + 1))),

@@ -12,7 +12,7 @@ use crate::expr::{BinOp, Func};
 
 /// How a condition of a domain bounds its expression.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Bound {
+pub(crate) enum Bound {
     /// `x ≥ 0`
     NonNegative,
     /// `x > 0`
@@ -27,7 +27,7 @@ pub enum Bound {
 
 impl Bound {
     /// The condition on a printed expression, in the output's plain-text notation.
-    pub fn describe(self, x: &str) -> String {
+    pub(crate) fn describe(self, x: &str) -> String {
         match self {
             Bound::NonNegative => format!("{x} >= 0"),
             Bound::Positive => format!("{x} > 0"),
@@ -38,7 +38,7 @@ impl Bound {
     }
 
     /// Whether a value satisfies it.
-    pub fn holds(self, x: f64) -> bool {
+    pub(crate) fn holds(self, x: f64) -> bool {
         match self {
             Bound::NonNegative => x >= 0.0,
             Bound::Positive => x > 0.0,
@@ -51,7 +51,7 @@ impl Bound {
 
 /// One condition of an inverse's domain: `expr` within `bound`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Condition {
+pub(crate) struct Condition {
     /// What is bounded, over the inverse's argument and parameters.
     pub expr: ExprId,
     /// How.
@@ -60,7 +60,7 @@ pub struct Condition {
 
 /// `x` as a function of `y`, and where that holds.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Inverse {
+pub(crate) struct Inverse {
     /// The value of `x`, over `y` and whatever else `f` read.
     pub value: ExprId,
     /// The conditions under which `value` is the solution; empty when it always is.
@@ -68,7 +68,7 @@ pub struct Inverse {
 }
 
 /// Solves `y = f` for the leaf `x` in closed form, or `None` when this module knows no way.
-pub fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<Inverse> {
+pub(crate) fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<Inverse> {
     let mut inverter = Inverter {
         pool,
         domain: Vec::new(),

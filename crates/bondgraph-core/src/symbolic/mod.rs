@@ -7,19 +7,21 @@
 
 mod derive;
 mod eval;
-pub mod hash;
+pub(crate) mod hash;
 mod invert;
 mod monomial;
 mod normal;
 mod pool;
 mod print;
 mod rational;
-pub mod rewrite;
+pub(crate) mod rewrite;
 
-pub use derive::{known_signal_rule, Derivatives};
+pub(crate) use derive::known_signal_rule;
+pub use derive::Derivatives;
 pub use eval::{Evaluator, Tape};
 pub(crate) use invert::linear_root_of;
-pub use invert::{invert, Condition};
-pub use normal::{Polynomial, Simplifier};
-pub use pool::{children, ExprId, Leaf, LeafKind, Node, Pool};
+pub(crate) use invert::{invert, Condition};
+pub(crate) use normal::{Polynomial, Simplifier};
+pub(crate) use pool::Leaf;
+pub use pool::{children, ExprId, LeafKind, Node, Pool};
 pub use print::Printer;

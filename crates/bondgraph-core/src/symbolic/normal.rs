@@ -18,7 +18,7 @@ use super::pool::{children, ExprId, Leaf, Node, Pool};
 use crate::expr::BinOp;
 
 /// The most terms a product may expand to before it is kept whole.
-pub const MAX_TERMS: usize = 256;
+pub(super) const MAX_TERMS: usize = 256;
 
 /// Monomials with their (non-zero) coefficients, sorted by monomial, each monomial once.
 ///
@@ -75,7 +75,7 @@ impl Poly {
 
 /// Simplifies expressions of one pool, memoising what it has seen.
 #[derive(Default)]
-pub struct Simplifier {
+pub(crate) struct Simplifier {
     memo: FastMap<ExprId, ExprId>,
     /// Shared, so that reading a cached polynomial does not copy it.
     polys: FastMap<ExprId, Rc<Poly>>,
@@ -160,44 +160,44 @@ pub(super) fn mul(a: &Poly, b: &Poly) -> Poly {
 /// An expression in canonical form, as a polynomial in atoms, for algebra that should not
 /// leave it (the elimination of torn unknowns adds, multiplies and differentiates these).
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Polynomial(Poly);
+pub(crate) struct Polynomial(Poly);
 
 impl Polynomial {
     /// The expression, in canonical order.
-    pub fn expr(&self, pool: &mut Pool) -> ExprId {
+    pub(crate) fn expr(&self, pool: &mut Pool) -> ExprId {
         rebuild(pool, &self.0)
     }
 
     /// `self + scale·other`.
-    pub fn plus(&self, other: &Polynomial, scale: f64) -> Polynomial {
+    pub(crate) fn plus(&self, other: &Polynomial, scale: f64) -> Polynomial {
         let mut out = self.clone();
         out.add_scaled(other, scale);
         out
     }
 
     /// `self += scale·other`.
-    pub fn add_scaled(&mut self, other: &Polynomial, scale: f64) {
+    pub(crate) fn add_scaled(&mut self, other: &Polynomial, scale: f64) {
         add_into(&mut self.0, &other.0, scale);
     }
 
     /// `self · other`, fully expanded.
-    pub fn times(&self, other: &Polynomial) -> Polynomial {
+    pub(crate) fn times(&self, other: &Polynomial) -> Polynomial {
         Polynomial(mul(&self.0, &other.0))
     }
 
     /// Whether it is zero.
-    pub fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.0.is_empty()
     }
 
     /// How many terms it has.
-    pub fn terms(&self) -> usize {
+    pub(crate) fn terms(&self) -> usize {
         self.0.len()
     }
 
     /// Without the terms whose coefficient is below `relative` times the largest one: what
     /// rounding leaves of a cancellation that is exact in real arithmetic.
-    pub fn chop(&mut self, relative: f64) {
+    pub(crate) fn chop(&mut self, relative: f64) {
         let largest = self.0.iter().map(|(_, c)| c.abs()).fold(0.0, f64::max);
         self.0 .0.retain(|(_, c)| c.abs() > relative * largest);
     }
@@ -211,19 +211,22 @@ impl Polynomial {
     }
 
     /// `self / other` when `other` is a single term (so the quotient is exact).
-    pub fn over_monomial(&self, other: &Polynomial) -> Option<Polynomial> {
+    pub(crate) fn over_monomial(&self, other: &Polynomial) -> Option<Polynomial> {
         let (m, c) = other.monomial()?;
         let inverse: Monomial = m.iter().map(|&(a, e)| (a, -e)).collect();
         Some(self.times(&Polynomial(Poly::single(inverse, 1.0 / c))))
     }
 
     /// Every atom it holds.
-    pub fn atoms(&self) -> impl Iterator<Item = ExprId> + '_ {
+    pub(crate) fn atoms(&self) -> impl Iterator<Item = ExprId> + '_ {
         self.0.iter().flat_map(|(m, _)| m.iter().map(|&(a, _)| a))
     }
 
     /// `(with, without)`: the terms whose atoms all pass `keep`, and the others.
-    pub fn partition(&self, mut keep: impl FnMut(ExprId) -> bool) -> (Polynomial, Polynomial) {
+    pub(crate) fn partition(
+        &self,
+        mut keep: impl FnMut(ExprId) -> bool,
+    ) -> (Polynomial, Polynomial) {
         let (mut with, mut without) = (Vec::new(), Vec::new());
         for (m, &c) in self.0.iter() {
             let side = if m.iter().all(|&(a, _)| keep(a)) {
@@ -240,7 +243,7 @@ impl Polynomial {
     /// The polynomial read as `Σₖ cₖ·xₖ + rest`, where `var` tells which leaf atoms are the
     /// `xₖ` (and gives k): `c₀..c_top` and `rest`, or `None` if some `xₖ` enters otherwise than
     /// linearly (a power, a product of two, or inside another atom) or none occurs.
-    pub fn split_linear(
+    pub(crate) fn split_linear(
         &self,
         pool: &Pool,
         var: impl Fn(Leaf) -> Option<u32>,
@@ -282,7 +285,7 @@ impl Polynomial {
 
 impl Simplifier {
     /// The simplified form of `root`.
-    pub fn simplify(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+    pub(crate) fn simplify(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         if let Some(&done) = self.memo.get(&root) {
             return done;
         }
@@ -296,7 +299,7 @@ impl Simplifier {
     /// their common denominator when that leaves fewer terms:
     /// `g E/(E+1)^2 + g E/(E+1) - g E^2/(E+1)^2` is `2 g E/(E+1)^2`. The numerator is
     /// expanded within [`MAX_TERMS`]; past it the canonical form is kept.
-    pub fn together(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+    pub(crate) fn together(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         // Most expressions hold no reciprocal of a sum: nothing to expand.
         let mut reciprocal = false;
         pool.visit_reachable(&[root], |_, node| {
@@ -357,19 +360,19 @@ impl Simplifier {
     }
 
     /// Forgets the polynomials of the nodes seen so far (not the simplified forms).
-    pub fn forget_polynomials(&mut self) {
+    pub(crate) fn forget_polynomials(&mut self) {
         self.polys = FastMap::default();
     }
 
     /// The canonical form of `root` as a polynomial.
-    pub fn polynomial(&mut self, pool: &mut Pool, root: ExprId) -> Polynomial {
+    pub(crate) fn polynomial(&mut self, pool: &mut Pool, root: ExprId) -> Polynomial {
         Polynomial(Poly::clone(&self.poly(pool, root)))
     }
 
     /// d/dt of a polynomial, term by term: an atom's derivative comes from `rule` when it
     /// is a leaf (a measured signal's is its next derivative, a single atom), from
     /// `derivatives` otherwise; `None` if some atom has none.
-    pub fn derivative<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>>(
+    pub(crate) fn derivative<F: FnMut(&mut Pool, Leaf) -> Option<ExprId>>(
         &mut self,
         pool: &mut Pool,
         p: &Polynomial,

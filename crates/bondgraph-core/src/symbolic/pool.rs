@@ -136,7 +136,7 @@ impl<L: LeafKind> Default for Pool<L> {
 impl<L: LeafKind> Pool<L> {
     /// The node of `id`.
     pub fn node(&self, id: ExprId<L>) -> Node<L> {
-        self.nodes[id.0 as usize]
+        self.nodes[id.index()]
     }
 
     /// Number of distinct nodes.

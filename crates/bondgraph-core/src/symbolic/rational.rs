@@ -339,7 +339,7 @@ impl Simplifier {
     /// `root` as one numerator over a product of sums in lowest terms (see the module
     /// documentation), or `None` when a polynomial would pass [`MAX_TERMS`].
     /// `None` too when there is no sum to open: the canonical form is then the same.
-    pub fn rational(&mut self, pool: &mut Pool, root: ExprId) -> Option<ExprId> {
+    pub(crate) fn rational(&mut self, pool: &mut Pool, root: ExprId) -> Option<ExprId> {
         let poly = self.poly(pool, root);
         let is_sum = |a: ExprId| matches!(pool.node(a), Node::Binary(BinOp::Add | BinOp::Sub, ..));
         if !poly.iter().any(|(m, _)| m.iter().any(|&(a, _)| is_sum(a))) {
@@ -360,7 +360,7 @@ impl Simplifier {
     /// group's coefficient is tried as a divisor of the whole, while it divides exactly.
     /// A relation `root = 0` keeps its zeros; a single-term factor (a scale in the model's
     /// units) is left as it is.
-    pub fn without_content(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+    pub(crate) fn without_content(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         let mut poly = Poly::clone(&self.poly(pool, root));
         let mut changed = false;
         for _ in 0..4 {
@@ -412,7 +412,7 @@ impl Simplifier {
     /// `root` (canonical) divided by the monomial of parameters all its terms share and by
     /// its first term's number: for a relation `root = 0` whose scale is arbitrary (a
     /// combination of two ARRs), the scale that says least.
-    pub fn without_scale(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
+    pub(crate) fn without_scale(&mut self, pool: &mut Pool, root: ExprId) -> ExprId {
         let poly = Poly::clone(&self.poly(pool, root));
         // Only atoms present in every term, by their smallest power: dividing never brings
         // in an atom that some term does not hold (v2/RL stays v2/RL next to I0).

@@ -19,14 +19,14 @@ pub type AstExpr = Expr<Ident>;
 
 /// A whole file: its statements in source order.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct File {
+pub(crate) struct File {
     /// Every statement that parsed, in order.
     pub statements: Vec<Statement>,
 }
 
 /// One statement (one logical line).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Statement {
+pub(crate) struct Statement {
     /// What it says.
     pub kind: StatementKind,
     /// The whole statement.
@@ -35,7 +35,7 @@ pub struct Statement {
 
 /// The kinds of statement of the language.
 #[derive(Clone, Debug, PartialEq)]
-pub enum StatementKind {
+pub(crate) enum StatementKind {
     /// `model NAME`
     Model(Ident),
     /// `param NAME = VALUE [unit] "description"`
@@ -55,7 +55,7 @@ pub enum StatementKind {
 /// The names a statement that did not parse seems to declare, so that their uses elsewhere
 /// are not reported a second time as undefined.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Unparsed {
+pub(crate) struct Unparsed {
     /// The first word (`param`, `Se`, `model`…).
     pub first: Option<Ident>,
     /// The second word, when it directly follows the first: the declared name.
@@ -66,7 +66,7 @@ pub struct Unparsed {
 
 /// A parameter declaration.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ParamDecl {
+pub(crate) struct ParamDecl {
     /// Its name.
     pub name: Ident,
     /// Its value and the span of the value, if one was written.
@@ -81,7 +81,7 @@ pub struct ParamDecl {
 
 /// A parameter's uncertainty as written.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Uncertainty {
+pub(crate) enum Uncertainty {
     /// `+- 5%`: a percentage of the nominal value.
     Percent(f64),
     /// `+- 0.015`: in the parameter's unit.
@@ -90,7 +90,7 @@ pub enum Uncertainty {
 
 /// A known input signal.
 #[derive(Clone, Debug, PartialEq)]
-pub struct InputDecl {
+pub(crate) struct InputDecl {
     /// Its name.
     pub name: Ident,
     /// Its unit, as free text.
@@ -101,7 +101,7 @@ pub struct InputDecl {
 
 /// A named helper expression.
 #[derive(Clone, Debug, PartialEq)]
-pub struct LetDecl {
+pub(crate) struct LetDecl {
     /// Its name.
     pub name: Ident,
     /// Its definition.
@@ -110,7 +110,7 @@ pub struct LetDecl {
 
 /// An element or detector declaration.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ElementDecl {
+pub(crate) struct ElementDecl {
     /// The kind as written (`Se`, `R`, `Df`…), checked when lowering.
     pub kind: Ident,
     /// The element's name.
@@ -123,7 +123,7 @@ pub struct ElementDecl {
 
 /// What an element declaration says after the name.
 #[derive(Clone, Debug, PartialEq)]
-pub enum ElementBody {
+pub(crate) enum ElementBody {
     /// Nothing.
     None,
     /// `= EXPR`: the value of a source, the modulus of an element.
@@ -140,7 +140,7 @@ pub enum ElementBody {
 
 /// A chain of bonds.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Chain {
+pub(crate) struct Chain {
     /// The groups of nodes, in order.
     pub groups: Vec<Vec<NodeRef>>,
     /// The arrows between consecutive groups (`groups.len() - 1` of them).
@@ -149,7 +149,7 @@ pub struct Chain {
 
 /// A node named in a chain.
 #[derive(Clone, Debug, PartialEq)]
-pub struct NodeRef {
+pub(crate) struct NodeRef {
     /// Its name.
     pub name: Ident,
     /// `Some` when written `0:name` or `1:name`.
@@ -160,7 +160,7 @@ pub struct NodeRef {
 
 /// The two kinds of junction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum JunctionKind {
+pub(crate) enum JunctionKind {
     /// 0-junction: common effort, flows sum to zero.
     Zero,
     /// 1-junction: common flow, efforts sum to zero.
@@ -169,7 +169,7 @@ pub enum JunctionKind {
 
 impl JunctionKind {
     /// `"0"` or `"1"`.
-    pub fn symbol(self) -> &'static str {
+    pub(crate) fn symbol(self) -> &'static str {
         match self {
             JunctionKind::Zero => "0",
             JunctionKind::One => "1",
@@ -179,7 +179,7 @@ impl JunctionKind {
 
 /// An arrow between two groups of a chain.
 #[derive(Clone, Debug, PartialEq)]
-pub struct Arrow {
+pub(crate) struct Arrow {
     /// Whether power flows from the left group to the right one (`->`) or back (`<-`).
     pub forward: bool,
     /// The bond number written on the arrow, with its span.

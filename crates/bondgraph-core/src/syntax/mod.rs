@@ -2,9 +2,10 @@
 //!
 //! The language is documented for users in `docs/language.md`.
 
-pub mod ast;
+pub(crate) mod ast;
 mod parser;
 mod recover;
 mod split;
 
-pub use parser::{parse, parse_expr};
+pub(crate) use parser::parse;
+pub use parser::parse_expr;

@@ -16,12 +16,12 @@ mod generated {
     /// The pest parser generated from `bg.pest`.
     #[derive(pest_derive::Parser)]
     #[grammar = "syntax/bg.pest"]
-    pub struct BgParser;
+    pub(super) struct BgParser;
 }
 use generated::{BgParser, Rule};
 
 /// Parses a whole file; statements that do not parse are reported and left out.
-pub fn parse(text: &str) -> (ast::File, Diagnostics) {
+pub(crate) fn parse(text: &str) -> (ast::File, Diagnostics) {
     let mut file = ast::File::default();
     let mut diagnostics = Diagnostics::default();
     for span in split::statements(text) {

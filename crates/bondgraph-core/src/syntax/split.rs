@@ -6,7 +6,7 @@
 use crate::diagnostic::Span;
 
 /// The spans of the statements of `text`, in order; blank and comment-only lines are skipped.
-pub fn statements(text: &str) -> Vec<Span> {
+pub(super) fn statements(text: &str) -> Vec<Span> {
     let mut out = Vec::new();
     let mut open: Option<usize> = None;
     let mut open_end = 0;

@@ -9,7 +9,7 @@ use crate::symbolic::hash::FastSet;
 
 /// The cost of a written form, compared field by field.
 #[derive(Clone, Copy, Debug, PartialEq, PartialOrd)]
-pub struct Cost {
+pub(super) struct Cost {
     /// Atoms, numbers, signs, operators, calls and pairs of parentheses, once each.
     pub length: usize,
     /// Products whose left operand is in parentheses: `a * (b + c)` reads better than
@@ -29,14 +29,14 @@ pub struct Cost {
 /// symbol and `a + -(b)` costs more than `a - b`. A fraction that a product or quotient
 /// continues (`a / b * c`) is counted as if it were in parentheses, since that is how it
 /// has to be read. Lengths saturate, so the tree of a large DAG still compares.
-pub struct Readable {
+pub(super) struct Readable {
     original: FastSet<Math>,
 }
 
 impl Readable {
     /// A cost function that prefers, among forms of equal length, the nodes of `expr`
     /// (the canonical form) as they stand in `egraph`.
-    pub fn new(egraph: &Graph, expr: &RecExpr<Math>) -> Self {
+    pub(super) fn new(egraph: &Graph, expr: &RecExpr<Math>) -> Self {
         let mut classes = Vec::with_capacity(expr.len());
         let mut original = FastSet::default();
         for node in expr.iter() {
@@ -52,7 +52,7 @@ impl Readable {
     }
 
     /// A cost function for which nothing is original: for costing the input itself.
-    pub fn plain() -> Self {
+    pub(super) fn plain() -> Self {
         Readable {
             original: FastSet::default(),
         }

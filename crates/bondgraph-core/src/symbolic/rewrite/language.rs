@@ -11,16 +11,16 @@ use crate::symbolic::pool::{ExprId, Node, Pool};
 
 /// A number in the e-graph, by its bits, ordered by value so that e-nodes sort stably.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Constant(u64);
+pub(super) struct Constant(u64);
 
 impl Constant {
     /// The constant `x` (with one zero).
-    pub fn new(x: f64) -> Self {
+    pub(super) fn new(x: f64) -> Self {
         Constant(if x == 0.0 { 0.0f64 } else { x }.to_bits())
     }
 
     /// Its value.
-    pub fn value(self) -> f64 {
+    pub(super) fn value(self) -> f64 {
         f64::from_bits(self.0)
     }
 }
@@ -40,7 +40,7 @@ impl PartialOrd for Constant {
 /// One e-node. Leaves and integrals are atoms: the rules never look inside them, so an
 /// `int(..)` keeps the identity its running value is recorded under.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Math {
+pub(super) enum Math {
     /// A number.
     Num(Constant),
     /// A leaf or an integral of the source expression, by its index in [`Atoms`].
@@ -57,7 +57,7 @@ pub enum Math {
 
 /// What two e-nodes must share to match, children aside.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
-pub enum Operator {
+pub(super) enum Operator {
     /// A given number.
     Num(Constant),
     /// A given atom.
@@ -118,7 +118,7 @@ impl fmt::Display for Math {
 
 /// Why an operator of a rule could not be read.
 #[derive(Debug)]
-pub struct UnknownOperator(String);
+pub(super) struct UnknownOperator(String);
 
 impl fmt::Display for UnknownOperator {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -151,10 +151,10 @@ impl FromOp for Math {
 }
 
 /// The atoms of one expression: what `Math::Atom(i)` stands for.
-pub struct Atoms(Vec<ExprId>);
+pub(super) struct Atoms(Vec<ExprId>);
 
 /// `root` as an e-graph expression, shared nodes still shared, with its atoms.
-pub fn to_egg(pool: &Pool, root: ExprId) -> (RecExpr<Math>, Atoms) {
+pub(super) fn to_egg(pool: &Pool, root: ExprId) -> (RecExpr<Math>, Atoms) {
     let mut expr = RecExpr::default();
     let mut atoms = Vec::new();
     let mut ids: FastMap<ExprId, Id> = FastMap::default();
@@ -186,7 +186,7 @@ pub fn to_egg(pool: &Pool, root: ExprId) -> (RecExpr<Math>, Atoms) {
 
 /// An e-graph expression back in `pool`, through its constructors (which fold what the
 /// rules left foldable, and write `a + -b` as `a - b`).
-pub fn from_egg(pool: &mut Pool, expr: &RecExpr<Math>, atoms: &Atoms) -> ExprId {
+pub(super) fn from_egg(pool: &mut Pool, expr: &RecExpr<Math>, atoms: &Atoms) -> ExprId {
     let mut ids: Vec<ExprId> = Vec::with_capacity(expr.len());
     for node in expr.iter() {
         let at = |i: &Id| ids[usize::from(*i)];

@@ -73,7 +73,7 @@ pub enum Stop {
 
 /// The written form chosen for one expression.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Rewritten {
+pub(crate) struct Rewritten {
     /// The expression to show: the cheapest found, or the input if nothing was cheaper.
     pub expr: ExprId,
     /// Printed length of the input: atoms, numbers, signs, operators, calls, parentheses.
@@ -87,7 +87,7 @@ pub struct Rewritten {
 }
 
 /// Chooses written forms under fixed limits, with its rules parsed once.
-pub struct Rewriter {
+pub(crate) struct Rewriter {
     rules: Vec<Rewrite<Math, ConstantFold>>,
     limits: Limits,
     /// Rounds already run, by their input: the search depends on the e-graph expression
@@ -107,7 +107,7 @@ struct Seen {
 
 impl Rewriter {
     /// A rewriter with the given limits.
-    pub fn new(limits: Limits) -> Self {
+    pub(crate) fn new(limits: Limits) -> Self {
         // The budget is spent by whoever runs many expressions (`Analysis::simplify`).
         Rewriter {
             rules: rules::rules(),
@@ -121,7 +121,7 @@ impl Rewriter {
     /// The search runs in rounds: each starts a fresh e-graph from the previous round's best
     /// form, so a node limit that stops one round early (commutativity and associativity fill
     /// it fast) does not stop the regrouping. Rounds end when one saturates or gains nothing.
-    pub fn cheapest(&self, pool: &mut Pool, root: ExprId) -> Rewritten {
+    pub(crate) fn cheapest(&self, pool: &mut Pool, root: ExprId) -> Rewritten {
         let start = Instant::now();
         let before = length(pool, root);
         let mut best = root;
@@ -424,7 +424,7 @@ mod tests {
                     .collect();
                 let value = |root| {
                     Evaluator::new(&pool, |l| match l {
-                        Leaf::Param(p) => point[p.0 as usize],
+                        Leaf::Param(p) => point[p.index()],
                         _ => f64::NAN,
                     })
                     .value(root)

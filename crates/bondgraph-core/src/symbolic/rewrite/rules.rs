@@ -10,11 +10,11 @@ use egg::{merge_option, rewrite, Analysis, DidMerge, EGraph, Id, Rewrite};
 use super::language::{Constant, Math};
 
 /// The e-graph of one expression.
-pub type Graph = EGraph<Math, ConstantFold>;
+pub(super) type Graph = EGraph<Math, ConstantFold>;
 
 /// Folds operations on numbers into numbers, so that `2 a + 3 a` becomes `5 a`.
 #[derive(Default, Clone, Copy, Debug)]
-pub struct ConstantFold;
+pub(super) struct ConstantFold;
 
 impl Analysis<Math> for ConstantFold {
     type Data = Option<Constant>;
@@ -53,7 +53,7 @@ impl Analysis<Math> for ConstantFold {
 }
 
 /// The rules, in a fixed order (the order is part of what makes the result deterministic).
-pub fn rules() -> Vec<Rewrite<Math, ConstantFold>> {
+pub(super) fn rules() -> Vec<Rewrite<Math, ConstantFold>> {
     let mut rules = vec![
         rewrite!("add-commute"; "(+ ?a ?b)" => "(+ ?b ?a)"),
         rewrite!("mul-commute"; "(* ?a ?b)" => "(* ?b ?a)"),
