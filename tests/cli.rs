@@ -419,6 +419,71 @@ fn records_with_other_separators_and_near_miss_columns() {
 
 /// Times are written as the decimals they are (`0.009`, not `0.009000000000000001`), in
 /// simulated records and in residuals alike.
+/// A record's mistakes are told by the file's own line numbers (blank lines counted), a
+/// column named twice is refused rather than one of the two used, and a threshold must be
+/// a finite number.
+#[test]
+fn record_lines_duplicate_columns_and_infinite_thresholds() {
+    let dir = scratch("record-lines");
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "input U0 = 12",
+        "--duration",
+        "0.5",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let csv = stdout(&out);
+    let write = |name: &str, text: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("record");
+        path.display().to_string()
+    };
+    let residuals = |path: &str, extra: &[&str]| {
+        let mut args = vec!["residuals", "models/dc_motor.bg", path];
+        args.extend(extra);
+        bgc(&args)
+    };
+    // Two blank lines after the header; the tenth row (line 13 of the file) is not a number.
+    let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
+    lines.insert(1, String::new());
+    lines.insert(2, String::new());
+    let mut cells: Vec<String> = lines[12].split(',').map(str::to_string).collect();
+    cells[1] = "abc".to_string();
+    lines[12] = cells.join(",");
+    let blank = residuals(&write("blank.csv", &(lines.join("\n") + "\n")), &[]);
+    assert_eq!(code(&blank), 1);
+    assert!(
+        stderr(&blank).contains("line 13, column `U0`: `abc` is not a finite number"),
+        "{}",
+        stderr(&blank)
+    );
+    // A measured signal named twice.
+    let twice: String = csv
+        .lines()
+        .map(|l| format!("{l},{}\n", l.split(',').nth(4).unwrap_or("")))
+        .collect();
+    let duplicate = residuals(&write("twice.csv", &twice), &[]);
+    assert_eq!(code(&duplicate), 1, "{}", stderr(&duplicate));
+    assert!(
+        stderr(&duplicate).contains("the header names `i` 2 times (columns 5 and 7)"),
+        "{}",
+        stderr(&duplicate)
+    );
+    let record = write("record.csv", &csv);
+    for level in ["inf", "NaN", "-1"] {
+        let given = format!("ARR1={level}");
+        let out = residuals(&record, &["--threshold", &given]);
+        assert_eq!(code(&out), 2, "{level}");
+        assert!(
+            stderr(&out).contains("finite non-negative"),
+            "{}",
+            stderr(&out)
+        );
+    }
+}
+
 #[test]
 fn times_are_written_without_the_bits_sums_of_steps_add() {
     let dir = scratch("times");

@@ -57,7 +57,10 @@ pub(crate) fn stderr(output: &Output) -> String {
         match trimmed.strip_prefix("│ ") {
             Some(rest) if line.len() - trimmed.len() == 2 && out.ends_with('\n') => {
                 out.pop();
-                out.push(' ');
+                // A line broken after a hyphen (`non-` / `negative`) joins without a space.
+                if !out.ends_with('-') {
+                    out.push(' ');
+                }
                 out.push_str(rest);
             }
             _ => out.push_str(line),

@@ -48,6 +48,20 @@ impl Data {
                 None => missing("t", what.to_string()),
             }
         })?;
+        // A name twice in the header: which column is the record is a guess bgc does not make.
+        for name in std::iter::once("t").chain(names.iter().map(String::as_str)) {
+            let places: Vec<String> = (header.iter().enumerate())
+                .filter(|(_, h)| *h == name)
+                .map(|(k, _)| (k + 1).to_string())
+                .collect();
+            if places.len() > 1 {
+                return Err(format!(
+                    "the header names `{name}` {} times (columns {}): keep one",
+                    places.len(),
+                    places.join(" and ")
+                ));
+            }
+        }
         let mut at = vec![t];
         for name in names {
             at.push(find(name).ok_or_else(|| {
@@ -62,9 +76,9 @@ impl Data {
             .collect();
         let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
         let body = bytes.get(start..).unwrap_or_default();
-        let mut columns = parse_rows(body, &at, &column_names, delimiter)?;
+        let (mut columns, lines) = parse_rows(body, &at, &column_names, delimiter)?;
         let time = columns.remove(0);
-        let step = check_time(&time)?;
+        let step = check_time(&time, &lines)?;
         if time.len() < window {
             return Err(format!(
                 "{} rows: the estimator's window of {window} samples needs at least {window}",
@@ -80,7 +94,8 @@ impl Data {
 }
 
 /// The rows of `body` (the CSV after its header, which was line 1), the cells at `at` of each
-/// as numbers, by column. A large record is parsed in two halves at once, split at a line
+/// as numbers, by column, and the line of the file each row is on (blank lines are skipped,
+/// so a row's line is not its position). A large record is parsed in two halves at once, split at a line
 /// end: parsing is a good part of `bgc residuals`' time, and a machine has two cores at
 /// least. A record with quotes, where a line end may sit inside a cell, is parsed in one go.
 fn parse_rows(
@@ -88,7 +103,7 @@ fn parse_rows(
     at: &[usize],
     names: &[&str],
     delimiter: u8,
-) -> Result<Vec<Vec<f64>>, String> {
+) -> Result<(Vec<Vec<f64>>, Vec<u32>), String> {
     let split = (body.len() > 1 << 20 && !body.contains(&b'"'))
         .then(|| {
             let middle = body.len() / 2;
@@ -109,12 +124,14 @@ fn parse_rows(
         (head, tail.join())
     });
     // The first half's mistake comes first: it is on an earlier line.
-    let mut columns = head?;
-    let tail = tail.map_err(|_| "the parser of the record's second half failed".to_string())??;
+    let (mut columns, mut lines) = head?;
+    let (tail, tail_lines) =
+        tail.map_err(|_| "the parser of the record's second half failed".to_string())??;
     for (column, rest) in columns.iter_mut().zip(tail) {
         column.extend(rest);
     }
-    Ok(columns)
+    lines.extend(tail_lines);
+    Ok((columns, lines))
 }
 
 /// The cell separator of a record: `,`, unless its header has none and is separated by `;`
@@ -133,28 +150,38 @@ fn delimiter(bytes: &[u8]) -> u8 {
     }
 }
 
-/// The rows of `part`, whose first line is `line` of the file.
+/// The rows of `part`, whose first line is `first` of the file, and the line of each.
 fn parse_part(
     part: &[u8],
     at: &[usize],
     names: &[&str],
-    mut line: usize,
+    first: usize,
     delimiter: u8,
-) -> Result<Vec<Vec<f64>>, String> {
+) -> Result<(Vec<Vec<f64>>, Vec<u32>), String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(false)
         .delimiter(delimiter)
         .from_reader(part);
     let rows = part.iter().filter(|&&b| b == b'\n').count() + 1;
     let mut columns: Vec<Vec<f64>> = vec![Vec::with_capacity(rows); at.len()];
+    let mut lines: Vec<u32> = Vec::with_capacity(rows);
     // One record reused for every row: no allocation per row.
     let mut record = csv::ByteRecord::new();
     loop {
+        // The line the reader stands on: the next record's, once blank lines are passed.
+        let line_of = |position: Option<&csv::Position>, reader_line: u64| {
+            first - 1
+                + usize::try_from(position.map_or(reader_line, csv::Position::line)).unwrap_or(0)
+        };
         match reader.read_byte_record(&mut record) {
             Ok(true) => {}
             Ok(false) => break,
-            Err(e) => return Err(format!("line {line}: {e}")),
+            Err(e) => {
+                let line = line_of(e.position(), reader.position().line());
+                return Err(format!("line {line}: {e}"));
+            }
         }
+        let line = line_of(record.position(), reader.position().line());
         for ((column, &i), name) in columns.iter_mut().zip(at).zip(names) {
             let cell = record.get(i).unwrap_or(b"");
             let text = std::str::from_utf8(cell).unwrap_or("").trim();
@@ -170,20 +197,21 @@ fn parse_part(
                 })?;
             column.push(value);
         }
-        line += 1;
+        lines.push(u32::try_from(line).unwrap_or(u32::MAX));
     }
-    Ok(columns)
+    Ok((columns, lines))
 }
 
-/// The uniform step of `time`, or the first line where it is not.
-fn check_time(time: &[f64]) -> Result<f64, String> {
+/// The uniform step of `time` (whose rows are on `lines` of the file), or the first line
+/// where it is not.
+fn check_time(time: &[f64], lines: &[u32]) -> Result<f64, String> {
     let [t0, t1, ..] = time else {
         return Err(format!("{} rows: too few samples", time.len()));
     };
     let step = t1 - t0;
     for (k, pair) in time.windows(2).enumerate() {
         let d = pair[1] - pair[0];
-        let line = k + 3;
+        let line = lines[k + 1];
         if d <= 0.0 {
             return Err(format!(
                 "line {line}: time goes from {} to {}: it must increase",

@@ -490,14 +490,15 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
     for g in given {
         let parsed = g.split_once('=').and_then(|(name, level)| {
             let k = c.arrs.iter().position(|a| a.name == name.trim())?;
-            let level: f64 = level.trim().parse().ok().filter(|l: &f64| *l >= 0.0)?;
+            let level: f64 =
+                (level.trim().parse().ok()).filter(|l: &f64| l.is_finite() && *l >= 0.0)?;
             Some((k, level))
         });
         match parsed {
             Some((k, level)) => levels[k] = Some(level),
             None => {
                 let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
-                return Err(report::usage(format!("--threshold `{g}`: expected ARR=LEVEL with ARR one of {} and LEVEL a non-negative number",
+                return Err(report::usage(format!("--threshold `{g}`: expected ARR=LEVEL with ARR one of {} and LEVEL a finite non-negative number",
                     names.join(", "))));
             }
         }

@@ -502,7 +502,8 @@ pub fn tokens(c: &Compiled) -> Result<TokenStream, Unwritable> {
     let Ok(mut file) = syn::parse2::<syn::File>(items.clone()) else {
         return Ok(items);
     };
-    let allow: syn::Attribute = syn::parse_quote!(#[allow(dead_code, clippy::all)]);
+    let allow: syn::Attribute =
+        syn::parse_quote!(#[allow(dead_code, unreachable_pub, clippy::all)]);
     for item in &mut file.items {
         let attrs = match item {
             syn::Item::Const(i) => &mut i.attrs,
