@@ -290,7 +290,8 @@ fn split_word(text: &str, at: usize) -> (&str, &str, usize) {
 fn one(at: usize, text: &str, expected: &str) -> Vec<Diagnostic> {
     let lead = text.len() - text.trim_start().len();
     let shown = text.trim();
-    let span = Span::new(at + lead, at + lead + shown.len().max(1));
+    // Nothing found: a point at the end of the line, which may be the end of the text.
+    let span = Span::new(at + lead, at + lead + shown.len());
     let found = if shown.is_empty() {
         "the end of the line".to_string()
     } else {
