@@ -1,9 +1,7 @@
 //! Every model in `tests/bad/` is rejected with exit code 1, and its diagnostics, which must
 //! name the file, line and column, are snapshotted.
 
-mod common;
-
-use common::{bgc, code, names_line_and_column, relative, stdout};
+use crate::common::{bgc, code, names_line_and_column, relative, stdout};
 
 #[test]
 fn every_bad_model_is_rejected_with_a_located_diagnostic() {

@@ -1,8 +1,6 @@
 //! The command line: help, version, exit codes, output files.
 
-mod common;
-
-use common::{bgc, code, root, scratch, stderr, stdout};
+use crate::common::{bgc, code, root, scratch, stderr, stdout};
 
 #[test]
 fn help_and_version() {

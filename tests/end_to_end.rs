@@ -1,9 +1,7 @@
 //! Every model, end to end: simulated with measurement noise by `bgc simulate`, its residuals
 //! by `bgc residuals` with thresholds calibrated on another healthy record; then faults.
 
-mod common;
-
-use common::{bgc, code, stderr, stdout};
+use crate::common::{bgc, code, scratch, stderr, stdout};
 use serde_json::Value;
 
 /// Seconds simulated, when faults come and how long they take to develop, in units of a
@@ -153,8 +151,7 @@ impl Case {
                 ));
             }
         }
-        let dir = std::env::temp_dir().join(format!("bgc-{test}-{}-{file}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
+        let dir = scratch(&format!("{test}-{file}"));
         Case {
             model,
             json,
@@ -249,7 +246,7 @@ impl Drop for Case {
 }
 
 fn models() -> Vec<String> {
-    (common::models().iter())
+    (crate::common::models().iter())
         .map(|p| p.file_name().expect("name").to_string_lossy().into_owned())
         .collect()
 }

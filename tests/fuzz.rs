@@ -5,15 +5,13 @@
 //!
 //! The suite runs a small sample (`BGC_FUZZ`, default 40 scenario mutants per scenario file
 //! and 30 record mutants); the campaign runs the same code with more, e.g.
-//! `BGC_FUZZ=3000 cargo test --release -p bgc --test fuzz -- --nocapture`, and prints how
+//! `BGC_FUZZ=3000 cargo test --release -p bgc --test suite fuzz:: -- --nocapture`, and prints how
 //! many inputs it ran and how many were rejected.
 
-mod common;
-
+use crate::common::mutate::{mutate, Rng};
+use crate::common::{bgc, code, root, scratch, stderr, stdout};
 use bondgraph_core::{compile, Compiled, Options};
 use bondgraph_sim::{parse_scenario, Simulation};
-use common::mutate::{mutate, Rng};
-use common::{bgc, code, root, scratch, stderr, stdout};
 
 /// How many mutants of each input (`BGC_FUZZ`, default 40).
 fn mutants() -> usize {

@@ -1,9 +1,7 @@
 //! Residuals beyond one per detector, end to end: the fault classes `--residuals best`
 //! reaches against the structural ones, the residuals it writes checked by `bgc verify`.
 
-mod common;
-
-use common::{bgc, code, stderr, stdout};
+use crate::common::{bgc, code, scratch, stderr, stdout};
 use serde_json::Value;
 
 /// The JSON product of `model` with `--residuals set`.
@@ -43,8 +41,7 @@ struct TempModel {
 
 impl TempModel {
     fn new(name: &str, text: &str) -> TempModel {
-        let dir = std::env::temp_dir().join(format!("bgc-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("temp dir");
+        let dir = scratch(name);
         let path = dir.join(format!("{name}.bg"));
         std::fs::write(&path, text).expect("write");
         let path = path.to_str().expect("path").to_string();
@@ -209,8 +206,8 @@ fn cancellations_bgc_proves_bring_the_bound_down_to_what_it_writes() {
 /// proves possible.
 #[test]
 fn the_bench_with_its_motor_current_measured_tells_the_encoder_apart() {
-    let text =
-        std::fs::read_to_string(common::root().join("models/backlash_bench.bg")).expect("bench");
+    let text = std::fs::read_to_string(crate::common::root().join("models/backlash_bench.bg"))
+        .expect("bench");
     let model = TempModel::new(
         "bench_current",
         &format!("{text}\nDf i on elec \"motor current\"\n"),
@@ -232,7 +229,7 @@ fn the_bench_with_its_motor_current_measured_tells_the_encoder_apart() {
 /// it (at the default 0.5 the load would start at 25,000 rad/s, and `exp(γ z)³` overflow).
 #[test]
 fn every_candidate_passes_verify() {
-    let mut models: Vec<String> = std::fs::read_dir(common::root().join("models"))
+    let mut models: Vec<String> = std::fs::read_dir(crate::common::root().join("models"))
         .expect("models")
         .filter_map(|e| e.ok()?.file_name().into_string().ok())
         .filter(|f| f.ends_with(".bg"))

@@ -1,12 +1,10 @@
 //! Every model in `models/`: it checks; every emitter's output is stable and snapshotted; the
 //! JSON follows the documented schema; the DOT renders with Graphviz.
 
-mod common;
-
 use std::io::Write as _;
 use std::process::{Command, Stdio};
 
-use common::{bgc, code, relative, stderr, stdout};
+use crate::common::{bgc, code, relative, scratch, stderr, stdout};
 
 /// Runs bgc twice, requires success and byte-identical output, returns it.
 fn emit(model: &str, args: &[&str]) -> String {
@@ -249,12 +247,7 @@ fn compile_latex(model: &str, tex: &str) {
     if !tool("pdflatex") {
         return;
     }
-    let dir = std::env::temp_dir().join(format!(
-        "bgc-latex-{}-{}",
-        std::process::id(),
-        model.replace('/', "_")
-    ));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch(&format!("latex-{}", model.replace('/', "_")));
     std::fs::write(dir.join("arr.tex"), tex).expect("write tex");
     let out = Command::new("pdflatex")
         .args(["-interaction=nonstopmode", "-halt-on-error", "arr.tex"])

@@ -6,18 +6,16 @@
 //!
 //! The suite runs a sample sized to stay in seconds (`BGC_MUTANTS`, default 120 library
 //! mutants and 3 command-line mutants per model); the campaign runs many more with the same
-//! code, e.g. `BGC_MUTANTS=20000 cargo test --release -p bgc --test mutations`, and prints
-//! how many it ran.
+//! code, e.g. `BGC_MUTANTS=20000 cargo test --release -p bgc --test suite mutations::`, and
+//! prints how many it ran.
 
-mod common;
-
+use crate::common::mutate::{mutate, Rng};
+use crate::common::{bgc, code, names_line_and_column, scratch, stderr};
 use bondgraph_core::diagnostic::LineIndex;
 use bondgraph_core::{Derive, Options};
-use common::mutate::{mutate, Rng};
-use common::{bgc, code, names_line_and_column, stderr};
 
 fn models() -> Vec<(String, Vec<u8>)> {
-    common::models()
+    crate::common::models()
         .into_iter()
         .map(|p| {
             let name = p.file_name().expect("name").to_string_lossy().into_owned();
@@ -156,8 +154,7 @@ fn mutated_models_never_crash_the_library_and_every_error_is_located() {
 
 #[test]
 fn mutated_models_never_crash_the_cli_and_every_rejection_names_line_and_column() {
-    let dir = std::env::temp_dir().join(format!("bgc-mutants-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("mutants");
     let mut rng = Rng(0x5eed);
     for (name, text) in models() {
         for n in 0..(mutants_per_model() / 40).max(3) {

@@ -2,12 +2,10 @@
 //! names with exit 1, nothing implausible is printed, inputs never hang, and the same model
 //! gives the same bytes whatever the limits.
 
-mod common;
-
 use std::io::Write as _;
 use std::process::{Command, Stdio};
 
-use common::{bgc, code, root, scratch, stderr, stdout};
+use crate::common::{bgc, code, root, scratch, stderr, stdout};
 
 /// Runs bgc on `text` given on standard input.
 fn bgc_stdin(args: &[&str], text: &[u8]) -> std::process::Output {

@@ -1,9 +1,7 @@
 //! `bgc simulate` then `bgc residuals`, end to end, against the residual code the
 //! `bond_graph!` macro generates for the same model: the same numbers.
 
-mod common;
-
-use common::{bgc, code, root, stderr, stdout};
+use crate::common::{bgc, code, root, scratch, stderr, stdout};
 
 bondgraph::bond_graph!("../../models/backlash_bench.bg");
 
@@ -135,8 +133,7 @@ macro_rules! agree {
 /// detector and with `best` (whose simulated residuals run a copy of the model in both).
 #[test]
 fn bgc_residuals_computes_what_the_generated_code_computes() {
-    let dir = std::env::temp_dir().join(format!("bgc-residuals-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("residuals");
     let data = dir.join("bench.csv");
     let data_arg = data.display().to_string();
     let sim = bgc(&[
@@ -182,8 +179,7 @@ fn bgc_residuals_computes_what_the_generated_code_computes() {
 /// input.
 #[test]
 fn the_simulated_residuals_hold_on_the_healthy_bench_and_see_the_backlash() {
-    let dir = std::env::temp_dir().join(format!("bgc-simulated-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("simulated");
     let data = dir.join("bench.csv");
     let data_arg = data.display().to_string();
     let sim = bgc(&[
@@ -235,8 +231,7 @@ fn the_simulated_residuals_hold_on_the_healthy_bench_and_see_the_backlash() {
 /// refused with the line.
 #[test]
 fn bad_records_are_refused_with_the_line() {
-    let dir = std::env::temp_dir().join(format!("bgc-bad-records-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("bad-records");
     let cases = [
         ("t,U0,y1\n0,1,2\n", "no column `y2`"),
         (
@@ -295,8 +290,7 @@ fn bad_records_are_refused_with_the_line() {
 /// healthy part of a faulty one, and the dead-zone fault raises ARR2's, naming the dead zone.
 #[test]
 fn calibrated_thresholds_separate_healthy_from_faulty() {
-    let dir = std::env::temp_dir().join(format!("bgc-calibrate-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("calibrate");
     let run = |name: &str, extra: &[&str]| {
         let path = dir.join(name).display().to_string();
         let mut args = vec![
@@ -375,8 +369,7 @@ fn dead_zone_healthy(path: &str) {
 /// A temporary directory named after `test` with the dead-zone scenario's faulty record and
 /// its healthy record in it: (directory, record, healthy).
 fn dead_zone_records(test: &str) -> (std::path::PathBuf, String, String) {
-    let dir = std::env::temp_dir().join(format!("bgc-{test}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch(test);
     let record = dir.join("dz.csv").display().to_string();
     let healthy = dir.join("h.csv").display().to_string();
     dead_zone(&record, &[]);
@@ -389,8 +382,7 @@ fn dead_zone_records(test: &str) -> (std::path::PathBuf, String, String) {
 /// fault still raises ARR2's.
 #[test]
 fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault() {
-    let dir = std::env::temp_dir().join(format!("bgc-adaptive-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("adaptive");
     let healthy = dir.join("healthy.csv").display().to_string();
     let moved = dir.join("moved.csv").display().to_string();
     dead_zone_healthy(&healthy);
@@ -453,8 +445,7 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
 /// and its dead zone, and ARR1 never does.
 #[test]
 fn the_papers_section_6_shows_what_the_reproduction_says() {
-    let dir = std::env::temp_dir().join(format!("bgc-section6-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("section6");
     let model = "models/backlash_bench_table3.bg";
     let run = |scenario: &str, extra: &[&str], name: &str| {
         let path = dir.join(name).display().to_string();
@@ -607,8 +598,7 @@ fn square_wave(path: &str, seed: &str, fault: bool) {
 /// instead, it is in alarm for a window's length after the fault and at few steps after.
 #[test]
 fn calibrate_alone_keeps_a_wider_dead_zone_in_alarm_at_steady_speed() {
-    let dir = std::env::temp_dir().join(format!("bgc-steady-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("steady");
     let record = dir.join("fault.csv").display().to_string();
     let healthy = dir.join("healthy.csv").display().to_string();
     square_wave(&record, "2", true);
@@ -809,8 +799,7 @@ macro_rules! same_numbers {
 /// `int(..)` once became one.
 #[test]
 fn bgc_residuals_computes_what_the_generated_code_computes_on_every_model() {
-    let dir = std::env::temp_dir().join(format!("bgc-every-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let dir = scratch("every");
     same_numbers!(&dir;
         backlash_bench_table3, coulomb_friction, dc_motor, four_mass_chain, gas_accumulator,
         hardening_spring, heat_exchanger, heated_tank, hydraulic_cylinder, orifice_tank,

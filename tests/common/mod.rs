@@ -86,9 +86,12 @@ pub(crate) fn names_line_and_column(report: &str, file: &str) -> bool {
     })
 }
 
-/// A fresh directory for one test's files, named after the test and this process.
+/// A fresh directory for one test's files, named after the test, this process and a count
+/// (the tests of one binary run in one process, some of them for the same name).
 pub(crate) fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bgc-{name}-{}", std::process::id()));
+    static MADE: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = MADE.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("bgc-{name}-{}-{n}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     dir
 }
