@@ -5,7 +5,7 @@ use std::collections::{BTreeSet, HashMap};
 use super::arr::Diagnosis;
 use super::component::{components, Component, ComponentKind};
 use super::sensitivity::dependences;
-use crate::graph::{BondGraph, LetId, NodeId};
+use crate::graph::{BondGraph, LetId, NodeId, ParamId};
 use crate::symbolic::Leaf;
 
 /// One row of the matrix.
@@ -47,6 +47,8 @@ pub(super) fn arr_rows(
 pub(crate) struct RowIndex {
     node_row: HashMap<NodeId, usize>,
     let_row: HashMap<LetId, usize>,
+    /// The row of each parameter that one component alone has.
+    owner: HashMap<ParamId, usize>,
 }
 
 impl RowIndex {
@@ -54,6 +56,8 @@ impl RowIndex {
     pub(crate) fn new(components: &[Component]) -> RowIndex {
         let mut node_row: HashMap<NodeId, usize> = HashMap::new();
         let mut let_row: HashMap<LetId, usize> = HashMap::new();
+        // Each parameter's row, or `None` once a second component has it.
+        let mut owners: HashMap<ParamId, Option<usize>> = HashMap::new();
         for (i, c) in components.iter().enumerate() {
             if let Some(n) = c.node {
                 node_row.insert(n, i);
@@ -61,8 +65,21 @@ impl RowIndex {
             if let Some(l) = c.modulation {
                 let_row.insert(l, i);
             }
+            for &p in &c.parameters {
+                owners
+                    .entry(p)
+                    .and_modify(|o| *o = o.filter(|&r| r == i))
+                    .or_insert(Some(i));
+            }
         }
-        RowIndex { node_row, let_row }
+        let owner = (owners.into_iter())
+            .filter_map(|(p, o)| Some((p, o?)))
+            .collect();
+        RowIndex {
+            node_row,
+            let_row,
+            owner,
+        }
     }
 
     /// The row of an element's or a detector's node.
@@ -139,17 +156,11 @@ pub(super) fn arr_rows_indexed(
             // torque sensor replaces the link's own equation) shows in it too: a change of
             // that parameter moves it. A shared parameter's reach is the FSM's `shared
             // parameters`, not a row's.
-            rows.extend((0..components.len()).filter(|&r| {
-                components[r].parameters.iter().any(|p| {
-                    params.contains(p)
-                        && depends.contains(p)
-                        && components
-                            .iter()
-                            .filter(|c| c.parameters.contains(p))
-                            .count()
-                            == 1
-                })
-            }));
+            rows.extend(
+                (params.iter())
+                    .filter(|p| depends.contains(p))
+                    .filter_map(|p| index.owner.get(p)),
+            );
             rows.into_iter()
                 .filter(|&r| survives(&components[r]))
                 .collect()
