@@ -8,7 +8,7 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph::{Episode, Threshold};
+use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_core::program::Stability;
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
@@ -310,10 +310,10 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         .iter()
         .map(|l| l.map(|l| Threshold::new(l, args.debounce)))
         .collect();
-    let rows: Vec<(&str, Vec<bool>)> = c
+    let rows: Vec<(&str, Vec<u32>)> = c
         .components
         .iter()
-        .map(|(_, comp)| (comp.name.as_str(), comp.signature(c.arrs.len())))
+        .map(|(_, comp)| (comp.name.as_str(), marks(&comp.marks)))
         .collect();
     let n = c.arrs.len();
     let mut raw = vec![0.0; names.len()];
@@ -416,6 +416,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// A row's marks as the runtime's sparse signatures hold them.
+fn marks(marks: &[usize]) -> Vec<u32> {
+    marks
+        .iter()
+        .map(|&k| u32::try_from(k).expect("fewer than 2^32 ARRs"))
+        .collect()
 }
 
 /// What `--plot` draws, kept as the rows are computed.
@@ -552,7 +560,7 @@ impl Chunk {
     fn write(
         &self,
         out: &mut String,
-        rows: &[(&str, Vec<bool>)],
+        rows: &[(&str, Vec<u32>)],
         named: &mut Named,
         roots: &[(usize, String)],
     ) {
@@ -606,8 +614,8 @@ struct Named {
 
 impl Named {
     /// `,candidates,suspects,episode` for the alarms `on` at `t`.
-    fn cells(&mut self, rows: &[(&str, Vec<bool>)], t: f64, on: &[bool], out: &mut String) {
-        let fsm = || rows.iter().map(|(n, s)| (*n, s.as_slice()));
+    fn cells(&mut self, rows: &[(&str, Vec<u32>)], t: f64, on: &[bool], out: &mut String) {
+        let fsm = || rows.iter().map(|(n, s)| (*n, Signature::new(on.len(), s)));
         if self.alarms != on || self.cells.is_empty() {
             self.cells = format!(
                 ",{},{}",
@@ -634,7 +642,7 @@ impl Named {
     }
 
     /// The ranking of the components by the whole episode, on standard error.
-    fn report(&self, rows: &[(&str, Vec<bool>)], c: &Compiled) {
+    fn report(&self, rows: &[(&str, Vec<u32>)], c: &Compiled) {
         let (Some(episode), Some(first)) = (&self.episode, self.first) else {
             return;
         };
@@ -647,7 +655,9 @@ impl Named {
             shares.join(", "),
             100.0 * Episode::SEEN
         ));
-        let fsm = rows.iter().map(|(n, s)| (*n, s.as_slice()));
+        let fsm = rows
+            .iter()
+            .map(|(n, s)| (*n, Signature::new(c.arrs.len(), s)));
         for (k, r) in episode.rank(fsm).iter().enumerate() {
             let why = match (r.unexplained, r.unseen) {
                 (0, 0) => "matches every residual seen in alarm".to_string(),

@@ -728,13 +728,14 @@ fn fsm(c: &Compiled) -> TokenStream {
         .map(|comp| {
             let name = &comp.name;
             let kind = comp.kind.name();
-            let bits = comp.signature(c.arrs.len());
+            // Sparse: a dense row per component grows with the square of the model.
+            let marks = comp.marks.iter().map(|&k| count(k));
             let (db, ib) = (comp.detectable, comp.isolable);
             quote! {
                 ::bondgraph::Component {
                     name: #name,
                     kind: #kind,
-                    signature: &[#(#bits),*],
+                    signature: ::bondgraph::Signature::new(#n, &[#(#marks),*]),
                     detectable: #db,
                     isolable: #ib,
                 }

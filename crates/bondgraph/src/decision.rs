@@ -1,5 +1,7 @@
 //! Which components a pattern of alarms points to.
 
+use crate::signature::{raised, Signature};
+
 /// One row of the fault signature matrix, as generated code holds it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Component {
@@ -7,8 +9,8 @@ pub struct Component {
     pub name: &'static str,
     /// Its kind: `R`, `MSe`, `Df`, `let`…
     pub kind: &'static str,
-    /// Whether each residual is sensitive to a fault of it.
-    pub signature: &'static [bool],
+    /// The residuals sensitive to a fault of it.
+    pub signature: Signature<'static>,
     /// Some residual is sensitive to it (`Db`).
     pub detectable: bool,
     /// Detectable, with a signature no other component has (`Ib`).
@@ -36,7 +38,7 @@ impl Fsm {
 
     /// Each component's name and signature: the rows [`crate::Episode::rank`] and
     /// [`crate::Episode::candidates`] take.
-    pub fn rows(&self) -> impl Iterator<Item = (&'static str, &'static [bool])> + Clone {
+    pub fn rows(&self) -> impl Iterator<Item = (&'static str, Signature<'static>)> + Clone {
         self.components.iter().map(|c| (c.name, c.signature))
     }
 
@@ -54,16 +56,19 @@ impl Fsm {
 /// `alarms`, or else those whose signature holds every alarm; none without an alarm.
 pub fn candidates<'a, I>(rows: I, alarms: &[bool]) -> Vec<&'a str>
 where
-    I: IntoIterator<Item = (&'a str, &'a [bool])>,
+    I: IntoIterator<Item = (&'a str, Signature<'a>)>,
     I::IntoIter: Clone,
 {
-    if !alarms.iter().any(|&a| a) {
+    let on = raised(alarms);
+    if on.is_empty() {
         return Vec::new();
     }
     let rows = rows.into_iter();
     let exact: Vec<&'a str> = rows
         .clone()
-        .filter(|(_, signature)| *signature == alarms)
+        .filter(|(_, signature)| {
+            signature.residuals() == alarms.len() && signature.marks().eq(on.iter().copied())
+        })
         .map(|(name, _)| name)
         .collect();
     if !exact.is_empty() {
@@ -76,20 +81,18 @@ where
 /// alarm; none without an alarm.
 pub fn suspects<'a, I>(rows: I, alarms: &[bool]) -> Vec<&'a str>
 where
-    I: IntoIterator<Item = (&'a str, &'a [bool])>,
+    I: IntoIterator<Item = (&'a str, Signature<'a>)>,
 {
-    if !alarms.iter().any(|&a| a) {
+    let on = raised(alarms);
+    if on.is_empty() {
         return Vec::new();
     }
     rows.into_iter()
-        .filter(|(_, signature)| covers(signature, alarms))
+        .filter(|(_, signature)| {
+            signature.residuals() == alarms.len() && on.iter().all(|&k| signature.contains(k))
+        })
         .map(|(name, _)| name)
         .collect()
-}
-
-/// Whether a signature holds every alarm.
-fn covers(signature: &[bool], alarms: &[bool]) -> bool {
-    signature.len() == alarms.len() && alarms.iter().zip(signature).all(|(&a, &s)| !a || s)
 }
 
 #[cfg(test)]
@@ -102,21 +105,21 @@ mod tests {
             Component {
                 name: "a",
                 kind: "R",
-                signature: &[true, false],
+                signature: Signature::new(2, &[0]),
                 detectable: true,
                 isolable: true,
             },
             Component {
                 name: "b",
                 kind: "C",
-                signature: &[true, true],
+                signature: Signature::new(2, &[0, 1]),
                 detectable: true,
                 isolable: false,
             },
             Component {
                 name: "c",
                 kind: "I",
-                signature: &[true, true],
+                signature: Signature::new(2, &[0, 1]),
                 detectable: true,
                 isolable: false,
             },
@@ -140,7 +143,7 @@ mod tests {
         assert_eq!(FSM.suspects(&[true, true]), ["b", "c"]);
         // A signature of another length never matches.
         assert_eq!(
-            suspects([("x", &[true][..])], &[true, false]),
+            suspects([("x", Signature::new(1, &[0]))], &[true, false]),
             Vec::<&str>::new()
         );
     }

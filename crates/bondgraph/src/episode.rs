@@ -9,6 +9,8 @@
 //! alarm for a noticeable share of the time since its first alarm: a fault's signature is what
 //! its residuals show over time, and a set of alarms that only grows narrows the candidates.
 
+use crate::signature::{raised, Signature};
+
 /// Counts of alarms per residual from the first alarm on.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Episode {
@@ -103,25 +105,22 @@ impl Episode {
     /// length is left out.
     pub fn rank<'a, I>(&self, rows: I) -> Vec<Ranked<'a>>
     where
-        I: IntoIterator<Item = (&'a str, &'a [bool])>,
+        I: IntoIterator<Item = (&'a str, Signature<'a>)>,
     {
         if !self.started() {
             return Vec::new();
         }
-        let (shares, seen) = (self.shares(), self.seen());
+        let (shares, seen) = (self.shares(), raised(&self.seen()));
         let mut scored: Vec<Ranked<'a>> = rows
             .into_iter()
-            .filter(|(_, s)| s.len() == shares.len())
+            .filter(|(_, s)| s.residuals() == shares.len())
             .map(|(name, signature)| {
-                let (unexplained, unseen) = score(&seen, signature);
-                let outside = (shares.iter().zip(&seen).zip(signature))
-                    .filter(|&((_, &v), &s)| v && !s)
-                    .map(|((&share, _), _)| share);
+                let (common, outside) = signature.meet(&seen);
                 Ranked {
                     names: vec![name],
-                    unexplained,
-                    share: outside.fold(0.0, f64::max),
-                    unseen,
+                    unexplained: seen.len() - common,
+                    share: outside.map(|k| shares[k]).fold(0.0, f64::max),
+                    unseen: signature.len() - common,
                 }
             })
             .collect();
@@ -152,16 +151,19 @@ impl Episode {
     /// count as seen does. Empty before the episode starts.
     pub fn candidates<'a, I>(&self, rows: I) -> Vec<&'a str>
     where
-        I: IntoIterator<Item = (&'a str, &'a [bool])>,
+        I: IntoIterator<Item = (&'a str, Signature<'a>)>,
     {
         if !self.started() {
             return Vec::new();
         }
-        let seen = self.seen();
+        let seen = raised(&self.seen());
         let scored: Vec<((usize, usize), &'a str)> = rows
             .into_iter()
-            .filter(|(_, s)| s.len() == seen.len())
-            .map(|(name, signature)| (score(&seen, signature), name))
+            .filter(|(_, s)| s.residuals() == self.on.len())
+            .map(|(name, signature)| {
+                let (common, _) = signature.meet(&seen);
+                ((seen.len() - common, signature.len() - common), name)
+            })
             .collect();
         let best = scored.iter().map(|&(k, _)| k).min();
         (scored.into_iter())
@@ -171,26 +173,15 @@ impl Episode {
     }
 }
 
-/// The residuals seen in alarm outside a signature, and those of it never seen.
-fn score(seen: &[bool], signature: &[bool]) -> (usize, usize) {
-    let outside = (seen.iter().zip(signature))
-        .filter(|&(&v, &s)| v && !s)
-        .count();
-    let unseen = (seen.iter().zip(signature))
-        .filter(|&(&v, &s)| s && !v)
-        .count();
-    (outside, unseen)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const ROWS: [(&str, &[bool]); 4] = [
-        ("motor", &[true, false, true]),
-        ("link", &[false, true, true]),
-        ("gear", &[true, true, true]),
-        ("sensor", &[true, true, false]),
+    const ROWS: [(&str, Signature<'static>); 4] = [
+        ("motor", Signature::new(3, &[0, 2])),
+        ("link", Signature::new(3, &[1, 2])),
+        ("gear", Signature::new(3, &[0, 1, 2])),
+        ("sensor", Signature::new(3, &[0, 1])),
     ];
 
     #[test]

@@ -22,6 +22,7 @@ mod modulating;
 mod reference;
 mod replay;
 mod root;
+mod signature;
 mod threshold;
 mod window;
 
@@ -34,6 +35,7 @@ pub use modulating::ModulatingFunction;
 pub use reference::Reference;
 pub use replay::Replay;
 pub use root::RootFinder;
+pub use signature::Signature;
 pub use threshold::Threshold;
 
 /// Compiles a bond-graph model at build time into its residual code (see the crate
