@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use bondgraph_core::Derive;
 use bondgraph_sim::VerifyOptions;
+use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::io;
 use crate::options::{RealiseArg, ResidualsArg, SimplifyArgs};
@@ -58,8 +59,25 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
         step: args.step,
         ..VerifyOptions::default()
     };
-    let v = bondgraph_sim::verify(&c, &options)
-        .map_err(|e| report::refused(format!("{}: cannot verify: {e}", c.file_name)))?;
+    // One simulation per fault: minutes on a large model, so the bar says how far it is (on
+    // a terminal; indicatif draws nothing otherwise).
+    let bar = ProgressBar::new(c.components.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "verifying {bar:40} {pos}/{len} components ({eta} left) {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let mut scale = options.state_scale;
+    let v = bondgraph_sim::verify_reporting(&c, &options, &mut |p| {
+        if p.scale != scale {
+            scale = p.scale;
+            bar.set_message(format!("(initial states scaled to {scale:e})"));
+        }
+        bar.set_position(p.components as u64);
+    });
+    bar.finish_and_clear();
+    let v = v.map_err(|e| report::refused(format!("{}: cannot verify: {e}", c.file_name)))?;
     io::write(args.output.as_deref(), &summary::verification(&c, &v))?;
     if v.passed() {
         Ok(())

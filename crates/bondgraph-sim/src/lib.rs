@@ -16,4 +16,7 @@ mod verify;
 pub use run::{SimulationError, Trajectory};
 pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 pub use simulation::Simulation;
-pub use verify::{verify, ArrCheck, EntryCheck, Verification, VerifyError, VerifyOptions};
+pub use verify::{
+    verify, verify_reporting, ArrCheck, EntryCheck, Progress, Verification, VerifyError,
+    VerifyOptions,
+};

@@ -257,8 +257,30 @@ const MAX_REFINEMENTS: usize = 3;
 /// half a millilitre in m^3.
 const MAX_SCALINGS: usize = 6;
 
+/// How far [`verify_reporting`] is: components whose faults were simulated, of all, at the
+/// initial-state scale being tried (a run that leaves the finite numbers starts again smaller).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    /// Components done.
+    pub components: usize,
+    /// Components in all.
+    pub of: usize,
+    /// The initial-state scale of this attempt.
+    pub scale: f64,
+}
+
 /// Checks every ARR and FSM entry of `c` numerically.
 pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, VerifyError> {
+    verify_reporting(c, options, &mut |_| {})
+}
+
+/// [`verify`], telling `progress` how far it is after each component's faults (one
+/// simulation per fault, the slow part on a large model).
+pub fn verify_reporting(
+    c: &Compiled,
+    options: &VerifyOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Verification, VerifyError> {
     let space = c
         .state_space
         .as_ref()
@@ -281,7 +303,7 @@ pub fn verify(c: &Compiled, options: &VerifyOptions) -> Result<Verification, Ver
         attempt.state_scale = options.state_scale / 10f64.powi(smaller as i32);
         for _ in 0..=MAX_REFINEMENTS {
             tried = attempt;
-            match verify_with(c, &plant, &attempt) {
+            match verify_with(c, &plant, &attempt, progress) {
                 Ok(mut v) => {
                     v.scalings = smaller as u32;
                     return Ok(v);
@@ -308,6 +330,7 @@ fn verify_with(
     c: &Compiled,
     plant: &Plant,
     options: &VerifyOptions,
+    progress: &mut dyn FnMut(Progress),
 ) -> Result<Verification, VerifyError> {
     let nominal: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let n = plant.states;
@@ -360,7 +383,13 @@ fn verify_with(
         .collect();
     let mut entries = Vec::new();
     let mut unchecked = Vec::new();
-    for (h, comp) in c.components.iter() {
+    let total = c.components.len();
+    for (done, (h, comp)) in c.components.iter().enumerate() {
+        progress(Progress {
+            components: done,
+            of: total,
+            scale: options.state_scale,
+        });
         // Each fault, with the ARRs it may move besides the component's own: a parameter
         // shared by several components is a fault of all of them.
         let faults: Vec<(Run<'_>, BTreeSet<usize>)> = match comp.kind {
@@ -1074,8 +1103,15 @@ mod tests {
         let c = bondgraph_core::compile(model, "m.bg", &bondgraph_core::Options::default())
             .expect("compiles")
             .compiled;
-        let v = verify(&c, &VerifyOptions::default()).expect("a finite run was found");
+        let mut seen = Vec::new();
+        let v = verify_reporting(&c, &VerifyOptions::default(), &mut |p| seen.push(p))
+            .expect("a finite run was found");
         assert!(v.scalings > 0 && v.state_scale < 0.5, "{}", v.state_scale);
         assert!(v.passed());
+        // Progress counts the components of the attempt, at the scale it tries.
+        let n = c.components.len();
+        assert!(seen.iter().all(|p| p.of == n && p.components < n));
+        let last = seen.last().expect("progress was reported");
+        assert_eq!((last.components, last.scale), (n - 1, v.state_scale));
     }
 }
