@@ -16,7 +16,8 @@ use std::collections::VecDeque;
 use super::equations::{Equation, Relation, System, VarId, ARGUMENT};
 use super::mode::Mode;
 use crate::graph::{BondGraph, ElementKind, NodeKind};
-use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Leaf, Pool};
+use crate::index::Idx as _;
+use crate::symbolic::{known_signal_rule, linear_root_of, Derivatives, ExprId, Leaf, Pool, RootIx};
 
 /// Why an equation was used to compute an unknown (lower is preferred).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -444,7 +445,7 @@ impl<'a> Solver<'a> {
         if self.journal.is_some() {
             return None;
         }
-        let k = self.roots.len() as u32;
+        let k = RootIx::new(self.roots.len());
         let pool = &mut self.sys.pool;
         let z = pool.leaf(Leaf::Root(k, 0));
         let (given, law, value) = match self.sys.equations[i].relation.clone() {

@@ -176,7 +176,7 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
 /// The root a leaf is, if it is one.
 fn leaf_root(causal: &Causal, leaf: Leaf) -> Option<&crate::causality::solve::Root> {
     match leaf {
-        Leaf::Root(k, _) => causal.solved.roots.get(k as usize),
+        Leaf::Root(k, _) => causal.solved.roots.get(k.index()),
         _ => None,
     }
 }

@@ -13,8 +13,9 @@
 //! values along trajectories) reads it with its auxiliary signals put back, as a DAG
 //! ([`expand`]): shared, so linear in size, where printing it whole would not be.
 
+use crate::index::Idx as _;
 use crate::symbolic::hash::FastMap;
-use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool, Simplifier};
+use crate::symbolic::{known_signal_rule, AuxIx, Derivatives, ExprId, Leaf, Pool, Simplifier};
 
 /// A named combination of known signals.
 #[derive(Clone, Debug)]
@@ -38,7 +39,7 @@ fn orders_read(pool: &Pool, roots: &[ExprId], top: &mut [Option<u32>]) {
     for &root in roots {
         for leaf in pool.leaves(root) {
             if let Leaf::Aux(k, n) = leaf {
-                if let Some(t) = top.get_mut(k as usize) {
+                if let Some(t) = top.get_mut(k.index()) {
                     *t = Some(t.map_or(n, |t| t.max(n)));
                 }
             }
@@ -78,8 +79,8 @@ pub(crate) fn expand(pool: &mut Pool, auxiliaries: &[Auxiliary], roots: &[ExprId
     if auxiliaries.is_empty() {
         return roots.to_vec();
     }
-    let mut expanded: FastMap<(u32, u32), ExprId> = FastMap::default();
-    let put_back = |pool: &mut Pool, expanded: &FastMap<(u32, u32), ExprId>, e: ExprId| {
+    let mut expanded: FastMap<(AuxIx, u32), ExprId> = FastMap::default();
+    let put_back = |pool: &mut Pool, expanded: &FastMap<(AuxIx, u32), ExprId>, e: ExprId| {
         pool.substitute(e, &mut |_, leaf| match leaf {
             Leaf::Aux(k, n) => expanded.get(&(k, n)).copied(),
             _ => None,
@@ -87,9 +88,9 @@ pub(crate) fn expand(pool: &mut Pool, auxiliaries: &[Auxiliary], roots: &[ExprId
     };
     // Each one's derivatives read earlier ones only: in order, each is expanded once.
     for (k, aux) in auxiliaries.iter().enumerate() {
-        for (n, &d) in aux.derivatives.iter().enumerate() {
+        for (n, &d) in (0u32..).zip(&aux.derivatives) {
             let e = put_back(pool, &expanded, d);
-            expanded.insert((k as u32, n as u32), e);
+            expanded.insert((AuxIx::new(k), n), e);
         }
     }
     roots

@@ -24,8 +24,9 @@ use std::collections::{BTreeSet, HashMap};
 use super::auxiliary::Auxiliary;
 use super::operator::{common_factor, common_known_factor, divide, normalised, Operator};
 use crate::causality::solve::Torn;
+use crate::index::Idx as _;
 use crate::symbolic::{
-    known_signal_rule, Derivatives, ExprId, Leaf, Node, Polynomial, Pool, Simplifier,
+    known_signal_rule, AuxIx, Derivatives, ExprId, Leaf, Node, Polynomial, Pool, Simplifier,
 };
 
 /// A relation `expr = 0` over known signals.
@@ -355,7 +356,7 @@ impl<'p> Eliminator<'p> {
         if known.terms() < 2 || known.terms().saturating_mul(weight) <= MAX_EXPANDED {
             return self.multiply_out(c, e);
         }
-        let k = u32::try_from(self.auxiliaries.len()).ok()?;
+        let k = AuxIx::new(self.auxiliaries.len());
         let definition = known.expr(self.pool);
         self.auxiliaries.push(Auxiliary::new(definition));
         let mut out = self.multiply_out(c, &rest)?;

@@ -120,7 +120,7 @@ pub(super) fn arr_rows_indexed(
                             params.insert(p);
                         }
                         Leaf::Root(k, _) if laws.insert(k) => {
-                            if let Some(law) = diagnosis.roots.get(k as usize) {
+                            if let Some(law) = diagnosis.roots.get(k.index()) {
                                 stack.push(law.residual);
                             }
                         }
@@ -132,7 +132,7 @@ pub(super) fn arr_rows_indexed(
             // depends on one of them: a parameter that cancels cannot show a fault, even if
             // it is still written (a factor of both a numerator and a denominator).
             let mut depends = dependences(pool, arr.expanded, model);
-            for law in laws.iter().filter_map(|&k| diagnosis.roots.get(k as usize)) {
+            for law in laws.iter().filter_map(|&k| diagnosis.roots.get(k.index())) {
                 depends.extend(dependences(pool, law.residual, model));
             }
             let survives = |c: &Component| {

@@ -4,7 +4,8 @@
 //! an ARR asks a residual generator for one thing per root and sample: a root of `g`.
 
 use crate::causality::solve::Root;
-use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool};
+use crate::index::Idx as _;
+use crate::symbolic::{known_signal_rule, Derivatives, ExprId, Leaf, Pool, RootIx};
 
 /// A root as a residual generator solves it.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,14 +35,15 @@ pub(crate) fn explicit(pool: &mut Pool, roots: &[Root]) -> Option<Explicit> {
         table: Vec::with_capacity(roots.len()),
         laws: Vec::with_capacity(roots.len()),
     };
-    for (k, root) in (0u32..).zip(roots) {
+    for (k, root) in roots.iter().enumerate() {
+        let k = RootIx::new(k);
         let g = e.put_back(pool, root.residual)?;
         let z = pool.leaf(Leaf::Root(k, 0));
         // ∂g/∂t with z held: every other leaf moves as it does.
         let rates: Vec<ExprId> = e.table.iter().map(|t| t[1]).collect();
         let mut moving = Derivatives::new(move |p: &mut Pool, leaf: Leaf| match leaf {
             Leaf::Root(j, 0) if j == k => Some(p.num(0.0)),
-            Leaf::Root(j, 0) => rates.get(j as usize).copied(),
+            Leaf::Root(j, 0) => rates.get(j.index()).copied(),
             Leaf::Root(..) => None,
             other => known_signal_rule(p, other),
         });
@@ -71,11 +73,11 @@ impl Explicit {
         while let Some(e) = stack.pop() {
             for leaf in pool.leaves(e) {
                 let Leaf::Root(k, n) = leaf else { continue };
-                let t = top.get_mut(k as usize)?;
+                let t = top.get_mut(k.index())?;
                 if n > *t {
                     self.extend(pool, k, n)?;
                     stack.extend(
-                        self.table[k as usize][*t as usize + 1..=n as usize]
+                        self.table[k.index()][*t as usize + 1..=n as usize]
                             .iter()
                             .copied(),
                     );
@@ -85,8 +87,8 @@ impl Explicit {
         }
         // One order more than read: realised by integration, a relation reads a root where
         // it read its derivative, and a product rule may then read the next one.
-        for (k, &t) in (0u32..).zip(&top) {
-            self.extend(pool, k, t + 1)?;
+        for (k, &t) in top.iter().enumerate() {
+            self.extend(pool, RootIx::new(k), t + 1)?;
         }
         let mut laws = std::mem::take(&mut self.laws);
         for (law, (t, table)) in laws.iter_mut().zip(top.iter().zip(&self.table)) {
@@ -104,20 +106,20 @@ impl Explicit {
         }
         let table = &self.table;
         Some(pool.substitute(e, &mut |_, leaf| match leaf {
-            Leaf::Root(k, n) if n > 0 => table.get(k as usize)?.get(n as usize).copied(),
+            Leaf::Root(k, n) if n > 0 => table.get(k.index())?.get(n as usize).copied(),
             _ => None,
         }))
     }
 
     /// Gives root `k` its derivatives up to order `n`.
-    fn extend(&mut self, pool: &mut Pool, k: u32, n: u32) -> Option<()> {
+    fn extend(&mut self, pool: &mut Pool, k: RootIx, n: u32) -> Option<()> {
         let rates: Vec<ExprId> = self.table.iter().map(|t| t[1]).collect();
         let mut rule = Derivatives::new(move |p: &mut Pool, leaf: Leaf| match leaf {
-            Leaf::Root(j, 0) => rates.get(j as usize).copied(),
+            Leaf::Root(j, 0) => rates.get(j.index()).copied(),
             Leaf::Root(..) => None,
             other => known_signal_rule(p, other),
         });
-        let derivatives = self.table.get_mut(k as usize)?;
+        let derivatives = self.table.get_mut(k.index())?;
         while derivatives.len() <= n as usize {
             let last = derivatives[derivatives.len() - 1];
             derivatives.push(rule.of(pool, last)?);
@@ -138,7 +140,7 @@ mod tests {
     #[test]
     fn a_roots_derivatives_follow_it() {
         let mut pool = Pool::default();
-        let z = pool.leaf(Leaf::Root(0, 0));
+        let z = pool.leaf(Leaf::Root(RootIx(0), 0));
         let k = pool.leaf(Leaf::Param(ParamId(0)));
         let u = pool.leaf(Leaf::Input(InputId(0), 0));
         let kz = pool.mul(k, z);
@@ -152,7 +154,7 @@ mod tests {
             residual,
         }];
         let mut e = explicit(&mut pool, &roots).expect("differentiable");
-        let second = pool.leaf(Leaf::Root(0, 2));
+        let second = pool.leaf(Leaf::Root(RootIx(0), 2));
         let second = e.put_back(&mut pool, second).expect("differentiable");
         let root_at = |t: f64| {
             let target = 2.0 + t.sin();
@@ -170,7 +172,7 @@ mod tests {
         for t in [0.2, 1.0, 2.5] {
             let value = |x: ExprId| {
                 Evaluator::new(&pool, &|leaf| match leaf {
-                    Leaf::Root(0, 0) => root_at(t),
+                    Leaf::Root(RootIx(0), 0) => root_at(t),
                     Leaf::Param(_) => 1.5,
                     Leaf::Input(_, 0) => 2.0 + t.sin(),
                     Leaf::Input(_, 1) => t.cos(),

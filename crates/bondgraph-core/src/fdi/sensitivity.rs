@@ -106,8 +106,8 @@ impl Point<'_> {
             Leaf::State(k) => u64::from(k) << 8 | 4,
             Leaf::Var(v) => u64::from(v) << 8 | 5,
             Leaf::Tear(v, n) => (u64::from(v) << 16 | u64::from(n)) << 8 | 6,
-            Leaf::Aux(k, n) => (u64::from(k) << 16 | u64::from(n)) << 8 | 8,
-            Leaf::Root(k, n) => (u64::from(k) << 16 | u64::from(n)) << 8 | 9,
+            Leaf::Aux(k, n) => (u64::from(k.0) << 16 | u64::from(n)) << 8 | 8,
+            Leaf::Root(k, n) => (u64::from(k.0) << 16 | u64::from(n)) << 8 | 9,
             Leaf::Time => 7,
         };
         self.signal(key)

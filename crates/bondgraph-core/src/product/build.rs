@@ -11,7 +11,7 @@ use crate::fdi;
 use crate::fdi::candidates::{Candidate, Origin};
 use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind, PortVar};
 use crate::pipeline::{Analysis, Diagnosed};
-use crate::symbolic::{Leaf, Node, Pool, Printer};
+use crate::symbolic::{AuxIx, Leaf, Node, Pool, Printer, RootIx};
 
 /// Why an expression cannot enter the product.
 #[derive(Clone, Copy)]
@@ -118,11 +118,11 @@ struct Builder<'m> {
     sensor_of: HashMap<NodeId, Handle<Sensor>>,
     /// The auxiliary signals copied so far, by their index in the diagnosis, or why one
     /// could not be.
-    auxiliary_of: HashMap<u32, Result<Handle<Auxiliary>, Refusal>>,
+    auxiliary_of: HashMap<AuxIx, Result<Handle<Auxiliary>, Refusal>>,
     /// The unknowns of nonlinear algebraic loops, by their symbol in the state equations.
     loop_of: HashMap<u32, Handle<LoopUnknown>>,
     /// The roots copied so far, by their index in the diagnosis, or why one could not be.
-    root_of: HashMap<u32, Result<Handle<Root>, Refusal>>,
+    root_of: HashMap<RootIx, Result<Handle<Root>, Refusal>>,
     /// Every name the model gives, once an auxiliary signal needs a name apart from them.
     taken: Option<BTreeSet<String>>,
     /// The number of the last auxiliary signal named (`z1`, `z2`…).
@@ -340,9 +340,9 @@ impl<'m> Builder<'m> {
         let pool = &d.causal.system.pool;
         let roots: Vec<_> = picked.iter().map(|&k| d.arrs[k].residual).collect();
         let mut used = BTreeSet::new();
-        let mut stack: Vec<u32> = aux_leaves(pool, &roots);
+        let mut stack: Vec<AuxIx> = aux_leaves(pool, &roots);
         while let Some(k) = stack.pop() {
-            if let Some(aux) = d.auxiliaries.get(k as usize) {
+            if let Some(aux) = d.auxiliaries.get(k.index()) {
                 if used.insert(k) {
                     stack.extend(aux_leaves(pool, &aux.derivatives));
                 }
@@ -356,7 +356,7 @@ impl<'m> Builder<'m> {
         let model = self.model;
         let taken = self.taken.take().unwrap_or_else(|| model_names(model));
         for k in used {
-            let aux = &d.auxiliaries[k as usize];
+            let aux = &d.auxiliaries[k.index()];
             let derivatives: Result<Vec<Expr>, Refusal> = aux
                 .derivatives
                 .iter()
@@ -388,7 +388,7 @@ impl<'m> Builder<'m> {
         for &k in &aux_leaves(pool, &from) {
             from.extend(
                 d.auxiliaries
-                    .get(k as usize)
+                    .get(k.index())
                     .into_iter()
                     .flat_map(|a| a.derivatives.iter().copied()),
             );
@@ -399,7 +399,7 @@ impl<'m> Builder<'m> {
             for leaf in pool.leaves(e) {
                 if let Leaf::Root(k, _) = leaf {
                     if used.insert(k) {
-                        stack.extend(d.roots.get(k as usize).map(|r| r.residual));
+                        stack.extend(d.roots.get(k.index()).map(|r| r.residual));
                     }
                 }
             }
@@ -416,13 +416,12 @@ impl<'m> Builder<'m> {
         &mut self,
         c: &mut Compiled,
         d: &fdi::Diagnosis,
-        k: u32,
+        k: RootIx,
     ) -> Result<Handle<Root>, Refusal> {
         let m = self.model;
-        let (Some(law), Some(solved)) = (
-            d.roots.get(k as usize),
-            d.causal.solved.roots.get(k as usize),
-        ) else {
+        let (Some(law), Some(solved)) =
+            (d.roots.get(k.index()), d.causal.solved.roots.get(k.index()))
+        else {
             return Err(Refusal::Unknown);
         };
         let pool = &d.causal.system.pool;
@@ -670,7 +669,7 @@ fn refusal(model: &BondGraph, what: &str, node: NodeId, why: Refusal) -> Diagnos
 }
 
 /// The auxiliary signals (by index in the diagnosis) that `roots` read directly.
-fn aux_leaves(pool: &Pool, roots: &[crate::symbolic::ExprId]) -> Vec<u32> {
+fn aux_leaves(pool: &Pool, roots: &[crate::symbolic::ExprId]) -> Vec<AuxIx> {
     let mut out = BTreeSet::new();
     for &r in roots {
         for leaf in pool.leaves(r) {
@@ -708,14 +707,14 @@ fn with_definitions(
     let mut derivatives: Vec<Expr> = Vec::new();
     exprs.visit_reachable(&out, |_, node| {
         if let Node::Leaf(Symbol::Root(h, n)) = node {
-            derivatives.extend(roots[h].derivatives.get(n as usize).filter(|_| n > 0));
+            derivatives.extend(roots[h].derivative(n).filter(|_| n > 0));
         }
     });
     out.extend(derivatives);
     let read = super::auxiliary_derivatives_read(exprs, auxiliaries, &out);
     out.extend(
         read.into_iter()
-            .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
+            .filter_map(|(a, n)| auxiliaries[a].derivative(n)),
     );
     out
 }

@@ -189,6 +189,25 @@ impl Auxiliary {
     pub fn definition(&self) -> Expr {
         self.derivatives[0]
     }
+
+    /// Its `n`-th time derivative, if an ARR reads that far.
+    pub fn derivative(&self, n: u32) -> Option<Expr> {
+        nth(&self.derivatives, n)
+    }
+}
+
+impl Root {
+    /// Its `n`-th time derivative (the 0-th is the root itself), if an ARR reads that far.
+    pub fn derivative(&self, n: u32) -> Option<Expr> {
+        nth(&self.derivatives, n)
+    }
+}
+
+/// The `n`-th of a table of derivatives.
+fn nth(derivatives: &[Expr], n: u32) -> Option<Expr> {
+    usize::try_from(n)
+        .ok()
+        .and_then(|n| derivatives.get(n).copied())
 }
 
 /// A variable an ARR reads that a law sets and no closed form gives: the law read for its
@@ -659,7 +678,7 @@ pub(crate) fn auxiliary_derivatives_read(
         for leaf in exprs.leaves(e) {
             if let Symbol::Auxiliary(a, n) = leaf {
                 if out.insert((a, n)) {
-                    stack.extend(auxiliaries[a].derivatives.get(n as usize).copied());
+                    stack.extend(auxiliaries[a].derivative(n));
                 }
             }
         }
@@ -679,7 +698,7 @@ pub(crate) fn roots_read(
     let mut stack: Vec<Expr> = (from.iter().copied())
         .chain(
             read.into_iter()
-                .filter_map(|(a, n)| auxiliaries[a].derivatives.get(n as usize).copied()),
+                .filter_map(|(a, n)| auxiliaries[a].derivative(n)),
         )
         .collect();
     let mut out = std::collections::BTreeSet::new();
@@ -689,7 +708,7 @@ pub(crate) fn roots_read(
                 if out.insert(h) {
                     stack.push(roots[h].residual);
                 }
-                stack.extend(roots[h].derivatives.get(n as usize).filter(|_| n > 0));
+                stack.extend(roots[h].derivative(n).filter(|_| n > 0));
             }
         }
     }

@@ -27,7 +27,7 @@ pub(crate) fn sensitivities(c: &mut Compiled) {
         let expr = {
             let roots = &c.roots;
             c.exprs.substitute(arr.expr, &mut |_, leaf| match leaf {
-                Symbol::Root(h, n) if n > 0 => roots[h].derivatives.get(n as usize).copied(),
+                Symbol::Root(h, n) if n > 0 => roots[h].derivative(n),
                 _ => None,
             })
         };

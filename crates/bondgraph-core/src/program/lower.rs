@@ -201,8 +201,8 @@ impl Lowering<'_> {
 
     /// A root's `n`-th derivative (n ≥ 1), an expression of the root and the signals.
     fn root_derivative(&mut self, h: Handle<Root>, n: u32) -> Code {
-        match self.c.roots[h].derivatives.get(n as usize) {
-            Some(&e) => self.residual(e),
+        match self.c.roots[h].derivative(n) {
+            Some(e) => self.residual(e),
             None => self.code.num(f64::NAN),
         }
     }
@@ -213,8 +213,8 @@ impl Lowering<'_> {
             return code;
         }
         let c = self.c;
-        let code = match c.auxiliaries[a].derivatives.get(n as usize) {
-            Some(&e) => self.residual(e),
+        let code = match c.auxiliaries[a].derivative(n) {
+            Some(e) => self.residual(e),
             None => self.code.num(f64::NAN),
         };
         self.auxiliary.insert((a, n), code);
@@ -377,7 +377,7 @@ mod tests {
             Symbol::Root(h, 0) => slot(Quantity::Root(h)),
             // Over the roots' values and signals only.
             Symbol::Root(h, n) => {
-                let d = c.roots[h].derivatives.get(n as usize).copied();
+                let d = c.roots[h].derivative(n);
                 d.map_or(f64::NAN, |d| {
                     Evaluator::new(&c.exprs, |s| match s {
                         Symbol::Parameter(p) => param(p),

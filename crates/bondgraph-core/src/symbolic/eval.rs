@@ -3,6 +3,7 @@
 use super::hash::FastMap;
 use super::pool::{ExprId, LeafKind, Node, Pool};
 use crate::expr::{BinOp, Func};
+use crate::index::{typed_index, Idx as _};
 use std::collections::HashMap;
 
 /// Evaluates expressions of one pool with leaf values from a closure, memoising shared nodes.
@@ -67,10 +68,10 @@ impl<'p, L: LeafKind, F: Fn(L) -> f64> Evaluator<'p, L, F> {
 enum Op<L> {
     Num(f64),
     Leaf(L),
-    Neg(u32),
-    Binary(BinOp, u32, u32),
-    Call1(Func, u32),
-    Call2(Func, u32, u32),
+    Neg(Slot),
+    Binary(BinOp, Slot, Slot),
+    Call1(Func, Slot),
+    Call2(Func, Slot, Slot),
     /// An integral, by its node in the pool: its value comes from outside.
     Int(u32),
 }
@@ -82,16 +83,22 @@ enum Op<L> {
 pub struct Tape<L: LeafKind> {
     ops: Vec<Op<L>>,
     /// The position of each root's value.
-    roots: Vec<u32>,
+    roots: Vec<Slot>,
+}
+
+typed_index! {
+    /// The place of an operation's value on a [`Tape`].
+    struct Slot;
 }
 
 impl<L: LeafKind> Tape<L> {
     /// The program that evaluates `roots` of `pool`.
     pub fn new(pool: &Pool<L>, roots: &[ExprId<L>]) -> Tape<L> {
-        let mut position: FastMap<ExprId<L>, u32> = FastMap::default();
+        let mut position: FastMap<ExprId<L>, Slot> = FastMap::default();
         let mut ops = Vec::new();
         pool.visit_reachable(roots, |id, node| {
-            let at = |x: ExprId<L>| position.get(&x).copied().unwrap_or(0);
+            // Children come first: each is placed before its parent.
+            let at = |x: ExprId<L>| position.get(&x).copied().unwrap_or(Slot(0));
             let op = match node {
                 Node::Num(bits) => Op::Num(f64::from_bits(bits)),
                 Node::Leaf(l) => Op::Leaf(l),
@@ -101,7 +108,7 @@ impl<L: LeafKind> Tape<L> {
                 Node::Call2(f, a, b) => Op::Call2(f, at(a), at(b)),
                 Node::Int(_) => Op::Int(id.index() as u32),
             };
-            position.insert(id, ops.len() as u32);
+            position.insert(id, Slot::new(ops.len()));
             ops.push(op);
         });
         let roots = roots.iter().map(|r| position[r]).collect();
@@ -138,15 +145,15 @@ impl<L: LeafKind> Tape<L> {
             let value = match *op {
                 Op::Num(x) => x,
                 Op::Leaf(l) => leaf(l),
-                Op::Neg(a) => -s[a as usize],
-                Op::Binary(op, a, b) => op.apply(s[a as usize], s[b as usize]),
-                Op::Call1(f, a) => f.apply(&[s[a as usize]]),
-                Op::Call2(f, a, b) => f.apply(&[s[a as usize], s[b as usize]]),
+                Op::Neg(a) => -s[a.index()],
+                Op::Binary(op, a, b) => op.apply(s[a.index()], s[b.index()]),
+                Op::Call1(f, a) => f.apply(&[s[a.index()]]),
+                Op::Call2(f, a, b) => f.apply(&[s[a.index()], s[b.index()]]),
                 Op::Int(id) => integral(ExprId::from_index(id)),
             };
             s[i] = value;
         }
         out.clear();
-        out.extend(self.roots.iter().map(|&r| s[r as usize]));
+        out.extend(self.roots.iter().map(|&r| s[r.index()]));
     }
 }

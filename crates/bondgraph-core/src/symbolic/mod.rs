@@ -22,6 +22,6 @@ pub use eval::{Evaluator, Tape};
 pub(crate) use invert::linear_root_of;
 pub(crate) use invert::{invert, Condition};
 pub(crate) use normal::{Polynomial, Simplifier};
-pub(crate) use pool::Leaf;
 pub use pool::{children, ExprId, LeafKind, Node, Pool};
+pub(crate) use pool::{AuxIx, Leaf, RootIx};
 pub use print::Printer;

@@ -8,6 +8,18 @@ use super::hash::{FastMap, FastSet};
 
 use crate::expr::{BinOp, Func};
 use crate::graph::{InputId, NodeId, ParamId};
+use crate::index::typed_index;
+
+typed_index! {
+    /// A root of the solved system (an unknown a law without a closed-form inverse sets),
+    /// by its place among the roots.
+    pub struct RootIx;
+}
+
+typed_index! {
+    /// An auxiliary signal of a diagnosis, by its place among them.
+    pub struct AuxIx;
+}
 
 /// An expression: a handle into a [`Pool`] whose leaves are `L`. Children always have smaller
 /// ids than parents. The leaf type ties a handle to its kind of pool: a solver's expression
@@ -82,11 +94,11 @@ pub enum Leaf {
     /// The `n`-th time derivative of an auxiliary signal (by index): a combination of known
     /// signals that an elimination step applies an operator in d/dt to, named instead of
     /// multiplied out (see `fdi::auxiliary`).
-    Aux(u32, u32),
+    Aux(AuxIx, u32),
     /// The `n`-th time derivative of an unknown that a law without a closed-form inverse
     /// sets implicitly (by the index of its root in the solved system): solved numerically
     /// at run time, its derivatives put back in terms of it once the ARRs are derived.
-    Root(u32, u32),
+    Root(RootIx, u32),
     /// Time.
     Time,
 }
