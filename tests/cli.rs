@@ -99,6 +99,59 @@ fn output_goes_to_the_file_given_with_o() {
     assert!(root().join("models/backlash_bench.bg").exists());
 }
 
+/// `-o` writes through a link and into what is not a file (a named pipe here, `/dev/null` for
+/// a user): the atomic rename once replaced `/dev/null` with a regular file when run as root.
+#[cfg(unix)]
+#[test]
+fn o_writes_through_links_and_into_pipes_without_replacing_them() {
+    use std::os::unix::fs::FileTypeExt as _;
+    let dir = scratch("cli-o-special");
+    let direct = stdout(&bgc(&["models/backlash_bench.bg", "--emit", "dot"]));
+    let real = dir.join("real.dot");
+    let link = dir.join("link.dot");
+    std::fs::write(&real, "old").expect("write");
+    std::os::unix::fs::symlink(&real, &link).expect("symlink");
+    let out = bgc(&[
+        "models/backlash_bench.bg",
+        "--emit",
+        "dot",
+        "-o",
+        &link.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let meta = std::fs::symlink_metadata(&link).expect("link");
+    assert!(
+        meta.file_type().is_symlink(),
+        "the link was replaced by a file"
+    );
+    assert_eq!(std::fs::read_to_string(&real).expect("real"), direct);
+
+    let fifo = dir.join("pipe.dot");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        return; // no mkfifo on this system
+    }
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo))
+    };
+    let out = bgc(&[
+        "models/backlash_bench.bg",
+        "--emit",
+        "dot",
+        "-o",
+        &fifo.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let kind = std::fs::symlink_metadata(&fifo).expect("fifo").file_type();
+    // Checked before joining: had bgc renamed a file over the pipe, the reader would wait on
+    // the pipe for ever.
+    assert!(kind.is_fifo(), "the named pipe was replaced by a file");
+    let read = reader.join().expect("reader").expect("read the pipe");
+    assert_eq!(read, direct);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// The e-graph only changes how expressions are written: `--canonical` shows the expanded
 /// forms, and an expression over `--egg-nodes` is shown canonical with a warning.
 #[test]
