@@ -1,9 +1,9 @@
 //! One row of a fault signature matrix, sparse: the residuals a fault moves, by index.
 //!
 //! A row holds as many flags as there are residuals, most of them 0 on a large plant: a
-//! generated matrix written densely grew with the square of the model (2.4 GB of Rust at
-//! 3,000 stages). The marks alone grow with what the matrix says, and the decisions read only
-//! the residuals in alarm and the marks.
+//! generated matrix written densely grew with the square of the model (at 3,000 stages, 54 MB
+//! of Rust and 3 GB of memory to write it). The marks alone grow with what the matrix says,
+//! and the decisions read only the residuals in alarm and the marks.
 
 /// The residuals a fault of one component moves, out of all the residuals of a matrix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
