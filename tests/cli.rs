@@ -422,27 +422,35 @@ fn simulate_plots_svg_only() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// A record separated by `;` (what a spreadsheet writes where the decimal mark is a comma) or
-/// by tabs gives the residuals of the same record separated by commas; a time column named
-/// otherwise, or a signal's column with a typo, is named in the error.
-#[test]
-fn records_with_other_separators_and_near_miss_columns() {
-    let dir = scratch("separators");
+/// The DC motor simulated under 12 V for `duration` seconds, as CSV.
+fn motor_record(duration: &str) -> String {
     let out = bgc(&[
         "simulate",
         "models/dc_motor.bg",
         "-e",
         "input U0 = 12",
         "--duration",
-        "1",
+        duration,
     ]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
-    let csv = stdout(&out);
-    let write = |name: &str, text: &str| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).expect("record");
-        path.display().to_string()
-    };
+    stdout(&out)
+}
+
+/// Writes `text` as `name` in `dir`; its path as an argument.
+fn write_in(dir: &std::path::Path, name: &str, text: &str) -> String {
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("record");
+    path.display().to_string()
+}
+
+/// A record separated by `;` (what a spreadsheet writes where the decimal mark is a comma) or
+/// by tabs gives the residuals of the same record separated by commas; a time column named
+/// otherwise, or a signal's column with a typo, is named in the error.
+#[test]
+fn records_with_other_separators_and_near_miss_columns() {
+    let dir = scratch("separators");
+    let csv = motor_record("1");
+    let write = |name: &str, text: &str| write_in(&dir, name, text);
     let residuals = |path: &str| bgc(&["residuals", "models/dc_motor.bg", path]);
     let comma = residuals(&write("comma.csv", &csv));
     assert_eq!(code(&comma), 0, "{}", stderr(&comma));
@@ -468,29 +476,14 @@ fn records_with_other_separators_and_near_miss_columns() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Times are written as the decimals they are (`0.009`, not `0.009000000000000001`), in
-/// simulated records and in residuals alike.
 /// A record's mistakes are told by the file's own line numbers (blank lines counted), a
 /// column named twice is refused rather than one of the two used, and a threshold must be
 /// a finite number.
 #[test]
 fn record_lines_duplicate_columns_and_infinite_thresholds() {
     let dir = scratch("record-lines");
-    let out = bgc(&[
-        "simulate",
-        "models/dc_motor.bg",
-        "-e",
-        "input U0 = 12",
-        "--duration",
-        "0.5",
-    ]);
-    assert_eq!(code(&out), 0, "{}", stderr(&out));
-    let csv = stdout(&out);
-    let write = |name: &str, text: &str| {
-        let path = dir.join(name);
-        std::fs::write(&path, text).expect("record");
-        path.display().to_string()
-    };
+    let csv = motor_record("0.5");
+    let write = |name: &str, text: &str| write_in(&dir, name, text);
     let residuals = |path: &str, extra: &[&str]| {
         let mut args = vec!["residuals", "models/dc_motor.bg", path];
         args.extend(extra);
@@ -535,6 +528,8 @@ fn record_lines_duplicate_columns_and_infinite_thresholds() {
     }
 }
 
+/// Times are written as the decimals they are (`0.009`, not `0.009000000000000001`), in
+/// simulated records and in residuals alike.
 #[test]
 fn times_are_written_without_the_bits_sums_of_steps_add() {
     let dir = scratch("times");
