@@ -309,11 +309,11 @@ impl<'p> Lowering<'p> {
             (Leaf::Time, Place::Copy) => quote!(t),
             (Leaf::Time, Place::Push) => quote!(at),
             (Leaf::State(k), Place::Copy) => {
-                let k = count(k as usize);
+                let k = count(k.index());
                 quote!(x[#k])
             }
             (Leaf::Input(j), Place::Copy) => {
-                let j = count(j as usize);
+                let j = count(j.index());
                 quote!(u[#j])
             }
             // Residuals read neither time nor the copy's own leaves.
@@ -814,7 +814,7 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                     quote!(s.#name = #order[#channel];)
                 }
                 Fill::Simulated(k) => {
-                    let k = count(k as usize);
+                    let k = count(k.index());
                     quote!(s.#name = xh[#k];)
                 }
                 Fill::Integral(integrand) => {

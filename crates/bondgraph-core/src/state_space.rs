@@ -7,7 +7,7 @@ use crate::causality::solve::Use;
 use crate::causality::{report, Causal};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, NodeId, NodeKind};
-use crate::symbolic::{ExprId, Leaf, Pool, Simplifier};
+use crate::symbolic::{ExprId, Leaf, Pool, Simplifier, StateIx, VarId};
 
 /// One state equation, `d(name)/dt = rhs`.
 #[derive(Clone, Debug)]
@@ -27,7 +27,7 @@ pub(crate) struct StateEquation {
 #[derive(Clone, Debug)]
 pub(crate) struct LoopUnknown {
     /// Its symbol, `Leaf::Var(var)`, in the state equations and outputs.
-    pub var: u32,
+    pub var: VarId,
     /// A name for it from the model's names: `e_b` for a 0-junction's effort, `f_a_r1` for
     /// a bond's flow.
     pub name: String,
@@ -94,10 +94,10 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
     let kept = independent(causal);
     let mut states: Vec<StateEquation> = Vec::new();
-    let mut rates: Vec<u32> = Vec::new();
+    let mut rates: Vec<VarId> = Vec::new();
     for (s, _) in causal.system.states.iter().zip(&kept).filter(|(_, k)| **k) {
         let rhs = causal.solved.values[s.rate.index()].unwrap_or(nan);
-        rates.push(s.rate.0);
+        rates.push(s.rate);
         states.push(StateEquation {
             name: s.name.clone(),
             element: s.element,
@@ -112,7 +112,7 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         .map(|i| {
             let var = causal.system.vars[i.var.index()];
             LoopUnknown {
-                var: i.var.0,
+                var: i.var,
                 name: var.short_name(model),
                 description: var.describe(model),
                 element: causal.system.equations[i.equation].owner,
@@ -240,7 +240,7 @@ fn solve_rates(
     pool: &mut Pool,
     states: &mut [StateEquation],
     outputs: &mut [(NodeId, ExprId)],
-    rates: &[u32],
+    rates: &[VarId],
 ) -> Result<(), NodeId> {
     let holds = |pool: &Pool, e: ExprId| pool.leaves(e).iter().any(|l| matches!(l, Leaf::Tear(..)));
     if !states.iter().any(|s| holds(pool, s.rhs)) && !outputs.iter().any(|o| holds(pool, o.1)) {
@@ -291,12 +291,12 @@ fn renumber(
     let mut index = Vec::with_capacity(kept.len());
     let mut next = 0u32;
     for &k in kept {
-        index.push(next);
+        index.push(StateIx(next));
         next += u32::from(k);
     }
     let map = |pool: &mut Pool, e: ExprId| {
         pool.substitute(e, &mut |p, l| match l {
-            Leaf::State(k) => Some(p.leaf(Leaf::State(index[k as usize]))),
+            Leaf::State(k) => Some(p.leaf(Leaf::State(index[k.index()]))),
             _ => None,
         })
     };

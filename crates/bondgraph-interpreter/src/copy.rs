@@ -26,7 +26,7 @@ impl CopyRun {
         let (pool, rates) = fold(&program.code, &copy.rates, params);
         let read = (program.slots.iter())
             .filter_map(|(h, s)| match s.fill {
-                Fill::Simulated(k) => Some((h.index(), k as usize)),
+                Fill::Simulated(k) => Some((h.index(), k.index())),
                 _ => None,
             })
             .collect();
@@ -56,8 +56,8 @@ impl CopyRun {
         } = self;
         replay.push(t, u, |t, x, u, dx| {
             let leaf = |l: Leaf| match l {
-                Leaf::State(k) => x[k as usize],
-                Leaf::Input(j) => u[j as usize],
+                Leaf::State(k) => x[k.index()],
+                Leaf::Input(j) => u[j.index()],
                 Leaf::Time => t,
                 Leaf::Slot(_) | Leaf::Parameter(_) => f64::NAN,
             };

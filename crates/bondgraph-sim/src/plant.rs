@@ -11,7 +11,8 @@ use std::collections::HashMap;
 
 use bondgraph_core::diagnostic::{Code, Diagnostic, Diagnostics, Span};
 use bondgraph_core::{
-    AstExpr, BinOp, Compiled, Derivatives, ExprId, FastMap, Ident, Node, Pool, Symbol, Tape,
+    AstExpr, BinOp, Compiled, Derivatives, ExprId, FastMap, Handle, Ident, LoopUnknown, Node,
+    Parameter, Pool, State, Symbol, Tape,
 };
 
 use crate::scenario::{FaultMode, FaultTarget, Onset, Scenario};
@@ -19,10 +20,10 @@ use crate::scenario::{FaultMode, FaultTarget, Onset, Scenario};
 /// A leaf of the simulated plant's expressions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub(crate) enum P {
-    /// A model state, by index.
-    State(u32),
+    /// A model state.
+    State(Handle<State>),
     /// A parameter of the plant as it is at the time (faults applied).
-    Param(u32),
+    Param(Handle<Parameter>),
     /// An input as commanded, while the inputs are being put in.
     Input(u32),
     /// Its n-th derivative (n ≥ 1), likewise.
@@ -30,8 +31,8 @@ pub(crate) enum P {
     /// The course of the scenario's k-th signal fault at the time: a gain or an offset.
     Fault(u32),
     Time,
-    /// The k-th unknown of the model's nonlinear algebraic loops, found numerically.
-    Loop(u32),
+    /// An unknown of the model's nonlinear algebraic loops, found numerically.
+    Loop(Handle<LoopUnknown>),
 }
 
 type Id = ExprId<P>;
@@ -236,14 +237,14 @@ impl Builder<'_> {
                 Symbol::Parameter(k) if !faulted.contains(&c.parameters[k].name.as_str()) => {
                     p.num(c.parameters[k].value)
                 }
-                Symbol::Parameter(k) => p.leaf(P::Param(k.index() as u32)),
+                Symbol::Parameter(k) => p.leaf(P::Param(k)),
                 Symbol::Input(u, 0) => received[u.index()],
                 Symbol::Input(u, n) => p.leaf(P::InputDer(u.index() as u32, n)),
-                Symbol::State(k) => p.leaf(P::State(k.index() as u32)),
+                Symbol::State(k) => p.leaf(P::State(k)),
                 // State equations and outputs read neither measured nor auxiliary signals.
                 Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Root(..) => p.num(f64::NAN),
                 Symbol::Time => p.leaf(P::Time),
-                Symbol::Loop(k) => p.leaf(P::Loop(k.index() as u32)),
+                Symbol::Loop(k) => p.leaf(P::Loop(k)),
             });
             inside_integrals(pool, e)
         };
@@ -735,7 +736,7 @@ fn apply(pool: &mut Pool<P>, signal: Id, mode: FaultMode, fault: Id) -> Id {
 /// The n-th time derivative of `e` along the state equations `rhs`.
 fn nth_derivative(pool: &mut Pool<P>, rhs: &[Id], e: Id, n: u32) -> Option<Id> {
     let mut d = Derivatives::new(|p: &mut Pool<P>, leaf: P| match leaf {
-        P::State(k) => rhs.get(k as usize).copied(),
+        P::State(k) => rhs.get(k.index()).copied(),
         P::Input(u) => Some(p.leaf(P::InputDer(u, 1))),
         P::InputDer(u, m) => Some(p.leaf(P::InputDer(u, m + 1))),
         // Faults and parameters are piecewise constant or slow: their course is not differentiated.

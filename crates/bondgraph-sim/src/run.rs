@@ -106,9 +106,9 @@ impl Plant {
     /// The value of each leaf at `t` in state `y`, with the loops' unknowns `z`.
     fn leaves<'a>(&'a self, t: f64, y: &'a [f64], z: &'a [f64]) -> impl Fn(P) -> f64 + 'a {
         move |leaf| match leaf {
-            P::State(k) => y[k as usize],
-            P::Loop(k) => z[k as usize],
-            P::Param(k) => self.params[k as usize].at(t),
+            P::State(k) => y[k.index()],
+            P::Loop(k) => z[k.index()],
+            P::Param(k) => self.params[k.index()].at(t),
             P::Fault(k) => self.faults[k as usize].at(t),
             P::Time => t,
             // Put in when the plant was built.

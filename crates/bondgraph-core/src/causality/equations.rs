@@ -1,7 +1,7 @@
 //! The equations of a bond graph, as relations between bond variables that can be solved in
 //! chosen directions: what causality assignment orients.
 
-use crate::index::typed_index;
+use crate::index::Idx;
 use std::collections::{BTreeSet, HashMap};
 
 use petgraph::Direction::{Incoming, Outgoing};
@@ -12,14 +12,11 @@ use crate::graph::{
     BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,
     Signal, SignalExpr,
 };
+// An unknown's index into [`System::vars`].
+pub(crate) use crate::symbolic::VarId;
 use crate::symbolic::{
-    invert, known_signal_rule, Condition, Derivatives, ExprId, Leaf, Node, Pool,
+    invert, known_signal_rule, Condition, Derivatives, ExprId, Leaf, Node, Pool, StateIx,
 };
-
-typed_index! {
-    /// An unknown of the system, by index into [`System::vars`].
-    pub(crate) struct VarId;
-}
 
 /// What an unknown is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -192,9 +189,9 @@ pub(crate) struct Inversion {
 }
 
 /// The leaf standing for an inverse's argument in [`Inversion::value`].
-pub(crate) const ARGUMENT: Leaf = Leaf::Tear(u32::MAX, 1);
+pub(crate) const ARGUMENT: Leaf = Leaf::Tear(VarId(u32::MAX), 1);
 /// The leaf standing for a law's input while it is inverted.
-const INPUT: Leaf = Leaf::Tear(u32::MAX, 0);
+const INPUT: Leaf = Leaf::Tear(VarId(u32::MAX), 0);
 
 /// A storage element that cannot take the causality its mode requires, and why.
 #[derive(Clone, Debug, PartialEq)]
@@ -370,7 +367,7 @@ impl Builder<'_> {
     }
 
     fn leaf(&mut self, v: VarId) -> ExprId {
-        self.sys.pool.leaf(Leaf::Var(v.0))
+        self.sys.pool.leaf(Leaf::Var(v))
     }
 
     fn lets(&mut self) {
@@ -484,7 +481,7 @@ impl Builder<'_> {
         for e in exprs {
             for leaf in self.sys.pool.leaves(e) {
                 if let Leaf::Var(v) = leaf {
-                    vars.push(VarId(v));
+                    vars.push(v);
                 }
             }
         }
@@ -754,7 +751,7 @@ impl Builder<'_> {
         };
         // (Made first: the pool's order of creation is the printed order of equal terms.)
         let state = (self.mode == Mode::Integral).then(|| {
-            let index = self.sys.states.len() as u32;
+            let index = StateIx::new(self.sys.states.len());
             self.sys.pool.leaf(Leaf::State(index))
         });
         let co_leaf = self.leaf(co);

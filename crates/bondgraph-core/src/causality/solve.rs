@@ -357,7 +357,7 @@ impl<'a> Solver<'a> {
         let Some(v) = self.tear_candidate(&std::collections::BTreeSet::new()) else {
             return false;
         };
-        let symbol = self.sys.pool.leaf(Leaf::Tear(v.0, 0));
+        let symbol = self.sys.pool.leaf(Leaf::Tear(v, 0));
         self.torn.push(Torn {
             var: v,
             definition: None,
@@ -415,7 +415,7 @@ impl<'a> Solver<'a> {
                     var: v,
                     definition: Some((i, value)),
                 });
-                value = self.sys.pool.leaf(Leaf::Tear(v.0, 0));
+                value = self.sys.pool.leaf(Leaf::Tear(v, 0));
             }
             self.set_use(i, Use::Solves { var: v, class });
             self.know(v, value, Some(i));
@@ -450,7 +450,7 @@ impl<'a> Solver<'a> {
         let z = pool.leaf(Leaf::Root(k, 0));
         let (given, law, value) = match self.sys.equations[i].relation.clone() {
             Relation::Law { out, rhs, .. } => {
-                let law = pool.substitute(rhs, &mut |_, l| (l == Leaf::Var(v.0)).then_some(z));
+                let law = pool.substitute(rhs, &mut |_, l| (l == Leaf::Var(v)).then_some(z));
                 (out, law, z)
             }
             Relation::Storage {
@@ -472,7 +472,7 @@ impl<'a> Solver<'a> {
         let residual = pool.substitute(residual, &mut |_, l| match l {
             Leaf::Tear(u, 0) => torn
                 .iter()
-                .find(|t| t.var.0 == u)
+                .find(|t| t.var == u)
                 .and_then(|t| t.definition)
                 .map(|d| d.1),
             _ => None,
@@ -512,14 +512,14 @@ impl<'a> Solver<'a> {
     /// keeps `v` as the loop's implicit unknown, and else undoes everything.
     fn tear(&mut self, v: VarId, implicit: bool) {
         self.journal = Some((Vec::new(), Vec::new()));
-        let symbol = self.sys.pool.leaf(Leaf::Var(v.0));
+        let symbol = self.sys.pool.leaf(Leaf::Var(v));
         self.know(v, symbol, None);
         self.propagate();
         let Some((vars, eqs)) = self.journal.take() else {
             return;
         };
         let closing = eqs.iter().copied().find(|&i| match self.uses[i] {
-            Use::Redundant { residual } => self.sys.pool.leaves(residual).contains(&Leaf::Var(v.0)),
+            Use::Redundant { residual } => self.sys.pool.leaves(residual).contains(&Leaf::Var(v)),
             _ => false,
         });
         let solution = closing.and_then(|i| match self.uses[i] {
@@ -530,7 +530,7 @@ impl<'a> Solver<'a> {
             (Some(i), Some(value)) => {
                 let pool = &mut self.sys.pool;
                 let mut put = |e: ExprId| {
-                    pool.substitute(e, &mut |_, leaf| (leaf == Leaf::Var(v.0)).then_some(value))
+                    pool.substitute(e, &mut |_, leaf| (leaf == Leaf::Var(v)).then_some(value))
                 };
                 for &k in &vars {
                     if let Some(e) = self.values[k] {
@@ -622,13 +622,13 @@ fn smooth_in(pool: &Pool, e: ExprId, z: ExprId) -> bool {
 /// The root of `r`, if `r` is linear in the unknown `v`: with a = r(0) and b = r(1) − a,
 /// r is linear when r(2) = a + 2b holds in canonical form, and then v = −a/b.
 fn linear_root(pool: &mut Pool, r: ExprId, v: VarId) -> Option<ExprId> {
-    linear_root_of(pool, r, Leaf::Var(v.0))
+    linear_root_of(pool, r, Leaf::Var(v))
 }
 
 /// `e` with every unknown replaced by its value.
 fn known(pool: &mut Pool, e: ExprId, values: &[Option<ExprId>]) -> ExprId {
     pool.substitute(e, &mut |p, leaf| match leaf {
-        Leaf::Var(v) => Some(values[v as usize].unwrap_or_else(|| p.num(f64::NAN))),
+        Leaf::Var(v) => Some(values[v.index()].unwrap_or_else(|| p.num(f64::NAN))),
         _ => None,
     })
 }
@@ -646,10 +646,10 @@ fn rule(sys: &System, mode: Mode) -> Rule {
     match mode {
         Mode::Diagnosis => Box::new(known_signal_rule),
         Mode::Integral => {
-            let rates: Vec<(u32, Option<ExprId>)> =
-                sys.states.iter().map(|s| (s.rate.0, s.scale)).collect();
+            let rates: Vec<(VarId, Option<ExprId>)> =
+                sys.states.iter().map(|s| (s.rate, s.scale)).collect();
             Box::new(move |p: &mut Pool, leaf: Leaf| match leaf {
-                Leaf::State(k) => rates.get(k as usize).map(|&(r, scale)| {
+                Leaf::State(k) => rates.get(k.index()).map(|&(r, scale)| {
                     let rate = p.leaf(Leaf::Tear(r, 0));
                     // A co-energy state moves at rate/Φ'(x).
                     match scale {

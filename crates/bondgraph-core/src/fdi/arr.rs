@@ -152,7 +152,7 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
         Vec::new()
     };
     for u in eliminated.problems.into_iter().filter(|_| with_problems) {
-        let var = causal.system.vars[u as usize];
+        let var = causal.system.vars[u.index()];
         problems.push(report::at_nodes(
             model,
             Severity::Warning,

@@ -26,7 +26,7 @@ use super::operator::{common_factor, common_known_factor, divide, normalised, Op
 use crate::causality::solve::Torn;
 use crate::index::Idx as _;
 use crate::symbolic::{
-    known_signal_rule, AuxIx, Derivatives, ExprId, Leaf, Node, Polynomial, Pool, Simplifier,
+    known_signal_rule, AuxIx, Derivatives, ExprId, Leaf, Node, Polynomial, Pool, Simplifier, VarId,
 };
 
 /// A relation `expr = 0` over known signals.
@@ -46,7 +46,7 @@ pub(crate) struct Eliminated {
     pub relations: Vec<Constraint>,
     /// Torn unknowns (by index) that enter their relations nonlinearly after their value
     /// stopped being explicit: the relations that held them are dropped.
-    pub problems: Vec<u32>,
+    pub problems: Vec<VarId>,
     /// The auxiliary signals the relations may read ([`Leaf::Aux`] by index), with their
     /// definitions only.
     pub auxiliaries: Vec<Auxiliary>,
@@ -58,14 +58,14 @@ struct Item {
     equations: BTreeSet<usize>,
     origin: usize,
     /// The torn unknown this equation computed.
-    computes: Option<u32>,
+    computes: Option<VarId>,
     /// That unknown and its value, while the equation still reads `u − value = 0`.
-    defines: Option<(u32, Polynomial)>,
+    defines: Option<(VarId, Polynomial)>,
     /// Whether that value was computed from known signals alone, without other torn
     /// unknowns: then substituting it keeps the relations it enters local.
     local: bool,
     /// The torn unknowns the equation holds now.
-    torn: BTreeSet<u32>,
+    torn: BTreeSet<VarId>,
 }
 
 /// `c(D) u + rest`, with `coefficients[k]` the coefficient of the k-th derivative of `u`.
@@ -112,16 +112,16 @@ pub(crate) fn eliminate(
         let Some((equation, value)) = t.definition else {
             continue;
         };
-        let u = e.pool.leaf(Leaf::Tear(t.var.0, 0));
+        let u = e.pool.leaf(Leaf::Tear(t.var, 0));
         let expr = e.pool.sub(u, value);
         let value = e.simplifier.polynomial(e.pool, value);
         let local = e.torn_in(&value).is_empty();
-        items.push(Some(e.item(expr, equation, Some((t.var.0, value)), local)));
+        items.push(Some(e.item(expr, equation, Some((t.var, value)), local)));
     }
     for &(equation, expr) in redundant {
         items.push(Some(e.item(expr, equation, None, false)));
     }
-    let mut holders_of: HashMap<u32, BTreeSet<usize>> = HashMap::new();
+    let mut holders_of: HashMap<VarId, BTreeSet<usize>> = HashMap::new();
     for (i, item) in items.iter().enumerate() {
         for &w in item.iter().flat_map(|it| &it.torn) {
             holders_of.entry(w).or_default().insert(i);
@@ -129,7 +129,7 @@ pub(crate) fn eliminate(
     }
     let mut problems = Vec::new();
     for t in torn {
-        let u = t.var.0;
+        let u = t.var;
         let holders: Vec<usize> = holders_of
             .remove(&u)
             .unwrap_or_default()
@@ -180,7 +180,7 @@ impl<'p> Eliminator<'p> {
         &mut self,
         expr: ExprId,
         equation: usize,
-        defines: Option<(u32, Polynomial)>,
+        defines: Option<(VarId, Polynomial)>,
         local: bool,
     ) -> Item {
         let poly = self.simplifier.polynomial(self.pool, expr);
@@ -196,12 +196,12 @@ impl<'p> Eliminator<'p> {
     }
 
     /// The torn unknowns a polynomial holds, in its atoms or inside them.
-    fn torn_in(&self, p: &Polynomial) -> BTreeSet<u32> {
+    fn torn_in(&self, p: &Polynomial) -> BTreeSet<VarId> {
         p.atoms().flat_map(|a| self.torn_in_atom(a)).collect()
     }
 
     /// The torn unknowns an atom is or holds.
-    fn torn_in_atom(&self, a: ExprId) -> Vec<u32> {
+    fn torn_in_atom(&self, a: ExprId) -> Vec<VarId> {
         match self.pool.node(a) {
             Node::Leaf(Leaf::Tear(v, _)) => vec![v],
             Node::Leaf(_) => Vec::new(),
@@ -220,7 +220,7 @@ impl<'p> Eliminator<'p> {
     /// Removes `u` from every holder: by substituting its value when that is local, by a
     /// pivot when all hold it linearly, else by substitution again. Holders that would keep
     /// `u` are dropped, and `false` returned.
-    fn eliminate_one(&mut self, items: &mut [Option<Item>], holders: &[usize], u: u32) -> bool {
+    fn eliminate_one(&mut self, items: &mut [Option<Item>], holders: &[usize], u: VarId) -> bool {
         if holders.len() < 2 {
             // Only its own definition (or one equation) holds it: nothing to relate.
             for &i in holders {
@@ -256,7 +256,7 @@ impl<'p> Eliminator<'p> {
     }
 
     /// `p` as `c(D) u + rest`, if `u` enters it linearly with constant coefficients.
-    fn linear(&self, p: &Polynomial, u: u32) -> Option<Linear> {
+    fn linear(&self, p: &Polynomial, u: VarId) -> Option<Linear> {
         let (coefficients, rest) = p.split_linear(self.pool, |l| match l {
             Leaf::Tear(v, n) if v == u => Some(n),
             _ => None,
@@ -394,7 +394,7 @@ impl<'p> Eliminator<'p> {
         items: &mut [Option<Item>],
         holders: &[usize],
         definition: Option<usize>,
-        u: u32,
+        u: VarId,
     ) -> bool {
         let value = definition.and_then(|d| match &items[d].as_ref()?.defines {
             Some((w, value)) if *w == u => Some(value.clone()),
@@ -434,7 +434,7 @@ impl<'p> Eliminator<'p> {
     fn substitute(
         &mut self,
         p: &Polynomial,
-        u: u32,
+        u: VarId,
         derivatives: &mut Vec<Polynomial>,
     ) -> Option<Polynomial> {
         let var = |l: Leaf| match l {
@@ -494,8 +494,8 @@ mod tests {
             e.simplifier.polynomial(e.pool, target),
         );
         let (la, lt) = (
-            e.linear(&pa, 0).expect("linear"),
-            e.linear(&pt, 0).expect("linear"),
+            e.linear(&pa, VarId(0)).expect("linear"),
+            e.linear(&pt, VarId(0)).expect("linear"),
         );
         e.combine(&la, &lt).expect("combines").expr(e.pool)
     }
@@ -506,7 +506,10 @@ mod tests {
     fn a_pivot_removes_the_unknown_by_operators_in_d() {
         let mut pool = Pool::default();
         let k = pool.leaf(Leaf::Param(ParamId(0)));
-        let (u, du) = (pool.leaf(Leaf::Tear(0, 0)), pool.leaf(Leaf::Tear(0, 1)));
+        let (u, du) = (
+            pool.leaf(Leaf::Tear(VarId(0), 0)),
+            pool.leaf(Leaf::Tear(VarId(0), 1)),
+        );
         let (y1, y2) = (sensor(&mut pool, 1, 0), sensor(&mut pool, 2, 0));
         let kdu = pool.mul(k, du);
         let a = pool.add(kdu, u);
@@ -527,7 +530,7 @@ mod tests {
     fn equal_operators_are_dropped_not_multiplied() {
         let mut pool = Pool::default();
         let k = pool.leaf(Leaf::Param(ParamId(0)));
-        let du = pool.leaf(Leaf::Tear(0, 1));
+        let du = pool.leaf(Leaf::Tear(VarId(0), 1));
         let (y1, y2) = (sensor(&mut pool, 1, 0), sensor(&mut pool, 2, 0));
         let kdu = pool.mul(k, du);
         let (a, t) = (pool.sub(kdu, y1), pool.sub(kdu, y2));
@@ -542,14 +545,14 @@ mod tests {
     #[test]
     fn time_varying_or_nonlinear_uses_are_not_linear() {
         let mut pool = Pool::default();
-        let u = pool.leaf(Leaf::Tear(0, 0));
+        let u = pool.leaf(Leaf::Tear(VarId(0), 0));
         let y1 = sensor(&mut pool, 1, 0);
         let two = pool.num(2.0);
         let cases = [pool.mul(y1, u), pool.pow(u, two)];
         let mut e = Eliminator::new(&mut pool);
         for case in cases {
             let p = e.simplifier.polynomial(e.pool, case);
-            assert!(e.linear(&p, 0).is_none());
+            assert!(e.linear(&p, VarId(0)).is_none());
         }
     }
 }

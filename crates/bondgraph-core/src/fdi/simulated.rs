@@ -122,7 +122,7 @@ fn parameters(space: &StateSpace, output: ExprId) -> BTreeSet<ParamId> {
                     out.insert(p);
                 }
                 Leaf::State(k) if states.insert(k) => {
-                    stack.extend(space.states.get(k as usize).map(|s| s.rhs));
+                    stack.extend(space.states.get(k.index()).map(|s| s.rhs));
                 }
                 _ => {}
             }

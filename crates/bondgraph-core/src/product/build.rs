@@ -11,7 +11,7 @@ use crate::fdi;
 use crate::fdi::candidates::{Candidate, Origin};
 use crate::graph::{BondGraph, BondKind, DetectorKind, ElementKind, NodeId, NodeKind, PortVar};
 use crate::pipeline::{Analysis, Diagnosed};
-use crate::symbolic::{AuxIx, Leaf, Node, Pool, Printer, RootIx};
+use crate::symbolic::{AuxIx, Leaf, Node, Pool, Printer, RootIx, VarId};
 
 /// Why an expression cannot enter the product.
 #[derive(Clone, Copy)]
@@ -120,7 +120,7 @@ struct Builder<'m> {
     /// could not be.
     auxiliary_of: HashMap<AuxIx, Result<Handle<Auxiliary>, Refusal>>,
     /// The unknowns of nonlinear algebraic loops, by their symbol in the state equations.
-    loop_of: HashMap<u32, Handle<LoopUnknown>>,
+    loop_of: HashMap<VarId, Handle<LoopUnknown>>,
     /// The roots copied so far, by their index in the diagnosis, or why one could not be.
     root_of: HashMap<RootIx, Result<Handle<Root>, Refusal>>,
     /// Every name the model gives, once an auxiliary signal needs a name apart from them.
@@ -225,7 +225,7 @@ impl<'m> Builder<'m> {
                     Symbol::Sensor(*self.sensor_of.get(&s).ok_or(Refusal::Unknown)?, n)
                 }
                 Leaf::Sensor(..) => return Err(Refusal::Sensor),
-                Leaf::State(k) if states => Symbol::State(Handle::new(k as usize)),
+                Leaf::State(k) if states => Symbol::State(Handle::new(k.index())),
                 Leaf::Aux(k, n) if !states => match self.auxiliary_of.get(&k) {
                     Some(Ok(h)) => Symbol::Auxiliary(*h, n),
                     Some(Err(why)) => return Err(*why),

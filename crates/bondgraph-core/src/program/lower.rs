@@ -5,7 +5,8 @@
 use std::collections::HashMap;
 
 use super::{Channel, Code, CopyRates, Evaluation, Fill, Leaf, Program, Raw, Residual};
-use super::{Sensitivity, Slot, Source};
+use super::{CopyInput, CopyState, Sensitivity, Slot, Source};
+use crate::index::Idx as _;
 use crate::product::{Arena, Auxiliary, Compiled, Expr, Handle, ModelCopy, Quantity, Root};
 use crate::product::{Readings, Realisation, Signal, Symbol};
 use crate::symbolic::{Node, Pool};
@@ -151,8 +152,8 @@ impl Lowering<'_> {
                     .and_then(|h| channel(Source::Integral(h)))
                     .map(|channel| Fill::Estimate { channel, order: 0 }),
                 // Filled below, once every slot it may read exists.
-                Quantity::Nonlinear(_) | Quantity::Root(_) => Some(Fill::Simulated(0)),
-                Quantity::Simulated(k) => Some(Fill::Simulated(k.index() as u32)),
+                Quantity::Nonlinear(_) | Quantity::Root(_) => Some(Fill::Simulated(CopyState(0))),
+                Quantity::Simulated(k) => Some(Fill::Simulated(CopyState::new(k.index()))),
             };
             // Every signal read has a raw signal and a channel (see `channels`).
             let Some(fill) = fill else { continue };
@@ -275,7 +276,9 @@ impl Lowering<'_> {
             Node::Int(a) => match cx {
                 Context::Residual => self.integral(a),
                 Context::Copy(copy) => match copy.integrals.iter().position(|&e| e == a) {
-                    Some(k) => (self.code).leaf(Leaf::State((self.c.states.len() + k) as u32)),
+                    Some(k) => {
+                        (self.code).leaf(Leaf::State(CopyState::new(self.c.states.len() + k)))
+                    }
                     None => self.code.num(f64::NAN),
                 },
             },
@@ -293,10 +296,12 @@ impl Lowering<'_> {
         match (s, cx) {
             (Symbol::Parameter(p), _) => self.code.leaf(Leaf::Parameter(p)),
             (Symbol::Time, _) => self.code.leaf(Leaf::Time),
-            (Symbol::State(k), Context::Copy(..)) => self.code.leaf(Leaf::State(k.index() as u32)),
+            (Symbol::State(k), Context::Copy(..)) => {
+                self.code.leaf(Leaf::State(CopyState::new(k.index())))
+            }
             (Symbol::Input(u, 0), Context::Copy(copy)) => {
                 match copy.inputs.iter().position(|&i| i == u) {
-                    Some(j) => self.code.leaf(Leaf::Input(j as u32)),
+                    Some(j) => self.code.leaf(Leaf::Input(CopyInput::new(j))),
                     None => self.code.num(f64::NAN),
                 }
             }

@@ -22,8 +22,20 @@ mod stability;
 
 pub use stability::Stability;
 
+use crate::index::typed_index;
 use crate::product::{Arena, Handle, Parameter, Quantity, Signal};
 use crate::symbolic::{ExprId, Pool};
+
+typed_index! {
+    /// A state of the copy of the model, by its place: the model's states, then the
+    /// integrals the copy carries.
+    pub struct CopyState;
+}
+
+typed_index! {
+    /// An input of the copy, by its place in [`CopyRates::inputs`].
+    pub struct CopyInput;
+}
 
 /// A leaf of the program's expressions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -35,9 +47,9 @@ pub enum Leaf {
     /// Time: the copy's rates may read it.
     Time,
     /// The copy's `k`-th state (its rates only): the model's states, then its integrals.
-    State(u32),
+    State(CopyState),
     /// The copy's `j`-th input, in the order of [`CopyRates::inputs`] (its rates only).
-    Input(u32),
+    Input(CopyInput),
 }
 
 /// An expression of the program.
@@ -86,7 +98,7 @@ pub enum Fill {
     /// slots before it.
     Integral(Code),
     /// A state of the copy of the model (its position in the copy's states).
-    Simulated(u32),
+    Simulated(CopyState),
     /// The root of `residual`, an expression of the slots before it and of this slot, found
     /// by Newton's method (with `slope`, its derivative in this slot) from the last sample's
     /// root, bisection where Newton fails (see `bondgraph::RootFinder`).

@@ -8,7 +8,8 @@
 //! integrator, an unstable mode), the error stays or grows, and the residual is only right on
 //! records that start at rest.
 
-use super::{Leaf, Program};
+use super::{CopyState, Leaf, Program};
+use crate::index::Idx as _;
 use crate::symbolic::{Derivatives, Evaluator};
 
 /// What the test says of the copy, linearised at rest (states and inputs zero).
@@ -50,7 +51,7 @@ impl Program {
         let n = copy.rates.len();
         let mut pool = self.code.clone();
         let mut jacobian = vec![vec![0.0; n]; n];
-        for (j, column) in (0..n).map(|j| (j, j as u32)) {
+        for (j, column) in (0..n).map(|j| (j, CopyState::new(j))) {
             let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
                 Some(p.num(if leaf == Leaf::State(column) {
                     1.0

@@ -7,7 +7,7 @@
 //! decides what to do instead (a co-energy state, an implicit unknown, a refusal).
 
 use super::hash::FastMap;
-use super::{children, ExprId, Leaf, Node, Pool, Simplifier};
+use super::{children, ExprId, Leaf, Node, Pool, Simplifier, VarId};
 use crate::expr::{BinOp, Func};
 
 /// How a condition of a domain bounds its expression.
@@ -123,7 +123,7 @@ fn nonnegative(pool: &Pool, e: ExprId) -> bool {
 
 /// Placeholder leaves stand for a subexpression (`abs(u)`) while the rest is solved for it;
 /// they never leave this module.
-const PLACEHOLDER: u32 = u32::MAX - 1;
+const PLACEHOLDER: VarId = VarId(u32::MAX - 1);
 
 struct Inverter<'p> {
     pool: &'p mut Pool,
@@ -445,7 +445,7 @@ mod tests {
         match e {
             Expr::Num(v) => p.num(*v),
             Expr::Leaf(i) => p.leaf(match i.name.as_str() {
-                "x" => Leaf::Var(0),
+                "x" => Leaf::Var(VarId(0)),
                 "c" => Leaf::Param(ParamId(0)),
                 _ => Leaf::Param(ParamId(1)),
             }),
@@ -467,7 +467,7 @@ mod tests {
 
     fn value(p: &Pool, e: ExprId, x: f64) -> f64 {
         Evaluator::new(p, |l| match l {
-            Leaf::Var(0) => x,
+            Leaf::Var(VarId(0)) => x,
             Leaf::Param(ParamId(0)) => 2.0,
             Leaf::Param(_) => -3.0,
             _ => f64::NAN,
@@ -499,13 +499,13 @@ mod tests {
         for (text, xs) in cases {
             let mut p = Pool::default();
             let f = law(&mut p, text);
-            let y = p.leaf(Leaf::Var(1));
-            let inv = invert(&mut p, f, Leaf::Var(0), y).unwrap_or_else(|| panic!("{text}"));
+            let y = p.leaf(Leaf::Var(VarId(1)));
+            let inv = invert(&mut p, f, Leaf::Var(VarId(0)), y).unwrap_or_else(|| panic!("{text}"));
             for &x in *xs {
                 let fy = value(&p, f, x);
                 let at = |p: &Pool, e: ExprId| {
                     Evaluator::new(p, |l| match l {
-                        Leaf::Var(1) => fy,
+                        Leaf::Var(VarId(1)) => fy,
                         Leaf::Param(ParamId(0)) => 2.0,
                         Leaf::Param(_) => -3.0,
                         _ => f64::NAN,
@@ -539,8 +539,8 @@ mod tests {
         ] {
             let mut p = Pool::default();
             let f = law(&mut p, text);
-            let y = p.leaf(Leaf::Var(1));
-            assert_eq!(invert(&mut p, f, Leaf::Var(0), y), None, "{text}");
+            let y = p.leaf(Leaf::Var(VarId(1)));
+            assert_eq!(invert(&mut p, f, Leaf::Var(VarId(0)), y), None, "{text}");
         }
     }
 
@@ -549,14 +549,14 @@ mod tests {
     fn the_square_root_states_its_domain() {
         let mut p = Pool::default();
         let f = law(&mut p, "c*sqrt(x)");
-        let y = p.leaf(Leaf::Var(1));
-        let inv = invert(&mut p, f, Leaf::Var(0), y).expect("invertible");
+        let y = p.leaf(Leaf::Var(VarId(1)));
+        let inv = invert(&mut p, f, Leaf::Var(VarId(0)), y).expect("invertible");
         let bounds: Vec<Bound> = inv.domain.iter().map(|c| c.bound).collect();
         assert!(bounds.contains(&Bound::NonNegative), "{bounds:?}");
         // At y = -1 (c = 2) the inverse would give 1/4, which c·sqrt does not map to -1.
         let negative = inv.domain.iter().any(|c| {
             let v = Evaluator::new(&p, |l| match l {
-                Leaf::Var(1) => -1.0,
+                Leaf::Var(VarId(1)) => -1.0,
                 Leaf::Param(_) => 2.0,
                 _ => f64::NAN,
             })

@@ -23,5 +23,5 @@ pub(crate) use invert::linear_root_of;
 pub(crate) use invert::{invert, Condition};
 pub(crate) use normal::{Polynomial, Simplifier};
 pub use pool::{children, ExprId, LeafKind, Node, Pool};
-pub(crate) use pool::{AuxIx, Leaf, RootIx};
+pub(crate) use pool::{AuxIx, Leaf, RootIx, StateIx, VarId};
 pub use print::Printer;

@@ -21,6 +21,17 @@ typed_index! {
     pub struct AuxIx;
 }
 
+typed_index! {
+    /// A state variable (momentum of an `I`, displacement of a `C`), by its place among the
+    /// model's states.
+    pub struct StateIx;
+}
+
+typed_index! {
+    /// An unknown of an equation system, by its place among the system's unknowns.
+    pub struct VarId;
+}
+
 /// An expression: a handle into a [`Pool`] whose leaves are `L`. Children always have smaller
 /// ids than parents. The leaf type ties a handle to its kind of pool: a solver's expression
 /// cannot be read in the product's pool.
@@ -85,12 +96,12 @@ pub enum Leaf {
     /// The `n`-th time derivative of a measured signal.
     Sensor(NodeId, u32),
     /// A state variable (momentum of an `I`, displacement of a `C`), by index.
-    State(u32),
+    State(StateIx),
     /// An unknown of an equation system, by index, until it is substituted away.
-    Var(u32),
+    Var(VarId),
     /// The `n`-th time derivative of an unknown held as a symbol (a differential tear, by
     /// the index of the unknown), until the ARRs are freed of it.
-    Tear(u32, u32),
+    Tear(VarId, u32),
     /// The `n`-th time derivative of an auxiliary signal (by index): a combination of known
     /// signals that an elimination step applies an operator in d/dt to, named instead of
     /// multiplied out (see `fdi::auxiliary`).
