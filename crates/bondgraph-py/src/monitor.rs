@@ -1,0 +1,339 @@
+//! `residuals`: the model's residual program run over numpy columns, with thresholds,
+//! alarms and the components they point to, as `bgc residuals` computes them. One pass in
+//! Rust with the interpreter's lock released; the columns are read where they lie.
+
+use std::collections::HashMap;
+
+use bondgraph::{Episode, Signature, Threshold};
+use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
+use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use crate::errors::{self, BgcError};
+use crate::model::Model;
+
+/// The relative deviation from the first step that still counts as the same step (the
+/// CLI's).
+const STEP_TOLERANCE: f64 = 1e-6;
+
+/// How the estimates are made.
+struct Settings {
+    estimator: Estimator,
+    integration: Integration,
+    thresholds: Vec<Option<f64>>,
+    debounce: u32,
+    adaptive: bool,
+}
+
+/// What one pass gives, flat, before it becomes numpy arrays.
+#[derive(Default)]
+struct Pass {
+    at: Vec<f64>,
+    residuals: Vec<f64>,
+    levels: Vec<f64>,
+    alarms: Vec<bool>,
+    /// Per estimate, the index of its alarm pattern in `patterns`.
+    pattern: Vec<u32>,
+    patterns: Vec<Vec<bool>>,
+    /// Per estimate, the index of the episode's candidates in `episodes` (0: no episode).
+    episode: Vec<u32>,
+    episodes: Vec<String>,
+    /// Per estimate, 1 + the index of the root not found there (0: every root found).
+    unsolved: Vec<u32>,
+}
+
+/// The uniform step of `time`, or why it has none.
+fn step_of(time: &[f64]) -> PyResult<f64> {
+    let [t0, t1, ..] = time else {
+        return Err(errors::data(format!(
+            "{} samples: too few to estimate anything",
+            time.len()
+        )));
+    };
+    let step = t1 - t0;
+    for (k, pair) in time.windows(2).enumerate() {
+        let d = pair[1] - pair[0];
+        if d <= 0.0 || d.is_nan() {
+            return Err(errors::data(format!(
+                "row {}: time goes from {} to {}: it must increase",
+                k + 1,
+                pair[0],
+                pair[1]
+            )));
+        }
+        if (d - step).abs() > STEP_TOLERANCE * step {
+            return Err(errors::data(format!(
+                "row {}: a step of {d} s where the record's is {step} s: the estimators need a uniform step",
+                k + 1
+            )));
+        }
+    }
+    Ok(step)
+}
+
+/// The first sample of a column that is not a finite number.
+fn check_finite(name: &str, column: &[f64]) -> PyResult<()> {
+    match column.iter().position(|v| !v.is_finite()) {
+        Some(k) => Err(errors::data(format!(
+            "row {k}, column `{name}`: {} is not a finite number",
+            column[k]
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// The estimator a keyword names.
+fn estimator(kind: &str, window: usize, degree: u32) -> PyResult<Estimator> {
+    match kind {
+        "savitzky-golay" => Ok(Estimator::SavitzkyGolay { window, degree }),
+        "modulating" => Ok(Estimator::Modulating { window }),
+        other => Err(PyValueError::new_err(format!(
+            "estimator={other:?}: expected \"savitzky-golay\" or \"modulating\""
+        ))),
+    }
+}
+
+/// Runs the residual program of `model` over the samples `columns` (in the order of
+/// `model.signals()`) taken at `time`.
+#[pyfunction]
+#[pyo3(signature = (model, time, columns, *, thresholds, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn residuals<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, Model>,
+    time: PyReadonlyArray1<'py, f64>,
+    columns: Vec<PyReadonlyArray1<'py, f64>>,
+    thresholds: Vec<Option<f64>>,
+    window: Option<usize>,
+    estimator: &str,
+    degree: Option<u32>,
+    integration: &str,
+    debounce: u32,
+    adaptive: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let c = &model.compiled;
+    if c.residual_code_refused() || c.arrs.is_empty() {
+        return Err(BgcError::new_err(format!(
+            "{}: no ARRs to evaluate (see the diagnostics)",
+            model.file
+        )));
+    }
+    let program = c.program();
+    let names: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    if columns.len() != names.len() {
+        return Err(errors::data(format!(
+            "{} columns given; the residuals read {}: {}",
+            columns.len(),
+            names.len(),
+            names.join(", ")
+        )));
+    }
+    let time = time
+        .as_slice()
+        .map_err(|_| errors::data("the time column is not contiguous"))?;
+    let mut data: Vec<&[f64]> = Vec::with_capacity(columns.len());
+    for (column, name) in columns.iter().zip(&names) {
+        let slice = column
+            .as_slice()
+            .map_err(|_| errors::data(format!("column `{name}` is not contiguous")))?;
+        if slice.len() != time.len() {
+            return Err(errors::data(format!(
+                "column `{name}` has {} samples where time has {}",
+                slice.len(),
+                time.len()
+            )));
+        }
+        data.push(slice);
+    }
+    check_finite("t", time)?;
+    for (column, name) in data.iter().zip(&names) {
+        check_finite(name, column)?;
+    }
+    let step = step_of(time)?;
+    if thresholds.len() != c.arrs.len() {
+        return Err(PyValueError::new_err(format!(
+            "{} thresholds for {} ARRs",
+            thresholds.len(),
+            c.arrs.len()
+        )));
+    }
+    for (level, arr) in thresholds.iter().zip(&c.arrs) {
+        if level.is_some_and(|l| !(l.is_finite() && l >= 0.0)) {
+            return Err(PyValueError::new_err(format!(
+                "the threshold of {} must be a finite number ≥ 0",
+                arr.name
+            )));
+        }
+    }
+    let kind = estimator;
+    let window = window.unwrap_or(if kind == "modulating" { 101 } else { 11 });
+    if time.len() < window {
+        return Err(errors::data(format!(
+            "{} samples: the estimator's window of {window} needs at least {window}",
+            time.len()
+        )));
+    }
+    let degree = degree.unwrap_or(program.top_order().max(3));
+    let settings = Settings {
+        estimator: self::estimator(kind, window, degree)?,
+        integration: integration
+            .parse()
+            .map_err(|e: String| PyValueError::new_err(format!("integration: {e}")))?,
+        thresholds,
+        debounce,
+        adaptive,
+    };
+    if settings.debounce == 0 {
+        return Err(PyValueError::new_err("debounce must be at least 1"));
+    }
+    let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let fit = Fit {
+        step,
+        estimator: settings.estimator,
+        integration: vec![settings.integration; c.arrs.len()],
+    };
+    let generator = Generator::new(c, &program, &params, &fit)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let rows: Vec<(&str, Vec<u32>)> = (c.components.iter())
+        .map(|(_, comp)| {
+            let marks = comp
+                .marks
+                .iter()
+                .map(|&k| u32::try_from(k).unwrap_or(u32::MAX));
+            (comp.name.as_str(), marks.collect())
+        })
+        .collect();
+    // The roots the residuals read, by slot: an estimate where one is not found names it.
+    let roots: Vec<(usize, String)> = (program.slots.iter())
+        .filter_map(|(h, s)| match s.quantity {
+            bondgraph_core::Quantity::Root(r) => Some((h.index(), c.roots[r].name.clone())),
+            _ => None,
+        })
+        .collect();
+    let slots: Vec<usize> = roots.iter().map(|r| r.0).collect();
+    let pass = py.detach(|| run(generator, time, &data, &settings, &rows, &slots));
+    let out = into_dict(py, pass, c.arrs.len(), &rows)?;
+    out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
+    Ok(out)
+}
+
+/// One pass over the samples.
+fn run(
+    mut generator: Generator,
+    time: &[f64],
+    data: &[&[f64]],
+    settings: &Settings,
+    rows: &[(&str, Vec<u32>)],
+    roots: &[usize],
+) -> Pass {
+    let m = settings.thresholds.len();
+    let mut alarms: Vec<Option<Threshold>> = (settings.thresholds.iter())
+        .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
+        .collect();
+    let fsm = |n: usize| {
+        rows.iter()
+            .map(move |(name, s)| (*name, Signature::new(n, s)))
+    };
+    let mut pass = Pass {
+        episodes: vec![String::new()],
+        ..Pass::default()
+    };
+    let mut known: HashMap<Vec<bool>, usize> = HashMap::new();
+    let mut on = vec![false; m];
+    let mut last: Option<usize> = None;
+    let mut episode = Episode::new(m);
+    let mut seen: Vec<bool> = Vec::new();
+    let mut raw = vec![0.0; data.len()];
+    for (k, &t) in time.iter().enumerate() {
+        for (v, column) in raw.iter_mut().zip(data) {
+            *v = column[k];
+        }
+        let Some(e) = generator.push(t, &raw, settings.adaptive) else {
+            continue;
+        };
+        pass.at.push(e.at);
+        for ((((alarm, on), level), &r), &b) in (alarms.iter_mut())
+            .zip(&mut on)
+            .zip(&settings.thresholds)
+            .zip(e.residuals)
+            .zip(e.bounds)
+        {
+            let now = level.map(|l| l + b);
+            pass.residuals.push(r);
+            pass.levels.push(now.unwrap_or(f64::NAN));
+            // A residual that is not a number raises no alarm; its debounce goes on.
+            *on = match (alarm.as_mut(), now) {
+                (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
+                _ => false,
+            };
+            pass.alarms.push(*on);
+        }
+        let code = match last {
+            Some(code) if pass.patterns[code] == on => code,
+            _ => *known.entry(on.clone()).or_insert_with(|| {
+                pass.patterns.push(on.clone());
+                pass.patterns.len() - 1
+            }),
+        };
+        last = Some(code);
+        pass.pattern.push(u32::try_from(code).unwrap_or(u32::MAX));
+        episode.push(&on);
+        if episode.started() && episode.seen() != seen {
+            seen = episode.seen();
+            pass.episodes.push(episode.candidates(fsm(m)).join(" "));
+        }
+        let episode_code = if episode.started() {
+            pass.episodes.len() - 1
+        } else {
+            0
+        };
+        pass.episode
+            .push(u32::try_from(episode_code).unwrap_or(u32::MAX));
+        let unsolved = e
+            .unsolved
+            .and_then(|slot| roots.iter().position(|&r| r == slot));
+        pass.unsolved
+            .push(unsolved.map_or(0, |i| u32::try_from(i + 1).unwrap_or(u32::MAX)));
+    }
+    pass
+}
+
+/// The pass as numpy arrays and tables.
+fn into_dict<'py>(
+    py: Python<'py>,
+    pass: Pass,
+    m: usize,
+    rows: &[(&str, Vec<u32>)],
+) -> PyResult<Bound<'py, PyDict>> {
+    let n = pass.at.len();
+    let fsm = || rows.iter().map(|(name, s)| (*name, Signature::new(m, s)));
+    let candidates: Vec<String> = (pass.patterns.iter())
+        .map(|on| bondgraph::candidates(fsm(), on).join(" "))
+        .collect();
+    let suspects: Vec<String> = (pass.patterns.iter())
+        .map(|on| bondgraph::suspects(fsm(), on).join(" "))
+        .collect();
+    let out = PyDict::new(py);
+    out.set_item("time", PyArray1::from_vec(py, pass.at))?;
+    out.set_item(
+        "residuals",
+        PyArray1::from_vec(py, pass.residuals).reshape([n, m])?,
+    )?;
+    out.set_item(
+        "thresholds",
+        PyArray1::from_vec(py, pass.levels).reshape([n, m])?,
+    )?;
+    out.set_item(
+        "alarms",
+        PyArray1::from_vec(py, pass.alarms).reshape([n, m])?,
+    )?;
+    out.set_item("pattern", PyArray1::from_vec(py, pass.pattern))?;
+    out.set_item("candidates", candidates)?;
+    out.set_item("suspects", suspects)?;
+    out.set_item("episode", PyArray1::from_vec(py, pass.episode))?;
+    out.set_item("episodes", pass.episodes)?;
+    out.set_item("unsolved", PyArray1::from_vec(py, pass.unsolved))?;
+    Ok(out)
+}

@@ -1,0 +1,144 @@
+"""Residuals from Python: the CLI's numbers, on every kind of table, and clear errors."""
+
+import csv
+import io
+
+import numpy as np
+import pytest
+
+import bondgraph_compiler as bgc
+
+from conftest import BENCH, ROOT, bgc_cli
+
+SCENARIO = ROOT / "scenarios" / "bench_dead_zone.scn"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    return bgc.compile(BENCH)
+
+
+@pytest.fixture(scope="module")
+def record(bench):
+    """A simulated run of the bench with a dead zone, as a pandas DataFrame."""
+    return bench.simulate(SCENARIO)
+
+
+def read_csv(text):
+    rows = list(csv.reader(io.StringIO(text)))
+    return rows[0], rows[1:]
+
+
+def test_the_residuals_are_the_clis(bench, record, tmp_path):
+    path = tmp_path / "record.csv"
+    record.to_csv(path, index=False, float_format="%.17g")
+    run = bench.residuals(record, thresholds={"ARR1": 0.5, "ARR2": 0.05})
+    header, rows = read_csv(
+        bgc_cli("residuals", str(BENCH), str(path), "--threshold", "ARR1=0.5", "--threshold", "ARR2=0.05")
+    )
+    assert len(rows) == len(run)
+    column = {name: k for k, name in enumerate(header)}
+    for k in (0, len(rows) // 2, len(rows) - 1):
+        assert float(rows[k][column["t"]]) == pytest.approx(run.time[k], abs=1e-9)
+        for j, name in enumerate(run.names):
+            cell = rows[k][column[name]]
+            assert float(cell) == pytest.approx(run.values[k, j], rel=1e-12, abs=1e-12), (k, name)
+    alarms = np.array([[r[column[f"alarm_{n}"]] == "1" for n in run.names] for r in rows])
+    assert (alarms == run.alarms).all()
+    assert [r[column["candidates"]] for r in rows] == list(run.candidates)
+    assert [r[column["episode"]] for r in rows] == list(run.episode)
+    assert run.alarms.any(), "the dead zone raises alarms"
+
+
+def test_pandas_polars_and_dicts_give_the_same_residuals(bench, record):
+    polars = pytest.importorskip("polars")
+    levels = {"ARR1": 0.5, "ARR2": 0.05}
+    from_pandas = bench.residuals(record, thresholds=levels)
+    from_polars = bench.residuals(polars.from_pandas(record), thresholds=levels)
+    from_dict = bench.residuals({c: record[c].to_numpy() for c in record.columns}, thresholds=levels)
+    for other in (from_polars, from_dict):
+        np.testing.assert_array_equal(other.values, from_pandas.values)
+        np.testing.assert_array_equal(other.alarms, from_pandas.alarms)
+
+
+def test_renamed_columns_are_mapped(bench, record):
+    renamed = record.rename(columns={"y1": "motor_speed"})
+    run = bench.residuals(renamed, columns={"y1": "motor_speed"}, thresholds=1.0)
+    np.testing.assert_array_equal(run.values, bench.residuals(record, thresholds=1.0).values)
+
+
+def test_calibration_keeps_a_healthy_record_quiet(bench):
+    healthy = bench.simulate(ROOT / "scenarios" / "paper_section5_healthy.scn")
+    run = bench.residuals(healthy, calibrate=healthy)
+    assert not run.alarms.any()
+    assert np.isfinite(run.thresholds).all()
+
+
+def test_the_dataframe_has_the_csvs_columns(bench, record):
+    frame = bench.residuals(record, thresholds=1.0).to_pandas()
+    names = [a.name for a in bench.arrs]
+    assert list(frame.columns) == (
+        ["t"] + names + [f"threshold_{n}" for n in names] + [f"alarm_{n}" for n in names]
+        + ["candidates", "suspects", "episode"]
+    )
+
+
+# Bad input gets an exception that says what is wrong.
+
+
+def test_a_missing_column_is_named_with_a_suggestion(bench, record):
+    with pytest.raises(bgc.DataError, match=r"no column `y1`.*did you mean `y_1`"):
+        bench.residuals(record.rename(columns={"y1": "y_1"}))
+
+
+def test_a_nan_is_located(bench, record):
+    broken = record.copy()
+    broken.loc[100, "y2"] = np.nan
+    with pytest.raises(bgc.DataError, match=r"row 100, column `y2`: NaN is not a finite number"):
+        bench.residuals(broken)
+
+
+def test_a_column_of_text_is_refused(bench, record):
+    broken = record.copy()
+    broken["y2"] = broken["y2"].astype(str)
+    with pytest.raises(bgc.DataError, match=r"column `y2` holds object values; expected numbers"):
+        bench.residuals(broken)
+
+
+def test_time_must_go_forward_at_one_step(bench, record):
+    shuffled = record.copy()
+    shuffled.loc[10, "t"] = shuffled.loc[9, "t"]
+    with pytest.raises(bgc.DataError, match=r"row 10: time goes from"):
+        bench.residuals(shuffled)
+    uneven = record.copy()
+    uneven.loc[10, "t"] += 1e-4
+    with pytest.raises(bgc.DataError, match=r"uniform step"):
+        bench.residuals(uneven)
+
+
+def test_too_few_samples_for_the_window(bench, record):
+    with pytest.raises(bgc.DataError, match=r"window of 11"):
+        bench.residuals(record.head(5))
+
+
+def test_bad_thresholds_and_settings_are_refused(bench, record):
+    with pytest.raises(KeyError, match=r"ARR9"):
+        bench.residuals(record, thresholds={"ARR9": 1.0})
+    with pytest.raises(ValueError, match=r"finite number ≥ 0"):
+        bench.residuals(record, thresholds=-1.0)
+    with pytest.raises(ValueError, match=r"finite number ≥ 0"):
+        bench.residuals(record, thresholds=float("inf"))
+    with pytest.raises(ValueError, match=r"savitzky-golay"):
+        bench.residuals(record, estimator="kalman")
+    with pytest.raises(ValueError, match=r"debounce"):
+        bench.residuals(record, debounce=0)
+    with pytest.raises(ValueError):
+        bench.residuals(record, window=10)
+    with pytest.raises(TypeError, match=r"dict of arrays"):
+        bench.residuals([1, 2, 3])
+
+
+def test_a_bad_scenario_raises_located_errors(bench):
+    with pytest.raises(bgc.ScenarioError) as e:
+        bench.simulate("duration 1\nstep 0.001\ninput U0 = nonsense(\n")
+    assert e.value.diagnostics[0]["line"] == 3
