@@ -863,3 +863,162 @@ fn the_episode_narrows_the_candidates_to_the_dead_zone() {
     assert!(per_sensor.iter().all(|(_, e)| e == "link w"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The record `columns` (name, values) as Parquet, in row groups of 700 rows (so that the
+/// reader meets several), snappy-compressed as pandas writes it.
+fn write_parquet(path: &std::path::Path, columns: Vec<(&str, arrow_array::ArrayRef)>) {
+    use parquet::arrow::ArrowWriter;
+    use parquet::basic::Compression;
+    use parquet::file::properties::WriterProperties;
+    let batch = arrow_array::RecordBatch::try_from_iter(columns).expect("a batch");
+    let props = WriterProperties::builder()
+        .set_compression(Compression::SNAPPY)
+        .set_max_row_group_size(700)
+        .build();
+    let file = std::fs::File::create(path).expect("create");
+    let mut writer = ArrowWriter::try_new(file, batch.schema(), Some(props)).expect("writer");
+    writer.write(&batch).expect("write");
+    writer.close().expect("close");
+}
+
+/// The columns of a CSV record written by `bgc simulate`.
+fn csv_columns(path: &std::path::Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let mut reader = csv::Reader::from_path(path).expect("csv");
+    let names: Vec<String> = reader
+        .headers()
+        .expect("header")
+        .iter()
+        .map(String::from)
+        .collect();
+    let mut columns = vec![Vec::new(); names.len()];
+    for record in reader.records() {
+        for (column, cell) in columns.iter_mut().zip(record.expect("row").iter()) {
+            column.push(cell.parse::<f64>().expect("a number"));
+        }
+    }
+    (names, columns)
+}
+
+#[test]
+fn parquet_and_csv_records_give_byte_identical_residuals() {
+    use arrow_array::{ArrayRef, Float64Array, StringArray};
+    use std::sync::Arc;
+    let dir = scratch("parquet");
+    let csv_path = dir.join("bench.csv");
+    let sim = bgc(&[
+        "simulate",
+        "models/backlash_bench.bg",
+        "-e",
+        "duration 3",
+        "-e",
+        "input U0 = 6 + 12*sin(0.5*t)",
+        "-e",
+        "noise y1 1e-4",
+        "-e",
+        "fault j0 = 3*j0 at 2",
+        "-o",
+        &csv_path.display().to_string(),
+    ]);
+    assert_eq!(code(&sim), 0, "{}", stderr(&sim));
+    let (names, columns) = csv_columns(&csv_path);
+    // The same samples under the names a logger might give them.
+    let renamed = |n: &str| match n {
+        "t" => "time".to_string(),
+        "y1" => "motor_speed".to_string(),
+        other => other.to_string(),
+    };
+    let arrays: Vec<(String, ArrayRef)> = (names.iter().zip(&columns))
+        .map(|(n, c)| {
+            (
+                renamed(n),
+                Arc::new(Float64Array::from(c.clone())) as ArrayRef,
+            )
+        })
+        .collect();
+    let parquet_path = dir.join("bench.parquet");
+    write_parquet(
+        &parquet_path,
+        arrays
+            .iter()
+            .map(|(n, a)| (n.as_str(), a.clone()))
+            .collect(),
+    );
+    let csv_run = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &csv_path.display().to_string(),
+        "--threshold",
+        "ARR1=0.5",
+        "--threshold",
+        "ARR2=0.05",
+    ]);
+    assert_eq!(code(&csv_run), 0, "{}", stderr(&csv_run));
+    let parquet_run = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &parquet_path.display().to_string(),
+        "--time",
+        "time",
+        "--column",
+        "y1=motor_speed",
+        "--threshold",
+        "ARR1=0.5",
+        "--threshold",
+        "ARR2=0.05",
+    ]);
+    assert_eq!(code(&parquet_run), 0, "{}", stderr(&parquet_run));
+    assert!(stdout(&csv_run).lines().count() > 2000);
+    assert!(
+        stdout(&csv_run) == stdout(&parquet_run),
+        "Parquet and CSV differ"
+    );
+
+    // A column the model reads, missing: named, with the near miss.
+    let missing = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &parquet_path.display().to_string(),
+        "--time",
+        "time",
+    ]);
+    assert_eq!(code(&missing), 1);
+    assert!(
+        stderr(&missing).contains("no column `y1`")
+            && stderr(&missing).contains("the file has time"),
+        "{}",
+        stderr(&missing)
+    );
+    // A column of text: refused by its type.
+    let text_path = dir.join("text.parquet");
+    let t: ArrayRef = Arc::new(Float64Array::from(vec![0.0, 0.001, 0.002]));
+    let y: ArrayRef = Arc::new(StringArray::from(vec!["a", "b", "c"]));
+    write_parquet(
+        &text_path,
+        vec![("t", t.clone()), ("U0", t.clone()), ("y1", y), ("y2", t)],
+    );
+    let text = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &text_path.display().to_string(),
+    ]);
+    assert_eq!(code(&text), 1);
+    assert!(
+        stderr(&text).contains("column `y1` holds Utf8 values, not numbers"),
+        "{}",
+        stderr(&text)
+    );
+    // A bad --column.
+    let bad = bgc(&[
+        "residuals",
+        "models/backlash_bench.bg",
+        &parquet_path.display().to_string(),
+        "--column",
+        "y7=motor_speed",
+    ]);
+    assert_eq!(code(&bad), 2, "{}", stderr(&bad));
+    assert!(
+        stderr(&bad).contains("the ARRs read no `y7` (did you mean `y1`?)"),
+        "{}",
+        stderr(&bad)
+    );
+}

@@ -15,6 +15,7 @@ mod completions;
 mod emit;
 mod io;
 mod options;
+mod parquet_record;
 mod plot;
 mod record;
 mod report;

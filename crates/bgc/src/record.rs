@@ -1,7 +1,17 @@
-//! Recorded samples read from CSV: a time column with a uniform step and the columns a
-//! model's ARRs read.
+//! Recorded samples read from CSV or Parquet: a time column with a uniform step and the
+//! columns a model's ARRs read.
 
 use crate::io;
+use crate::parquet_record;
+
+/// Which columns of a record hold the time and the signals: the model's names, or others
+/// (`--time`, `--column SIGNAL=NAME`).
+pub(crate) struct Layout {
+    /// The time column.
+    pub(crate) time: String,
+    /// The column of each signal, in the order asked for.
+    pub(crate) signals: Vec<String>,
+}
 
 /// Recorded samples: the time and the columns asked for, checked.
 pub(crate) struct Data {
@@ -17,68 +27,22 @@ pub(crate) struct Data {
 pub(crate) const STEP_TOLERANCE: f64 = 1e-6;
 
 impl Data {
-    /// Reads CSV `bytes`, keeping `names` (and `t`); needs at least `window` rows.
-    pub(crate) fn read(bytes: &[u8], names: &[String], window: usize) -> Result<Data, String> {
-        let delimiter = delimiter(bytes);
-        let mut reader = csv::ReaderBuilder::new()
-            .trim(csv::Trim::Headers)
-            .delimiter(delimiter)
-            .from_reader(bytes);
-        let header = reader
-            .headers()
-            .map_err(|e| format!("cannot read the header: {e}"))?
-            .clone();
-        let find = |name: &str| header.iter().position(|h| h == name);
-        let missing = |name: &str, what: String| {
-            let near = bondgraph_core::closest(name, header.iter().collect::<Vec<_>>().into_iter());
-            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            format!(
-                "{what}{hint}; the header has {}",
-                header.iter().collect::<Vec<_>>().join(", ")
-            )
-        };
-        let t = find("t").ok_or_else(|| {
-            // A one-letter name has no near miss by edits; a time column by another name does.
-            let named = header
-                .iter()
-                .find(|h| h.to_lowercase().starts_with("time") || *h == "T");
-            let what = "no time column: the header needs a column named `t`";
-            match named {
-                Some(h) => format!("{what} (is `{h}` the time? rename it `t`)"),
-                None => missing("t", what.to_string()),
-            }
-        })?;
-        // A name twice in the header: which column is the record is a guess bgc does not make.
-        for name in std::iter::once("t").chain(names.iter().map(String::as_str)) {
-            let places: Vec<String> = (header.iter().enumerate())
-                .filter(|(_, h)| *h == name)
-                .map(|(k, _)| (k + 1).to_string())
+    /// Reads the record `bytes` (Parquet, or else CSV), keeping the columns of `layout`;
+    /// needs at least `window` rows.
+    pub(crate) fn read(bytes: Vec<u8>, layout: &Layout, window: usize) -> Result<Data, String> {
+        let (time, columns, step) = if bytes.starts_with(parquet_record::MAGIC) {
+            let names: Vec<&str> = std::iter::once(layout.time.as_str())
+                .chain(layout.signals.iter().map(String::as_str))
                 .collect();
-            if places.len() > 1 {
-                return Err(format!(
-                    "the header names `{name}` {} times (columns {}): keep one",
-                    places.len(),
-                    places.join(" and ")
-                ));
-            }
-        }
-        let mut at = vec![t];
-        for name in names {
-            at.push(find(name).ok_or_else(|| {
-                missing(
-                    name,
-                    format!("no column `{name}`: the ARRs read {}", names.join(", ")),
-                )
-            })?);
-        }
-        let column_names: Vec<&str> = std::iter::once("t")
-            .chain(names.iter().map(String::as_str))
-            .collect();
-        let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
-        let body = bytes.get(start..).unwrap_or_default();
-        let (mut columns, lines) = parse_rows(body, &at, &column_names, delimiter)?;
-        let time = columns.remove(0);
-        let step = check_time(&time, &lines)?;
+            let mut columns = parquet_record::columns(bytes, &names)?;
+            let time = columns.remove(0);
+            let step = check_time(&time, &|k| format!("row {}", k + 1))?;
+            (time, columns, step)
+        } else {
+            let (time, columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
+            let step = check_time(&time, &|k| format!("line {}", lines[k]))?;
+            (time, columns, step)
+        };
         if time.len() < window {
             return Err(format!(
                 "{} rows: the estimator's window of {window} samples needs at least {window}",
@@ -91,6 +55,73 @@ impl Data {
             columns,
         })
     }
+}
+
+/// The time, the columns `names` and the line of each row of the CSV `bytes`.
+type Read = (Vec<f64>, Vec<Vec<f64>>, Vec<u32>);
+
+/// Reads CSV `bytes`, keeping the columns `time` and `names`.
+fn read_csv(bytes: &[u8], time: &str, names: &[String]) -> Result<Read, String> {
+    let delimiter = delimiter(bytes);
+    let mut reader = csv::ReaderBuilder::new()
+        .trim(csv::Trim::Headers)
+        .delimiter(delimiter)
+        .from_reader(bytes);
+    let header = reader
+        .headers()
+        .map_err(|e| format!("cannot read the header: {e}"))?
+        .clone();
+    let find = |name: &str| header.iter().position(|h| h == name);
+    let missing = |name: &str, what: String| {
+        let near = bondgraph_core::closest(name, header.iter().collect::<Vec<_>>().into_iter());
+        let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+        format!(
+            "{what}{hint}; the header has {}",
+            header.iter().collect::<Vec<_>>().join(", ")
+        )
+    };
+    let t = find(time).ok_or_else(|| {
+        // A one-letter name has no near miss by edits; a time column by another name does.
+        let named = header
+            .iter()
+            .find(|h| h.to_lowercase().starts_with("time") || *h == "T");
+        let what = format!("no time column: the header needs a column named `{time}`");
+        match named {
+            Some(h) => format!("{what} (is `{h}` the time? rename it or pass --time {h})"),
+            None => missing(time, what),
+        }
+    })?;
+    // A name twice in the header: which column is the record is a guess bgc does not make.
+    for name in std::iter::once(time).chain(names.iter().map(String::as_str)) {
+        let places: Vec<String> = (header.iter().enumerate())
+            .filter(|(_, h)| *h == name)
+            .map(|(k, _)| (k + 1).to_string())
+            .collect();
+        if places.len() > 1 {
+            return Err(format!(
+                "the header names `{name}` {} times (columns {}): keep one",
+                places.len(),
+                places.join(" and ")
+            ));
+        }
+    }
+    let mut at = vec![t];
+    for name in names {
+        at.push(find(name).ok_or_else(|| {
+            missing(
+                name,
+                format!("no column `{name}`: the ARRs read {}", names.join(", ")),
+            )
+        })?);
+    }
+    let column_names: Vec<&str> = std::iter::once(time)
+        .chain(names.iter().map(String::as_str))
+        .collect();
+    let start = usize::try_from(reader.position().byte()).unwrap_or(bytes.len());
+    let body = bytes.get(start..).unwrap_or_default();
+    let (mut columns, lines) = parse_rows(body, &at, &column_names, delimiter)?;
+    let time = columns.remove(0);
+    Ok((time, columns, lines))
 }
 
 /// The rows of `body` (the CSV after its header, which was line 1), the cells at `at` of each
@@ -202,26 +233,26 @@ fn parse_part(
     Ok((columns, lines))
 }
 
-/// The uniform step of `time` (whose rows are on `lines` of the file), or the first line
-/// where it is not.
-fn check_time(time: &[f64], lines: &[u32]) -> Result<f64, String> {
+/// The uniform step of `time`, or the first row where it is not (`place` names row `k` as
+/// the user finds it: a line of a CSV, a row of a table).
+fn check_time(time: &[f64], place: &dyn Fn(usize) -> String) -> Result<f64, String> {
     let [t0, t1, ..] = time else {
         return Err(format!("{} rows: too few samples", time.len()));
     };
     let step = t1 - t0;
     for (k, pair) in time.windows(2).enumerate() {
         let d = pair[1] - pair[0];
-        let line = lines[k + 1];
+        let line = place(k + 1);
         if d <= 0.0 {
             return Err(format!(
-                "line {line}: time goes from {} to {}: it must increase",
+                "{line}: time goes from {} to {}: it must increase",
                 io::seconds(pair[0]),
                 io::seconds(pair[1])
             ));
         }
         if (d - step).abs() > STEP_TOLERANCE * step {
             return Err(format!(
-                "line {line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
+                "{line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
                 io::seconds(d),
                 io::seconds(step)
             ));

@@ -16,7 +16,7 @@ use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 use crate::calibrate::{self, Walk};
 use crate::io;
 use crate::options::{RealiseArg, ResidualsArg};
-use crate::record::{Data, STEP_TOLERANCE};
+use crate::record::{Data, Layout, STEP_TOLERANCE};
 use crate::report::{self, Failure};
 
 /// `--estimator`.
@@ -34,10 +34,18 @@ pub(crate) struct ResidualArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
-    /// The recorded samples: CSV with a header, a time column `t` at a uniform step, and one
-    /// column per input and measured signal the ARRs read, named as in the model.
+    /// The recorded samples: CSV with a header, or Parquet (told by its first bytes), with a
+    /// time column `t` at a uniform step and one column per input and measured signal the
+    /// ARRs read, named as in the model (or as `--time` and `--column` say).
     #[arg(value_name = "DATA")]
     data: PathBuf,
+    /// The record's time column, where it is not `t`.
+    #[arg(long, value_name = "NAME", default_value = "t")]
+    time: String,
+    /// The record's column of a signal named otherwise in the model, as `SIGNAL=COLUMN`
+    /// (e.g. `y1=motor_speed`); repeat for more. Applies to `--calibrate`'s record too.
+    #[arg(long = "column", value_name = "SIGNAL=COLUMN")]
+    columns: Vec<String>,
     /// Samples in the estimators' window (odd) [default: with `--calibrate`, for fits the
     /// longest of 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy
     /// record) up to which no residual's RMS on the healthy record grows, for modulating
@@ -162,7 +170,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let data_name = args.data.display().to_string();
     let (_, bytes) = io::read(&args.data)?;
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
-    let data = Data::read(&bytes, &names, shortest)
+    let layout = layout(&names, &args.time, &args.columns)?;
+    let data = Data::read(bytes, &layout, shortest)
         .map_err(|e| report::refused(format!("{data_name}: {e}")))?;
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
@@ -193,7 +202,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
         let (_, bytes) = io::read(path)?;
-        let healthy = Data::read(&bytes, &names, shortest)
+        let healthy = Data::read(bytes, &layout, shortest)
             .map_err(|e| report::refused(format!("{name}: {e}")))?;
         if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
             return Err(report::refused(format!(
@@ -419,6 +428,38 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
 }
 
 /// A row's marks as the runtime's sparse signatures hold them.
+/// Where the record holds the time and each of the signals `names`: their own names unless
+/// `--column SIGNAL=COLUMN` renames one.
+fn layout(names: &[String], time: &str, columns: &[String]) -> Result<Layout, Failure> {
+    let mut signals = names.to_vec();
+    for given in columns {
+        let Some((signal, column)) = given.split_once('=') else {
+            return Err(report::usage(format!(
+                "--column `{given}`: expected SIGNAL=COLUMN, e.g. y1=motor_speed"
+            )));
+        };
+        let (signal, column) = (signal.trim(), column.trim());
+        let Some(k) = names.iter().position(|n| n == signal) else {
+            let near = bondgraph_core::closest(signal, names.iter().map(String::as_str));
+            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            return Err(report::usage(format!(
+                "--column `{given}`: the ARRs read no `{signal}`{hint}; they read {}",
+                names.join(", ")
+            )));
+        };
+        if column.is_empty() {
+            return Err(report::usage(format!(
+                "--column `{given}`: the column's name is empty"
+            )));
+        }
+        signals[k] = column.to_string();
+    }
+    Ok(Layout {
+        time: time.to_string(),
+        signals,
+    })
+}
+
 fn marks(marks: &[usize]) -> Vec<u32> {
     marks
         .iter()
