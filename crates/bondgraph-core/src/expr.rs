@@ -41,6 +41,7 @@ impl BinOp {
     }
 
     /// Its value at `a`, `b`.
+    #[inline]
     pub fn apply(self, a: f64, b: f64) -> f64 {
         match self {
             BinOp::Add => a + b,
@@ -157,6 +158,7 @@ impl Func {
     }
 
     /// Its value at `args`, which has [`Func::arity`] elements (a call node holds as many).
+    #[inline]
     pub fn apply(self, args: &[f64]) -> f64 {
         let x = args[0];
         match self {

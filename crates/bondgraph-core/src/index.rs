@@ -24,16 +24,19 @@ macro_rules! typed_index {
         impl $name {
             /// Its position in the table it indexes.
             #[allow(dead_code)]
+            #[inline]
             $vis fn index(self) -> usize {
                 self.0 as usize
             }
         }
 
         impl $crate::index::Idx for $name {
+            #[inline]
             fn new(i: usize) -> Self {
                 $name(u32::try_from(i).expect("fewer than 2^32 items"))
             }
 
+            #[inline]
             fn index(self) -> usize {
                 self.0 as usize
             }

@@ -69,7 +69,14 @@ enum Op<L> {
     Num(f64),
     Leaf(L),
     Neg(Slot),
-    Binary(BinOp, Slot, Slot),
+    Add(Slot, Slot),
+    Sub(Slot, Slot),
+    Mul(Slot, Slot),
+    Div(Slot, Slot),
+    /// A power with a whole exponent, as the generated code writes it (`powi`): the two
+    /// agree to the bit, and it costs a few multiplications instead of a logarithm.
+    Powi(Slot, i32),
+    Pow(Slot, Slot),
     Call1(Func, Slot),
     Call2(Func, Slot, Slot),
     /// An integral, by its node in the pool: its value comes from outside.
@@ -91,6 +98,33 @@ typed_index! {
     struct Slot;
 }
 
+/// The step for `a op b` at `slots`, `exponent` the node of `b`: a whole exponent below 64
+/// in size is raised as the generated Rust raises it.
+fn binary<L: LeafKind>(
+    pool: &Pool<L>,
+    op: BinOp,
+    (a, b): (Slot, Slot),
+    exponent: ExprId<L>,
+) -> Op<L> {
+    match op {
+        BinOp::Add => Op::Add(a, b),
+        BinOp::Sub => Op::Sub(a, b),
+        BinOp::Mul => Op::Mul(a, b),
+        BinOp::Div => Op::Div(a, b),
+        BinOp::Pow => match pool.node(exponent) {
+            Node::Num(bits) => {
+                let n = f64::from_bits(bits);
+                if n.fract() == 0.0 && n.abs() < 64.0 {
+                    Op::Powi(a, n as i32)
+                } else {
+                    Op::Pow(a, b)
+                }
+            }
+            _ => Op::Pow(a, b),
+        },
+    }
+}
+
 impl<L: LeafKind> Tape<L> {
     /// The program that evaluates `roots` of `pool`.
     pub fn new(pool: &Pool<L>, roots: &[ExprId<L>]) -> Tape<L> {
@@ -103,7 +137,7 @@ impl<L: LeafKind> Tape<L> {
                 Node::Num(bits) => Op::Num(f64::from_bits(bits)),
                 Node::Leaf(l) => Op::Leaf(l),
                 Node::Neg(a) => Op::Neg(at(a)),
-                Node::Binary(op, a, b) => Op::Binary(op, at(a), at(b)),
+                Node::Binary(op, a, b) => binary(pool, op, (at(a), at(b)), b),
                 Node::Call1(f, a) => Op::Call1(f, at(a)),
                 Node::Call2(f, a, b) => Op::Call2(f, at(a), at(b)),
                 Node::Int(_) => Op::Int(id.index() as u32),
@@ -146,7 +180,12 @@ impl<L: LeafKind> Tape<L> {
                 Op::Num(x) => x,
                 Op::Leaf(l) => leaf(l),
                 Op::Neg(a) => -s[a.index()],
-                Op::Binary(op, a, b) => op.apply(s[a.index()], s[b.index()]),
+                Op::Add(a, b) => s[a.index()] + s[b.index()],
+                Op::Sub(a, b) => s[a.index()] - s[b.index()],
+                Op::Mul(a, b) => s[a.index()] * s[b.index()],
+                Op::Div(a, b) => s[a.index()] / s[b.index()],
+                Op::Powi(a, n) => s[a.index()].powi(n),
+                Op::Pow(a, b) => s[a.index()].powf(s[b.index()]),
                 Op::Call1(f, a) => f.apply(&[s[a.index()]]),
                 Op::Call2(f, a, b) => f.apply(&[s[a.index()], s[b.index()]]),
                 Op::Int(id) => integral(ExprId::from_index(id)),

@@ -44,6 +44,7 @@ impl<L> ExprId<L> {
     }
 
     /// Its position in its pool, for dense side tables.
+    #[inline]
     pub fn index(self) -> usize {
         self.0 as usize
     }
