@@ -137,3 +137,60 @@ impl Model {
         &self.file
     }
 }
+
+/// Fault classes as a dict: `classes` (lists of names) and `undetectable`.
+fn classes<'py>(
+    py: Python<'py>,
+    k: &bondgraph_core::NamedClasses,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let out = pyo3::types::PyDict::new(py);
+    out.set_item("classes", k.classes.clone())?;
+    out.set_item("undetectable", k.undetectable.clone())?;
+    Ok(out)
+}
+
+/// Where to add detectors so that `targets` (every component when empty) become
+/// detectable (`goal="detectable"`) or as isolable as detectors can make them
+/// (`"isolable"`), as `bgc sensors` answers.
+#[pyfunction]
+#[pyo3(signature = (model, targets, goal = "isolable"))]
+pub(crate) fn sensors<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, Model>,
+    targets: Vec<String>,
+    goal: &str,
+) -> PyResult<Bound<'py, pyo3::types::PyDict>> {
+    let goal = match goal {
+        "detectable" => bondgraph_core::Goal::Detectable,
+        "isolable" => bondgraph_core::Goal::Isolable,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "goal={other:?}: expected \"detectable\" or \"isolable\""
+            )))
+        }
+    };
+    let text = &model.text;
+    let placement = py
+        .detach(|| bondgraph_core::place_sensors(text, &targets, goal))
+        .map_err(|d| errors::located::<ModelError>(py, &model.file, text, &d))?
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let out = pyo3::types::PyDict::new(py);
+    out.set_item("targets", placement.targets.clone())?;
+    out.set_item("reached", placement.reached)?;
+    out.set_item("exhaustive", placement.exhaustive)?;
+    out.set_item("now", classes(py, &placement.now)?)?;
+    out.set_item("most", classes(py, &placement.most)?)?;
+    let proposals: Vec<Bound<'py, pyo3::types::PyDict>> = (placement.proposals.iter())
+        .map(|p| {
+            let d = pyo3::types::PyDict::new(py);
+            let detectors: Vec<(&str, &str)> = (p.detectors.iter())
+                .map(|n| (n.kind, n.junction.as_str()))
+                .collect();
+            d.set_item("detectors", detectors)?;
+            d.set_item("classes", classes(py, &p.classes)?)?;
+            Ok(d)
+        })
+        .collect::<PyResult<_>>()?;
+    out.set_item("proposals", proposals)?;
+    Ok(out)
+}

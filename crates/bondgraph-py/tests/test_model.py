@@ -19,7 +19,7 @@ def test_the_bench_compiles_to_the_clis_json():
     assert [a.name for a in model.arrs] == [a["name"] for a in cli["arrs"]]
     assert model.arrs[0].text == cli["arrs"][0]["expr"]
     assert model.parameters["Je"] == cli["parameters"]["Je"]
-    assert model.sensors == [s["name"] for s in cli["sensors"]]
+    assert model.detectors == [s["name"] for s in cli["sensors"]]
 
 
 def test_text_and_path_give_the_same_model():
@@ -105,3 +105,20 @@ def test_bad_options_raise_value_errors():
         bgc.compile(BENCH, realise="sideways")
     with pytest.raises(TypeError):
         bgc.compile(42)
+
+
+def test_sensors_proposes_what_the_cli_proposes():
+    model = bgc.compile(BENCH)
+    answer = model.sensors(goal="isolable")
+    cli = bgc_cli("sensors", str(BENCH))
+    assert not answer["reached"]
+    assert answer["proposals"][0]["detectors"] == [("Df", "elec")]
+    assert "Df on elec" in cli, cli
+    # The structural classes now: every component in one class, or undetectable.
+    now = [c for k in answer["now"]["classes"] for c in k] + answer["now"]["undetectable"]
+    assert sorted(now) == sorted(model.fsm.index)
+    assert bgc.compile(ROOT / "models" / "three_tank.bg").sensors()["reached"]
+    with pytest.raises(ValueError, match=r"`Rn` is not a component of the model \(did you mean `Rm`\?\)"):
+        model.sensors(["Rn"])
+    with pytest.raises(ValueError, match=r"isolable"):
+        model.sensors(goal="cheap")

@@ -142,3 +142,19 @@ def test_a_bad_scenario_raises_located_errors(bench):
     with pytest.raises(bgc.ScenarioError) as e:
         bench.simulate("duration 1\nstep 0.001\ninput U0 = nonsense(\n")
     assert e.value.diagnostics[0]["line"] == 3
+
+
+def test_parquet_from_pandas_and_polars_gives_the_csvs_residuals(bench, record, tmp_path):
+    """The CLI on the same samples as CSV, as Parquet from pandas (pyarrow, snappy) and from
+    Polars (zstd): byte-identical residual CSVs."""
+    pytest.importorskip("pyarrow")
+    polars = pytest.importorskip("polars")
+    head = record.head(6000)
+    head.to_csv(tmp_path / "r.csv", index=False, float_format="%.17g")
+    head.to_parquet(tmp_path / "pandas.parquet", index=False)
+    polars.from_pandas(head).write_parquet(tmp_path / "polars.parquet", compression="zstd")
+    args = ["--threshold", "ARR1=0.5", "--threshold", "ARR2=0.05"]
+    from_csv = bgc_cli("residuals", str(BENCH), str(tmp_path / "r.csv"), *args)
+    assert len(from_csv.splitlines()) > 5000
+    for name in ("pandas.parquet", "polars.parquet"):
+        assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name

@@ -339,7 +339,7 @@ class Model:
 
     def __repr__(self) -> str:
         return (
-            f"<Model {self.name}: {len(self.arrs)} ARRs over {', '.join(self.sensors)}; "
+            f"<Model {self.name}: {len(self.arrs)} ARRs over {', '.join(self.detectors)}; "
             f"{len(self.fault_classes)} fault classes>"
         )
 
@@ -360,8 +360,8 @@ class Model:
         return list(self._json["inputs"])
 
     @property
-    def sensors(self) -> List[str]:
-        """The measured signals."""
+    def detectors(self) -> List[str]:
+        """The measured signals (the model's detectors, `De` and `Df`)."""
         return [s["name"] for s in self._json["sensors"]]
 
     @property
@@ -562,6 +562,14 @@ class Model:
         except ImportError:
             return {c: samples[:, k] for k, c in enumerate(columns)}
         return pd.DataFrame(samples, columns=columns)
+
+    def sensors(self, components: Optional[Sequence[str]] = None, goal: str = "isolable") -> Dict[str, Any]:
+        """Where to add detectors so that `components` (every one by default) become
+        ``"detectable"`` or as ``"isolable"`` as detectors can make them, as ``bgc sensors``
+        answers: the classes now (``now``) and with every junction measured (``most``), and
+        the smallest sets of detectors found (``proposals``, each with its ``detectors`` as
+        (kind, junction) and the ``classes`` they give)."""
+        return _native.sensors(self._native, list(components or []), goal)
 
     def verify(self, *, input_scale: float = 1.0, state_scale: float = 0.5, runs: int = 3) -> Verification:
         """Checks every ARR and FSM entry on simulated trajectories, as ``bgc verify``."""
