@@ -104,33 +104,64 @@ def _partition(part: pd.DataFrame, text: str, thresholds: Dict[str, float]) -> p
         return _meta(text)
     part = part.reset_index()
     frames = [machine_residuals(g, text, thresholds) for _, g in part.groupby("machine", sort=True)]
-    out = pd.concat(frames, ignore_index=True)
+    if len(frames) == 1:
+        return frames[0]
     # Categories differ between machines: give the partition one set.
-    for c in ("candidates", "suspects", "episode"):
-        out[c] = out[c].astype(str).astype("category")
-    return out
+    union = {
+        c: pd.api.types.union_categoricals([f[c] for f in frames]).categories
+        for c in ("candidates", "suspects", "episode")
+    }
+    for f in frames:
+        for c, categories in union.items():
+            f[c] = f[c].cat.set_categories(categories)
+    return pd.concat(frames, ignore_index=True)
 
 
-def fleet_residuals(dataset: str, text: str, thresholds: Dict[str, float]):
-    """The residuals of every machine of the dataset, as a lazy Dask DataFrame: the records
-    are shuffled so that each machine's rows are in one partition, then each partition's
-    machines are run in time order."""
+def fleet_residuals(dataset: str, text: str, thresholds: Dict[str, float], file_per_machine: bool = True):
+    """The residuals of every machine of the dataset, as a lazy Dask DataFrame, each
+    machine's rows run in one pass in time order.
+
+    With `file_per_machine` (the layout `make_fleet` writes: `machine=K/part.parquet`), each
+    file is read whole as one partition and nothing moves between workers. Otherwise (a
+    machine's record spread over several files, e.g. a file a day), the rows are first
+    shuffled so that each machine's rows share one partition."""
     import dask.dataframe as dd
 
-    records = dd.read_parquet(dataset)
-    records["machine"] = records["machine"].astype("int64")
-    by_machine = records.set_index("machine", sorted=False)
+    if file_per_machine:
+        records = dd.read_parquet(dataset, split_row_groups=False)
+        records["machine"] = records["machine"].astype("int64")
+        by_machine = records
+    else:
+        records = dd.read_parquet(dataset)
+        records["machine"] = records["machine"].astype("int64")
+        by_machine = records.set_index("machine", sorted=False)
     return by_machine.map_partitions(_partition, text, thresholds, meta=_meta(text))
 
 
+def fleet_summary(dataset: str, text: str, thresholds: Dict[str, float], file_per_machine: bool = True):
+    """`summary` of every machine, computed where its residuals are (only the summary
+    travels back), as a lazy Dask DataFrame."""
+    residuals = fleet_residuals(dataset, text, thresholds, file_per_machine)
+    meta = pd.DataFrame(
+        {
+            "estimates": pd.Series(dtype="int64"),
+            "alarm": pd.Series(dtype="bool"),
+            "first_alarm": pd.Series(dtype="float64"),
+            "episode": pd.Series(dtype="object"),
+        },
+        index=pd.Index([], dtype="int64", name="machine"),
+    )
+    return residuals.map_partitions(summary, meta=meta)
+
+
 def summary(residuals: pd.DataFrame) -> pd.DataFrame:
-    """Per machine: rows, whether an alarm was raised, when first, and what the whole
-    episode points to."""
+    """Per machine: estimates, whether an alarm was raised, when first (NaN if never), and
+    what the whole episode points to."""
     alarm_columns = [c for c in residuals.columns if c.startswith("alarm_")]
     rows = []
     for machine, g in residuals.groupby("machine", sort=True):
         on = g[alarm_columns].any(axis=1).to_numpy()
-        first: Optional[float] = float(g["t"].to_numpy()[np.argmax(on)]) if on.any() else None
+        first = float(g["t"].to_numpy()[np.argmax(on)]) if on.any() else float("nan")
         rows.append(
             {
                 "machine": machine,
@@ -139,6 +170,12 @@ def summary(residuals: pd.DataFrame) -> pd.DataFrame:
                 "first_alarm": first,
                 "episode": str(g["episode"].iloc[-1]),
             }
+        )
+    if not rows:
+        return pd.DataFrame(
+            {"machine": [], "estimates": [], "alarm": [], "first_alarm": [], "episode": []}
+        ).astype({"machine": "int64", "estimates": "int64", "alarm": "bool", "first_alarm": "float64"}).set_index(
+            "machine"
         )
     return pd.DataFrame(rows).set_index("machine")
 
@@ -153,9 +190,9 @@ def run(dataset: str, text: str, thresholds: Dict[str, float], client) -> "tuple
     """The fleet's summary and the seconds the computation took on `client`'s cluster."""
     prepare(client)
     start = time.perf_counter()
-    residuals = client.compute(fleet_residuals(dataset, text, thresholds)).result()
+    table = client.compute(fleet_summary(dataset, text, thresholds)).result()
     seconds = time.perf_counter() - start
-    return summary(residuals), seconds
+    return table.sort_index(), seconds
 
 
 def main(argv: Optional[List[str]] = None) -> None:

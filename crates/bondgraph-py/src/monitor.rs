@@ -132,12 +132,14 @@ pub(crate) fn residuals<'py>(
     }
     let time = time
         .as_slice()
-        .map_err(|_| errors::data("the time column is not contiguous"))?;
+        .map_err(|_| errors::data("the time column is not a contiguous, aligned array"))?;
     let mut data: Vec<&[f64]> = Vec::with_capacity(columns.len());
     for (column, name) in columns.iter().zip(&names) {
-        let slice = column
-            .as_slice()
-            .map_err(|_| errors::data(format!("column `{name}` is not contiguous")))?;
+        let slice = column.as_slice().map_err(|_| {
+            errors::data(format!(
+                "column `{name}` is not a contiguous, aligned array"
+            ))
+        })?;
         if slice.len() != time.len() {
             return Err(errors::data(format!(
                 "column `{name}` has {} samples where time has {}",

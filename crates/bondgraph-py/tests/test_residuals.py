@@ -158,3 +158,20 @@ def test_parquet_from_pandas_and_polars_gives_the_csvs_residuals(bench, record, 
     assert len(from_csv.splitlines()) > 5000
     for name in ("pandas.parquet", "polars.parquet"):
         assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
+
+
+def test_unaligned_and_strided_columns_are_taken(bench, record):
+    """Columns that are views into other memory (every other row, a byte off alignment, as
+    Arrow buffers moved between processes can be) give the residuals of the same values."""
+    expected = bench.residuals(record, thresholds=1.0).values
+
+    def unaligned(values):
+        raw = np.zeros(values.size * 8 + 1, dtype=np.uint8)[1:].view(np.float64)
+        raw[:] = values
+        assert not raw.flags.aligned
+        return raw
+
+    data = {c: unaligned(record[c].to_numpy()) for c in record.columns}
+    np.testing.assert_array_equal(bench.residuals(data, thresholds=1.0).values, expected)
+    doubled = {c: np.repeat(record[c].to_numpy(), 2)[::2] for c in record.columns}
+    np.testing.assert_array_equal(bench.residuals(doubled, thresholds=1.0).values, expected)

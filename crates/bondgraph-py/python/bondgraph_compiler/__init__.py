@@ -151,8 +151,8 @@ def _close(name: str, names: Sequence[str]) -> str:
 
 
 def _column(data: Any, name: str) -> np.ndarray:
-    """Column `name` of a dict of arrays, a pandas or a Polars DataFrame, as contiguous
-    float64 (no copy when it already is)."""
+    """Column `name` of a dict of arrays, a pandas or a Polars DataFrame, as contiguous,
+    aligned float64 (no copy when it already is)."""
     if hasattr(data, "get_column"):  # Polars
         values = data.get_column(name).to_numpy()
     else:
@@ -164,7 +164,9 @@ def _column(data: Any, name: str) -> np.ndarray:
         raise DataError(f"column `{name}` has shape {values.shape}; expected one value per sample")
     if values.dtype.kind not in "iuf":
         raise DataError(f"column `{name}` holds {values.dtype} values; expected numbers")
-    return np.ascontiguousarray(values, dtype=np.float64)
+    # Contiguous and aligned (Arrow-backed columns moved between processes may not be):
+    # copied only when not already so.
+    return np.require(values, dtype=np.float64, requirements=["C", "A"])
 
 
 def _names(data: Any) -> List[str]:
