@@ -122,3 +122,20 @@ def test_sensors_proposes_what_the_cli_proposes():
         model.sensors(["Rn"])
     with pytest.raises(ValueError, match=r"isolable"):
         model.sensors(goal="cheap")
+
+
+def test_verify_gives_the_clis_verdicts():
+    model = bgc.compile(ROOT / "models" / "dc_motor.bg")
+    checked = model.verify()
+    assert checked.passed
+    assert [a[0] for a in checked.arrs] == [a.name for a in model.arrs]
+    assert checked.entries, "every FSM entry of a component that can be faulted"
+    for component, arr, marked, worst, ok in checked.entries:
+        assert marked == bool(model.fsm.loc[component, arr]), (component, arr)
+        assert ok and worst >= 0.0
+    arrs, entries = checked.to_pandas()
+    assert list(arrs.columns) == ["arr", "worst", "pass"] and len(entries) == len(checked.entries)
+    cli = bgc_cli("verify", str(ROOT / "models" / "dc_motor.bg"))
+    assert "FAIL" not in cli
+    with pytest.raises(ValueError, match=r"state_scale must be a finite number > 0"):
+        model.verify(state_scale=0.0)
