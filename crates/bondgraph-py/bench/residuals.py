@@ -35,7 +35,7 @@ def main() -> None:
         run = model.residuals(frame, thresholds=1.0)
         best = min(best, time.perf_counter() - start)
     print(f"{rows} rows, {len(run)} estimates of {', '.join(run.names)}: "
-          f"best of 5 {best * 1e3:.1f} ms, {rows / best / 1e6:.1f} million samples/s")
+          f"best of 5 {best * 1e3:.1f} ms, {rows / best / 1e6:.1f} million rows/s")
 
 
 if __name__ == "__main__":
