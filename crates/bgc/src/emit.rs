@@ -8,7 +8,7 @@ use bondgraph_core::{Derive, ResidualSet};
 use clap::ValueEnum;
 
 use crate::io;
-use crate::options::{RealiseArg, ResidualsArg, SimplifyArgs};
+use crate::options::{ResidualChoice, SimplifyArgs};
 use crate::report::{self, Failure};
 
 /// What `bgc MODEL` takes besides the model.
@@ -31,16 +31,8 @@ pub(crate) struct EmitArgs {
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
 
-    /// Which residuals to derive: one ARR per detector (as the reference paper does), the
-    /// smallest set found that tells apart every fault class bgc can reach (`best`), or
-    /// every candidate with a signature of its own (`all`).
-    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
-    residuals: ResidualsArg,
-
-    /// How residual generators evaluate each ARR: integrated once where that lowers the
-    /// derivatives it reads (`lowest`), or as written (`direct`).
-    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
-    realise: RealiseArg,
+    #[command(flatten)]
+    choice: ResidualChoice,
 
     #[command(flatten)]
     simplify: SimplifyArgs,
@@ -83,7 +75,7 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
     // A drawing needs the ARRs only to fill components by fault class, which
     // `--residuals best|all` asks for.
     let derive = match args.emit {
-        Target::Dot if args.residuals.set() != ResidualSet::PerSensor => Derive::Everything,
+        Target::Dot if args.choice.set() != ResidualSet::PerSensor => Derive::Everything,
         Target::State | Target::Dot => Derive::StateEquations,
         _ => Derive::Everything,
     };
@@ -95,7 +87,7 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
         model,
         derive,
         limits,
-        (args.residuals.set(), args.realise.realise()),
+        (args.choice.set(), args.choice.realise()),
     )?;
     let text = match args.emit {
         Target::Text => bondgraph_codegen::text::emit(&c),

@@ -10,7 +10,7 @@ use crate::report::{self, Failure};
 
 /// `--realise`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum RealiseArg {
+enum RealiseArg {
     /// Each ARR whose derivatives enter linearly with constant coefficients as the change of
     /// its integral, reading one order of derivative fewer; the others as written.
     Lowest,
@@ -19,7 +19,7 @@ pub(crate) enum RealiseArg {
 }
 
 impl RealiseArg {
-    pub(crate) fn realise(self) -> Realise {
+    fn realise(self) -> Realise {
         match self {
             RealiseArg::Lowest => Realise::Lowest,
             RealiseArg::Direct => Realise::Direct,
@@ -29,7 +29,7 @@ impl RealiseArg {
 
 /// `--residuals`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub(crate) enum ResidualsArg {
+enum ResidualsArg {
     /// One ARR per detector.
     PerSensor,
     /// The smallest set found that reaches the most isolability the candidates allow.
@@ -39,7 +39,7 @@ pub(crate) enum ResidualsArg {
 }
 
 impl ResidualsArg {
-    pub(crate) fn set(self) -> ResidualSet {
+    fn set(self) -> ResidualSet {
         match self {
             ResidualsArg::PerSensor => ResidualSet::PerSensor,
             ResidualsArg::Best => ResidualSet::Best,
@@ -49,6 +49,35 @@ impl ResidualsArg {
 }
 
 /// How expressions are written: the e-graph search for their shortest form.
+/// `--residuals` and `--realise`, which every command that derives ARRs takes: which
+/// residuals, and how residual generators evaluate them.
+#[derive(clap::Args, Debug)]
+pub(crate) struct ResidualChoice {
+    /// Which residuals: one ARR per detector (as the reference paper does), the smallest
+    /// set found that tells apart every fault class bgc can reach (`best`), or every
+    /// candidate with a signature of its own (`all`).
+    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
+    residuals: ResidualsArg,
+
+    /// How residual generators evaluate each ARR: integrated once where that lowers the
+    /// derivatives it reads (`lowest`; `bgc verify` checks such a one as its rate plus its
+    /// level's derivative), or as written (`direct`).
+    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
+    realise: RealiseArg,
+}
+
+impl ResidualChoice {
+    /// The residual set asked for.
+    pub(crate) fn set(&self) -> ResidualSet {
+        self.residuals.set()
+    }
+
+    /// The realisation asked for.
+    pub(crate) fn realise(&self) -> Realise {
+        self.realise.realise()
+    }
+}
+
 #[derive(clap::Args, Debug)]
 pub(crate) struct SimplifyArgs {
     /// Show expressions in canonical form (expanded sums of products), without the e-graph.

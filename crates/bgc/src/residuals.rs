@@ -15,7 +15,7 @@ use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
 
 use crate::calibrate::{self, Walk};
 use crate::io;
-use crate::options::{RealiseArg, ResidualsArg};
+use crate::options::ResidualChoice;
 use crate::record::{Data, Layout, STEP_TOLERANCE};
 use crate::report::{self, Failure};
 
@@ -101,14 +101,8 @@ pub(crate) struct ResidualArgs {
     /// Consecutive samples above (below) a threshold that raise (clear) its alarm.
     #[arg(long, value_name = "N", default_value_t = 1)]
     debounce: u32,
-    /// Which residuals to evaluate, as `bgc MODEL --residuals` derives them: one ARR per
-    /// detector, `best` or `all`.
-    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
-    residuals: ResidualsArg,
-    /// How the residuals are realised, as `bgc MODEL --realise`: integrated once where that
-    /// lowers the derivatives they read, or as written.
-    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
-    realise: RealiseArg,
+    #[command(flatten)]
+    choice: ResidualChoice,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -125,7 +119,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     }
     // The bound from parameter uncertainty is that of the relation as written.
     let realise = if args.adaptive {
-        if args.realise.realise() != Realise::Direct {
+        if args.choice.realise() != Realise::Direct {
             report::note(
                 "--adaptive evaluates the ARRs as written (--realise direct): their bounds \
                  from parameter uncertainty are derived for them",
@@ -133,7 +127,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         }
         Realise::Direct
     } else {
-        args.realise.realise()
+        args.choice.realise()
     };
     // The expressions as `bgc MODEL --emit rust` and `bond_graph!` write them: which ARRs can
     // be integrated depends on the form they are written in, and the two must evaluate the
@@ -142,7 +136,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         &args.model,
         Derive::Everything,
         Some(bondgraph_core::Limits::default()),
-        (args.residuals.set(), realise),
+        (args.choice.set(), realise),
     )?;
     if c.residual_code_refused() {
         return Err(report::refused(format!(

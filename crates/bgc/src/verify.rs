@@ -7,7 +7,7 @@ use bondgraph_sim::VerifyOptions;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::io;
-use crate::options::{RealiseArg, ResidualsArg, SimplifyArgs};
+use crate::options::{ResidualChoice, SimplifyArgs};
 use crate::report::{self, Failure};
 use crate::summary;
 
@@ -29,13 +29,8 @@ pub(crate) struct VerifyArgs {
     /// The step, in seconds.
     #[arg(long, value_name = "H", default_value_t = VerifyOptions::default().step)]
     step: f64,
-    /// Which residuals to derive and check (see `bgc --help`).
-    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
-    residuals: ResidualsArg,
-    /// How the residuals are realised (see `bgc --help`); an integrated one is checked
-    /// as its rate plus its level's derivative.
-    #[arg(long, value_enum, value_name = "HOW", default_value = "lowest")]
-    realise: RealiseArg,
+    #[command(flatten)]
+    choice: ResidualChoice,
     /// Write the table to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -49,7 +44,7 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
         &args.model,
         Derive::Everything,
         args.simplify.limits()?,
-        (args.residuals.set(), args.realise.realise()),
+        (args.choice.set(), args.choice.realise()),
     )?;
     io::succeeded(&c)?;
     let options = VerifyOptions {
