@@ -216,7 +216,9 @@ pub(crate) fn residuals<'py>(
         .collect();
     let slots: Vec<usize> = roots.iter().map(|r| r.0).collect();
     let pass = py.detach(|| run(generator, time, &data, &settings, &rows, &slots));
+    let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
+    out.set_item("has_threshold", has)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
 }
@@ -264,7 +266,8 @@ fn run(
         {
             let now = level.map(|l| l + b);
             pass.residuals.push(r);
-            pass.levels.push(now.unwrap_or(f64::NAN));
+            // Where there is none, 0 and `has_threshold` false: Python marks it missing.
+            pass.levels.push(now.unwrap_or(0.0));
             // A residual that is not a number raises no alarm; its debounce goes on.
             *on = match (alarm.as_mut(), now) {
                 (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),

@@ -175,3 +175,10 @@ def test_unaligned_and_strided_columns_are_taken(bench, record):
     np.testing.assert_array_equal(bench.residuals(data, thresholds=1.0).values, expected)
     doubled = {c: np.repeat(record[c].to_numpy(), 2)[::2] for c in record.columns}
     np.testing.assert_array_equal(bench.residuals(doubled, thresholds=1.0).values, expected)
+
+
+def test_a_residual_without_threshold_has_a_missing_one_and_no_alarm(bench, record):
+    run = bench.residuals(record, thresholds={"ARR2": 0.05})
+    assert np.isnan(run.thresholds[:, 0]).all() and not run.alarms[:, 0].any()
+    assert (run.thresholds[:, 1] == 0.05).all() and run.alarms[:, 1].any()
+    assert run.to_pandas()["threshold_ARR1"].isna().all()

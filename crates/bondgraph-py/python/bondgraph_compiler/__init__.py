@@ -217,7 +217,8 @@ class Residuals:
         self.names: List[str] = names
         self.time: np.ndarray = out["time"]
         self.values: np.ndarray = out["residuals"]
-        self.thresholds: np.ndarray = out["thresholds"]
+        # A residual without a threshold: its column is missing (NaN, as pandas marks it).
+        self.thresholds: np.ndarray = np.where(np.asarray(out["has_threshold"]), out["thresholds"], np.nan)
         self.alarms: np.ndarray = out["alarms"]
         self._pattern: np.ndarray = out["pattern"]
         self._candidates: List[str] = out["candidates"]
