@@ -139,3 +139,13 @@ def test_verify_gives_the_clis_verdicts():
     assert "FAIL" not in cli
     with pytest.raises(ValueError, match=r"state_scale must be a finite number > 0"):
         model.verify(state_scale=0.0)
+
+
+def test_a_model_pickles_as_its_text_and_compiles_again():
+    import pickle
+
+    model = bgc.compile(BENCH, residuals="best")
+    again = pickle.loads(pickle.dumps(model))
+    assert again.to_dict() == model.to_dict()
+    assert again.diagnostics == model.diagnostics
+    assert len(pickle.dumps(model)) < 2 * len(BENCH.read_text(encoding="utf-8")) + 200

@@ -73,7 +73,13 @@ def compile(source: Source, *, residuals: str = "per-sensor", realise: str = "lo
     Raises `ModelError` when the model has errors.
     """
     text, file = _read(source, ".bg", "<model>")
-    return Model(_native.compile(text, file, residuals, realise))
+    return Model(_native.compile(text, file, residuals, realise), residuals, realise)
+
+
+def _recompile(text: str, file: str, residuals: str, realise: str) -> "Model":
+    """A pickled model, compiled again where it is unpickled (a Dask or multiprocessing
+    worker): the compiled form is Rust data, its text is what travels."""
+    return Model(_native.compile(text, file, residuals, realise), residuals, realise)
 
 
 @dataclass(frozen=True)
@@ -336,9 +342,13 @@ class Model:
     """A compiled model: its parameters, signals, state equations, ARRs, fault signature
     matrix and fault classes, and what can be computed from it."""
 
-    def __init__(self, native: Any):
+    def __init__(self, native: Any, residuals: str = "per-sensor", realise: str = "lowest"):
         self._native = native
+        self._options = (residuals, realise)
         self._json: Dict[str, Any] = json.loads(native.json())
+
+    def __reduce__(self) -> Any:
+        return (_recompile, (self._native.text, self._native.file, *self._options))
 
     def __repr__(self) -> str:
         return (
