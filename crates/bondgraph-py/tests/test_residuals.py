@@ -182,3 +182,25 @@ def test_a_residual_without_threshold_has_a_missing_one_and_no_alarm(bench, reco
     assert np.isnan(run.thresholds[:, 0]).all() and not run.alarms[:, 0].any()
     assert (run.thresholds[:, 1] == 0.05).all() and run.alarms[:, 1].any()
     assert run.to_pandas()["threshold_ARR1"].isna().all()
+
+
+def test_a_million_rows_in_one_call(bench, capsys):
+    """A 10^6-row DataFrame in one call: every estimate there, the first ones equal to those
+    of its first 10^4 rows alone (the pass carries its state in order). The rate is printed,
+    not asserted (bench/residuals.py measures it)."""
+    import time
+
+    import pandas as pd
+
+    rows = 1_000_000
+    t = np.arange(rows) * 1e-3
+    waves = [np.sin(t), np.cos(1.3 * t), np.sin(0.7 * t)]
+    frame = pd.DataFrame({"t": t, **dict(zip(bench.signals, waves))})
+    start = time.perf_counter()
+    run = bench.residuals(frame, thresholds=1.0)
+    seconds = time.perf_counter() - start
+    assert len(run) == rows - 10 and np.isfinite(run.values).all()
+    head = bench.residuals(frame.head(10_000), thresholds=1.0)
+    np.testing.assert_array_equal(run.values[: len(head)], head.values)
+    with capsys.disabled():
+        print(f"\n{rows} rows in {seconds * 1e3:.0f} ms: {rows / seconds / 1e6:.1f} million rows/s")
