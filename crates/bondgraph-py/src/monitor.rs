@@ -249,6 +249,7 @@ fn run(
     let mut last: Option<usize> = None;
     let mut episode = Episode::new(m);
     let mut seen: Vec<bool> = Vec::new();
+    let mut now_seen: Vec<bool> = Vec::with_capacity(m);
     let mut raw = vec![0.0; data.len()];
     for (k, &t) in time.iter().enumerate() {
         for (v, column) in raw.iter_mut().zip(data) {
@@ -285,9 +286,12 @@ fn run(
         last = Some(code);
         pass.pattern.push(u32::try_from(code).unwrap_or(u32::MAX));
         episode.push(&on);
-        if episode.started() && episode.seen() != seen {
-            seen = episode.seen();
-            pass.episodes.push(episode.candidates(fsm(m)).join(" "));
+        if episode.started() {
+            episode.seen_into(&mut now_seen);
+            if now_seen != seen {
+                std::mem::swap(&mut seen, &mut now_seen);
+                pass.episodes.push(episode.candidates(fsm(m)).join(" "));
+            }
         }
         let episode_code = if episode.started() {
             pass.episodes.len() - 1

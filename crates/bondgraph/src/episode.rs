@@ -92,8 +92,20 @@ impl Episode {
     /// Which residuals have been seen in alarm: for the share of the episode it takes.
     #[must_use]
     pub fn seen(&self) -> Vec<bool> {
-        let shares = self.shares();
-        shares.iter().map(|&s| s > 0.0 && s >= self.seen).collect()
+        let mut out = Vec::with_capacity(self.on.len());
+        self.seen_into(&mut out);
+        out
+    }
+
+    /// [`Episode::seen`] into `out` (cleared first): no allocation per sample once it has
+    /// grown, for a caller that asks at every sample.
+    pub fn seen_into(&self, out: &mut Vec<bool>) {
+        let n = self.samples.max(1) as f64;
+        out.clear();
+        out.extend(self.on.iter().map(|&k| {
+            let share = k as f64 / n;
+            share > 0.0 && share >= self.seen
+        }));
     }
 
     /// The components `rows` (name, signature) ranked by how well a single fault of each

@@ -171,9 +171,13 @@ impl<L: LeafKind> Tape<L> {
         scratch: &mut Vec<f64>,
         out: &mut Vec<f64>,
     ) {
-        // Written by position rather than pushed: a push reloads the length every time.
-        scratch.clear();
-        scratch.resize(self.ops.len(), 0.0);
+        // Written by position rather than pushed: a push reloads the length every time. Every
+        // step is written before it is read (children come first), so the scratch is sized,
+        // not cleared.
+        if scratch.len() != self.ops.len() {
+            scratch.clear();
+            scratch.resize(self.ops.len(), 0.0);
+        }
         let s = scratch.as_mut_slice();
         for (i, op) in self.ops.iter().enumerate() {
             let value = match *op {
