@@ -204,3 +204,13 @@ def test_a_million_rows_in_one_call(bench, capsys):
     np.testing.assert_array_equal(run.values[: len(head)], head.values)
     with capsys.disabled():
         print(f"\n{rows} rows in {seconds * 1e3:.0f} ms: {rows / seconds / 1e6:.1f} million rows/s")
+
+
+def test_a_bad_value_is_named_by_the_datas_column(bench, record):
+    broken = record.rename(columns={"y1": "motor_speed", "t": "time"})
+    broken.loc[7, "motor_speed"] = np.inf
+    with pytest.raises(bgc.DataError, match=r"row 7, column `motor_speed`: inf is not a finite number"):
+        bench.residuals(broken, time="time", columns={"y1": "motor_speed"})
+    broken.loc[3, "time"] = np.nan
+    with pytest.raises(bgc.DataError, match=r"row 3, column `time`: NaN is not a finite number"):
+        bench.residuals(broken, time="time", columns={"y1": "motor_speed"})

@@ -172,7 +172,14 @@ def _column(data: Any, name: str) -> np.ndarray:
         raise DataError(f"column `{name}` holds {values.dtype} values; expected numbers")
     # Contiguous and aligned (Arrow-backed columns moved between processes may not be):
     # copied only when not already so.
-    return np.require(values, dtype=np.float64, requirements=["C", "A"])
+    values = np.require(values, dtype=np.float64, requirements=["C", "A"])
+    # Checked here, where the column's own name is known (the data's, not the model's).
+    finite = np.isfinite(values)
+    if not finite.all():
+        row = int(np.argmin(finite))
+        shown = "NaN" if np.isnan(values[row]) else str(values[row])
+        raise DataError(f"row {row}, column `{name}`: {shown} is not a finite number")
+    return values
 
 
 def _names(data: Any) -> List[str]:
