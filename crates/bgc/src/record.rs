@@ -1,6 +1,8 @@
 //! Recorded samples read from CSV or Parquet: a time column with a uniform step and the
 //! columns a model's ARRs read.
 
+use bondgraph_interpreter::{uniform_step, StepError};
+
 use crate::io;
 use crate::parquet_record;
 
@@ -22,9 +24,6 @@ pub(crate) struct Data {
     /// One column per name asked for, in that order.
     pub(crate) columns: Vec<Vec<f64>>,
 }
-
-/// Relative tolerance on the time step: rows must be this regular.
-pub(crate) const STEP_TOLERANCE: f64 = 1e-6;
 
 impl Data {
     /// Reads the record `bytes` (Parquet, or else CSV), keeping the columns of `layout`;
@@ -236,27 +235,19 @@ fn parse_part(
 /// The uniform step of `time`, or the first row where it is not (`place` names row `k` as
 /// the user finds it: a line of a CSV, a row of a table).
 fn check_time(time: &[f64], place: &dyn Fn(usize) -> String) -> Result<f64, String> {
-    let [t0, t1, ..] = time else {
-        return Err(format!("{} rows: too few samples", time.len()));
-    };
-    let step = t1 - t0;
-    for (k, pair) in time.windows(2).enumerate() {
-        let d = pair[1] - pair[0];
-        let line = place(k + 1);
-        if d <= 0.0 {
-            return Err(format!(
-                "{line}: time goes from {} to {}: it must increase",
-                io::seconds(pair[0]),
-                io::seconds(pair[1])
-            ));
-        }
-        if (d - step).abs() > STEP_TOLERANCE * step {
-            return Err(format!(
-                "{line}: a step of {} s where the record's is {} s: the estimators need a uniform step",
-                io::seconds(d),
-                io::seconds(step)
-            ));
-        }
-    }
-    Ok(step)
+    uniform_step(time).map_err(|e| match e {
+        StepError::TooFew(n) => format!("{n} rows: too few samples"),
+        StepError::NotIncreasing { row, from, to } => format!(
+            "{}: time goes from {} to {}: it must increase",
+            place(row),
+            io::seconds(from),
+            io::seconds(to)
+        ),
+        StepError::Uneven { row, found, step } => format!(
+            "{}: a step of {} s where the record's is {} s: the estimators need a uniform step",
+            place(row),
+            io::seconds(found),
+            io::seconds(step)
+        ),
+    })
 }

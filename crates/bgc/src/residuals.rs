@@ -11,12 +11,12 @@ use std::path::PathBuf;
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_core::program::Stability;
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
-use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
+use bondgraph_interpreter::{Estimator, Fit, Generator, Integration, STEP_TOLERANCE};
 
 use crate::calibrate::{self, Walk};
 use crate::io;
 use crate::options::ResidualChoice;
-use crate::record::{Data, Layout, STEP_TOLERANCE};
+use crate::record::{Data, Layout};
 use crate::report::{self, Failure};
 
 /// `--estimator`.

@@ -7,6 +7,8 @@ mod copy;
 mod fit;
 mod fold;
 mod generator;
+mod step;
 
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimate, Generator};
+pub use step::{uniform_step, StepError, STEP_TOLERANCE};

@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
-use bondgraph_interpreter::{Estimator, Fit, Generator, Integration};
+use bondgraph_interpreter::{uniform_step, Estimator, Fit, Generator, Integration, StepError};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -13,10 +13,6 @@ use pyo3::types::PyDict;
 
 use crate::errors::{self, BgcError};
 use crate::model::Model;
-
-/// The relative deviation from the first step that still counts as the same step (the
-/// CLI's).
-const STEP_TOLERANCE: f64 = 1e-6;
 
 /// How the estimates are made.
 struct Settings {
@@ -46,31 +42,15 @@ struct Pass {
 
 /// The uniform step of `time`, or why it has none.
 fn step_of(time: &[f64]) -> PyResult<f64> {
-    let [t0, t1, ..] = time else {
-        return Err(errors::data(format!(
-            "{} samples: too few to estimate anything",
-            time.len()
-        )));
-    };
-    let step = t1 - t0;
-    for (k, pair) in time.windows(2).enumerate() {
-        let d = pair[1] - pair[0];
-        if d <= 0.0 || d.is_nan() {
-            return Err(errors::data(format!(
-                "row {}: time goes from {} to {}: it must increase",
-                k + 1,
-                pair[0],
-                pair[1]
-            )));
-        }
-        if (d - step).abs() > STEP_TOLERANCE * step {
-            return Err(errors::data(format!(
-                "row {}: a step of {d} s where the record's is {step} s: the estimators need a uniform step",
-                k + 1
-            )));
-        }
-    }
-    Ok(step)
+    uniform_step(time).map_err(|e| match e {
+        StepError::TooFew(n) => errors::data(format!("{n} samples: too few to estimate anything")),
+        StepError::NotIncreasing { row, from, to } => errors::data(format!(
+            "row {row}: time goes from {from} to {to}: it must increase"
+        )),
+        StepError::Uneven { row, found, step } => errors::data(format!(
+            "row {row}: a step of {found} s where the record's is {step} s: the estimators need a uniform step"
+        )),
+    })
 }
 
 /// The first sample of a column that is not a finite number.
@@ -98,7 +78,7 @@ fn estimator(kind: &str, window: usize, degree: u32) -> PyResult<Estimator> {
 /// Runs the residual program of `model` over the samples `columns` (in the order of
 /// `model.signals()`) taken at `time`.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, thresholds, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false))]
+#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn residuals<'py>(
     py: Python<'py>,
@@ -106,6 +86,7 @@ pub(crate) fn residuals<'py>(
     time: PyReadonlyArray1<'py, f64>,
     columns: Vec<PyReadonlyArray1<'py, f64>>,
     thresholds: Vec<Option<f64>>,
+    labels: Option<Vec<String>>,
     window: Option<usize>,
     estimator: &str,
     degree: Option<u32>,
@@ -149,9 +130,17 @@ pub(crate) fn residuals<'py>(
         }
         data.push(slice);
     }
-    check_finite("t", time)?;
-    for (column, name) in data.iter().zip(&names) {
-        check_finite(name, column)?;
+    // The names the data gives the time and the columns, for its errors.
+    let labels = labels.unwrap_or_else(|| {
+        std::iter::once("t")
+            .chain(names.iter().copied())
+            .map(String::from)
+            .collect()
+    });
+    let label = |k: usize| labels.get(k).map_or("?", String::as_str);
+    check_finite(label(0), time)?;
+    for (k, column) in data.iter().enumerate() {
+        check_finite(label(k + 1), column)?;
     }
     let step = step_of(time)?;
     if thresholds.len() != c.arrs.len() {

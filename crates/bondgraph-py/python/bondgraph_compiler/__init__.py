@@ -172,14 +172,7 @@ def _column(data: Any, name: str) -> np.ndarray:
         raise DataError(f"column `{name}` holds {values.dtype} values; expected numbers")
     # Contiguous and aligned (Arrow-backed columns moved between processes may not be):
     # copied only when not already so.
-    values = np.require(values, dtype=np.float64, requirements=["C", "A"])
-    # Checked here, where the column's own name is known (the data's, not the model's).
-    finite = np.isfinite(values)
-    if not finite.all():
-        row = int(np.argmin(finite))
-        shown = "NaN" if np.isnan(values[row]) else str(values[row])
-        raise DataError(f"row {row}, column `{name}`: {shown} is not a finite number")
-    return values
+    return np.require(values, dtype=np.float64, requirements=["C", "A"])
 
 
 def _names(data: Any) -> List[str]:
@@ -195,7 +188,9 @@ def _names(data: Any) -> List[str]:
 
 def _columns(
     data: Any, wanted: Sequence[str], time: str, mapping: Optional[Mapping[str, str]]
-) -> "tuple[np.ndarray, List[np.ndarray]]":
+) -> "tuple[np.ndarray, List[np.ndarray], List[str]]":
+    """The time, the column of each of `wanted`, and the names the data gives them (which
+    the errors about their values use)."""
     present = _names(data)
     mapping = dict(mapping or {})
     for signal in mapping:
@@ -213,8 +208,9 @@ def _columns(
         return _column(data, name)
 
     t = get(time, "time")
-    columns = [get(mapping.get(s, s), f"signal `{s}` of the model") for s in wanted]
-    return t, columns
+    labels = [time] + [mapping.get(s, s) for s in wanted]
+    columns = [get(label, f"signal `{s}` of the model") for s, label in zip(wanted, labels[1:])]
+    return t, columns, labels
 
 
 class Residuals:
@@ -554,9 +550,9 @@ class Model:
         if calibrate is not None:
             if not (0.0 <= false_alarm_rate < 1.0) or not (margin >= 0.0):
                 raise ValueError("false_alarm_rate must be in [0, 1) and margin non-negative")
-            t, cols = _columns(calibrate, self.signals, time, columns)
+            t, cols, labels = _columns(calibrate, self.signals, time, columns)
             healthy = _native.residuals(
-                self._native, t, cols, thresholds=[None] * len(arr_names), adaptive=False, **options
+                self._native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False, **options
             )
             values = np.abs(healthy["residuals"])
             for k in range(len(arr_names)):
@@ -567,8 +563,10 @@ class Model:
                     levels[k] = float(np.quantile(finite, 1.0 - false_alarm_rate)) * (1.0 + margin)
         if adaptive:
             levels = [0.0 if level is None else level for level in levels]
-        t, cols = _columns(data, self.signals, time, columns)
-        out = _native.residuals(self._native, t, cols, thresholds=levels, adaptive=adaptive, **options)
+        t, cols, labels = _columns(data, self.signals, time, columns)
+        out = _native.residuals(
+            self._native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive, **options
+        )
         return Residuals(arr_names, out)
 
     def simulate(self, scenario: Source) -> Any:

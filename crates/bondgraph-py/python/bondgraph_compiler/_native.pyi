@@ -33,6 +33,7 @@ def residuals(
     columns: Sequence[npt.NDArray[np.float64]],
     *,
     thresholds: Sequence[Optional[float]],
+    labels: Optional[Sequence[str]] = None,
     window: Optional[int] = None,
     estimator: str = "savitzky-golay",
     degree: Optional[int] = None,
