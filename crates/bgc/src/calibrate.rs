@@ -302,18 +302,15 @@ fn rms(r: &[f64]) -> f64 {
 /// Each residual's values over a record, one per estimate.
 fn residuals(mut generator: Generator, record: &Data) -> Vec<Vec<f64>> {
     let mut series: Vec<Vec<f64>> = Vec::new();
-    let mut raw = vec![0.0; record.columns.len()];
-    for (k, &t) in record.time.iter().enumerate() {
-        for (v, column) in raw.iter_mut().zip(&record.columns) {
-            *v = column[k];
+    let raw: Vec<&[f64]> = record.columns.iter().map(Vec::as_slice).collect();
+    generator.run(&record.time, &raw, false, |e| {
+        if !e.is_empty() {
+            series.resize(e.residual_count(), Vec::new());
         }
-        if let Some(e) = generator.push(t, &raw, false) {
-            series.resize(e.residuals.len(), Vec::new());
-            for (s, r) in series.iter_mut().zip(e.residuals) {
-                s.push(*r);
-            }
+        for (k, s) in series.iter_mut().enumerate() {
+            s.extend_from_slice(e.residual(k));
         }
-    }
+    });
     series
 }
 

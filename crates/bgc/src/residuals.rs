@@ -319,7 +319,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         .map(|(_, comp)| (comp.name.as_str(), marks(&comp.marks)))
         .collect();
     let n = c.arrs.len();
-    let mut raw = vec![0.0; names.len()];
+    let raw: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
+    let (mut residuals, mut bounds) = (vec![0.0; n], vec![0.0; n]);
     let mut now: Vec<Option<f64>> = vec![None; n];
     let mut on = vec![false; n];
     let mut drawn = Drawn::new(n, args.plot.is_some());
@@ -350,50 +351,47 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         });
         let mut chunk = Chunk::default();
         let mut estimates = 0;
-        for (k, &t) in data.time.iter().enumerate() {
-            for (v, column) in raw.iter_mut().zip(&data.columns) {
-                *v = column[k];
-            }
-            let Some(e) = generator.push(t, &raw, args.adaptive) else {
-                continue;
-            };
-            for ((((now, on), alarm), walk), ((l, b), &r)) in now
-                .iter_mut()
-                .zip(&mut on)
-                .zip(&mut alarms)
-                .zip(&walks)
-                .zip(levels.iter().zip(e.bounds).zip(e.residuals))
-            {
-                *now = l.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
-                // A residual that is not a number says nothing: no alarm, and its debounce
-                // goes on from where it was.
-                *on = match (alarm.as_mut(), *now) {
-                    (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
-                    _ => false,
-                };
-            }
-            let at = io::tidy_time(e.at, data.step);
-            for (k, r) in e.residuals.iter().enumerate() {
-                if !r.is_finite() && e.unsolved.is_none() {
-                    let entry = singular.entry(k).or_insert((0, at));
+        generator.run(&data.time, &raw, args.adaptive, |e| {
+            for (j, (&e_at, &e_unsolved)) in e.at().iter().zip(e.unsolved()).enumerate() {
+                for (k, (r, b)) in residuals.iter_mut().zip(&mut bounds).enumerate() {
+                    (*r, *b) = (e.residual(k)[j], e.bound(k)[j]);
+                }
+                for ((((now, on), alarm), walk), ((l, b), &r)) in now
+                    .iter_mut()
+                    .zip(&mut on)
+                    .zip(&mut alarms)
+                    .zip(&walks)
+                    .zip(levels.iter().zip(&bounds).zip(&residuals))
+                {
+                    *now = l.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
+                    // A residual that is not a number says nothing: no alarm, and its
+                    // debounce goes on from where it was.
+                    *on = match (alarm.as_mut(), *now) {
+                        (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
+                        _ => false,
+                    };
+                }
+                let at = io::tidy_time(e_at, data.step);
+                for (k, r) in residuals.iter().enumerate() {
+                    if !r.is_finite() && e_unsolved.is_none() {
+                        let entry = singular.entry(k).or_insert((0, at));
+                        entry.0 += 1;
+                    }
+                }
+                chunk.push(at, &residuals, &now, &on);
+                chunk.unsolved.push(e_unsolved);
+                if let Some(slot) = e_unsolved {
+                    let entry = unsolved.entry(slot).or_insert((0, at));
                     entry.0 += 1;
                 }
+                estimates += 1;
+                drawn.push(e_at, &residuals, &now, &on);
+                if chunk.time.len() == CHUNK_ROWS {
+                    // The writer stops only when this side has: it cannot have gone away.
+                    let _ = send.send(std::mem::take(&mut chunk));
+                }
             }
-            chunk.push(at, e.residuals, &now, &on);
-            chunk.unsolved.push(e.unsolved);
-            if let Some(slot) = e.unsolved {
-                let entry = unsolved
-                    .entry(slot)
-                    .or_insert((0, io::tidy_time(e.at, data.step)));
-                entry.0 += 1;
-            }
-            estimates += 1;
-            drawn.push(e.at, e.residuals, &now, &on);
-            if chunk.time.len() == CHUNK_ROWS {
-                // The writer stops only when this side has: it cannot have gone away.
-                let _ = send.send(std::mem::take(&mut chunk));
-            }
-        }
+        });
         let _ = send.send(chunk);
         drop(send);
         writer.join().unwrap_or_default()

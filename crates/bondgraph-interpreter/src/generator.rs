@@ -31,7 +31,10 @@ enum Step {
 }
 
 /// The residual generator of a program, run at run time: the same estimators, in the same
-/// order, as the generated `ResidualGenerator` of the same program.
+/// order, as the generated `ResidualGenerator` of the same program. It takes samples a block
+/// at a time and runs each stage over the whole block before the next (one tape step over
+/// every estimate, one estimator over every sample), so that the interpreter's dispatch is
+/// paid once per block rather than once per sample.
 pub struct Generator {
     /// One estimator per channel, and what it is fed.
     estimators: Vec<Box<dyn Differentiator + Send>>,
@@ -39,9 +42,9 @@ pub struct Generator {
     /// For each channel, the slots of the derivatives read, by order.
     scatter: Vec<Vec<(usize, usize)>>,
     steps: Vec<Step>,
-    /// The slot of the first root not found at the last estimate, if any.
-    unsolved: Option<usize>,
     residuals: Tape<Leaf>,
+    /// How many residuals.
+    count: usize,
     /// Every sensitivity `∂r/∂θ` of every residual, in order.
     sensitivities: Tape<Leaf>,
     /// For each of them, its residual and `Δθ`.
@@ -51,25 +54,78 @@ pub struct Generator {
     /// The copy of the model simulated residuals run, if any.
     copy: Option<CopyRun>,
     delay: f64,
-    values: Vec<f64>,
-    /// Reused between samples, so that a sample allocates nothing.
-    scratch: Vec<f64>,
-    buffer: Vec<f64>,
-    out: Vec<f64>,
-    bounds: Vec<f64>,
+    slots: usize,
+    /// Reused between blocks, so that a block allocates nothing once they have grown.
+    work: Work,
 }
 
-/// The residuals at one instant, as [`Generator::push`] gives them.
-pub struct Estimate<'g> {
-    /// The instant of the estimates: the sample's time minus the estimators' delay.
-    pub at: f64,
-    /// Each residual.
-    pub residuals: &'g [f64],
-    /// Each residual's bound from parameter uncertainty (zeros when not asked for).
-    pub bounds: &'g [f64],
-    /// The slot of the first root not found at this instant (the residuals that read it are
-    /// not numbers), if any.
-    pub unsolved: Option<usize>,
+/// The buffers of one block.
+#[derive(Default)]
+struct Work {
+    /// Each channel's input over the block, when it is not a raw column.
+    fed: Vec<f64>,
+    /// Each channel's estimates over the block, order by order.
+    estimates: Vec<Vec<f64>>,
+    /// The block's samples that give an estimate.
+    rows: Vec<usize>,
+    /// Each slot's values over the estimates, slot by slot.
+    values: Vec<f64>,
+    at: Vec<f64>,
+    unsolved: Vec<Option<usize>>,
+    residuals: Vec<f64>,
+    bounds: Vec<f64>,
+    scratch: Vec<f64>,
+    buffer: Vec<f64>,
+    point: Vec<f64>,
+}
+
+/// The residuals of a block of samples, as [`Generator::push_block`] gives them: one
+/// estimate per sample once the windows are full, each residual as a column.
+pub struct Estimates<'g> {
+    count: usize,
+    at: &'g [f64],
+    residuals: &'g [f64],
+    bounds: &'g [f64],
+    unsolved: &'g [Option<usize>],
+}
+
+impl<'g> Estimates<'g> {
+    /// How many estimates.
+    pub fn len(&self) -> usize {
+        self.at.len()
+    }
+
+    /// Whether there are none (the windows are not full yet).
+    pub fn is_empty(&self) -> bool {
+        self.at.is_empty()
+    }
+
+    /// How many residuals each estimate has.
+    pub fn residual_count(&self) -> usize {
+        self.count
+    }
+
+    /// The instant of each estimate: its sample's time minus the estimators' delay.
+    pub fn at(&self) -> &'g [f64] {
+        self.at
+    }
+
+    /// Residual `k` at each estimate.
+    pub fn residual(&self, k: usize) -> &'g [f64] {
+        &self.residuals[k * self.len()..][..self.len()]
+    }
+
+    /// Residual `k`'s bound from parameter uncertainty at each estimate (zeros when not
+    /// asked for).
+    pub fn bound(&self, k: usize) -> &'g [f64] {
+        &self.bounds[k * self.len()..][..self.len()]
+    }
+
+    /// At each estimate, the slot of the first root not found there (the residuals that
+    /// read it are not numbers), if any.
+    pub fn unsolved(&self) -> &'g [Option<usize>] {
+        self.unsolved
+    }
 }
 
 impl Generator {
@@ -142,130 +198,247 @@ impl Generator {
             feeds,
             scatter,
             steps,
-            unsolved: None,
             residuals: tape(&program.code, &residuals, params),
+            count: residuals.len(),
             sensitivities: tape(&program.code, &sensitivities, params),
             weights,
             references,
             copy: (program.copy.as_ref()).map(|copy| CopyRun::new(program, copy, params)),
             delay,
-            values: vec![0.0; program.slots.len()],
-            scratch: Vec::new(),
-            buffer: Vec::new(),
-            out: Vec::new(),
-            bounds: Vec::new(),
+            slots: program.slots.len(),
+            work: Work::default(),
         })
     }
 
-    /// Takes the raw samples at `t` (in the program's raw order, one per raw signal: a
-    /// shorter slice is a caller's bug and panics) and returns, once the
-    /// windows are full, the residuals at the instant of the estimates and, with `bounds`,
-    /// each residual's bound from parameter uncertainty, `Σ |∂r/∂θ| Δθ` (else zeros).
-    pub fn push(&mut self, t: f64, raw: &[f64], bounds: bool) -> Option<Estimate<'_>> {
-        if let Some(copy) = &mut self.copy {
-            copy.push(t, raw);
+    /// Runs the samples at `time` (raw column `k` of `raw` giving raw signal `k`, in the
+    /// program's raw order) through the generator, [`BLOCK`] samples at a time, and hands
+    /// each block's estimates to `each`; `bounds` as in [`Generator::push_block`].
+    pub fn run(
+        &mut self,
+        time: &[f64],
+        raw: &[&[f64]],
+        bounds: bool,
+        mut each: impl FnMut(&Estimates<'_>),
+    ) {
+        let mut block: Vec<&[f64]> = Vec::with_capacity(raw.len());
+        for start in (0..time.len()).step_by(BLOCK) {
+            let end = (start + BLOCK).min(time.len());
+            block.clear();
+            block.extend(raw.iter().map(|column| &column[start..end]));
+            each(&self.push_block(&time[start..end], &block, bounds));
         }
-        if !self.estimate(t, raw) {
-            return None;
+    }
+
+    /// Takes the samples at `time` (raw column `k` of `raw` giving raw signal `k`, in the
+    /// program's raw order; a shorter column is a caller's bug and panics) and returns the
+    /// residuals of every sample once the windows are full, at the instants of the
+    /// estimates, and with `bounds` each residual's bound from parameter uncertainty,
+    /// `Σ |∂r/∂θ| Δθ` (else zeros). Blocks of any length give the same estimates, to the
+    /// bit, as one block of all the samples: the stages keep their state between blocks.
+    pub fn push_block(&mut self, time: &[f64], raw: &[&[f64]], bounds: bool) -> Estimates<'_> {
+        let mut work = std::mem::take(&mut self.work);
+        let first = self.estimate(time, raw, &mut work);
+        self.rows(time, raw, first, &mut work);
+        let m = work.rows.len();
+        self.scatter_estimates(time.len(), &mut work);
+        work.unsolved.clear();
+        work.unsolved.resize(m, None);
+        self.steps(&mut work);
+        self.residuals_of(bounds, &mut work);
+        self.work = work;
+        Estimates {
+            count: self.count,
+            at: &self.work.at,
+            residuals: &self.work.residuals,
+            bounds: &self.work.bounds,
+            unsolved: &self.work.unsolved,
         }
-        let at = t - self.delay;
-        if let Some(copy) = &mut self.copy {
-            let x = copy.replay.at(at)?;
-            for &(i, k) in &copy.read {
-                self.values[i] = x[k];
+    }
+
+    /// Feeds every channel its samples and keeps the estimates; the first sample at which
+    /// every channel has one.
+    fn estimate(&mut self, time: &[f64], raw: &[&[f64]], work: &mut Work) -> usize {
+        let n = time.len();
+        work.estimates.resize_with(self.estimators.len(), Vec::new);
+        let mut first = 0;
+        let channels = self.estimators.iter_mut().zip(&mut self.feeds);
+        for ((estimator, feed), out) in channels.zip(&mut work.estimates) {
+            let xs: &[f64] = match feed {
+                Feed::Raw(k) => &raw[*k][..n],
+                Feed::Integral(k, rule) => {
+                    work.fed.clear();
+                    work.fed
+                        .extend(time.iter().zip(raw[*k]).map(|(&t, &x)| rule.push(t, x)));
+                    &work.fed
+                }
+            };
+            out.resize((estimator.order() as usize + 1) * n, 0.0);
+            first = first.max(estimator.push_slice(xs, out));
+        }
+        first
+    }
+
+    /// The samples from `first` on that give an estimate, and their instants: all of them
+    /// but where the copy of the model has no state yet. The copy takes every sample.
+    fn rows(&mut self, time: &[f64], raw: &[&[f64]], first: usize, work: &mut Work) {
+        work.rows.clear();
+        work.at.clear();
+        let Some(copy) = &mut self.copy else {
+            work.rows.extend(first..time.len());
+            work.at.extend(time[first..].iter().map(|t| t - self.delay));
+            return;
+        };
+        // The copy's states are read below, slot by slot, once the rows are known.
+        work.buffer.clear();
+        for (i, &t) in time.iter().enumerate() {
+            work.point.clear();
+            work.point.extend(raw.iter().map(|column| column[i]));
+            copy.push(t, &work.point);
+            if i < first {
+                continue;
+            }
+            let at = t - self.delay;
+            if let Some(x) = copy.replay.at(at) {
+                work.rows.push(i);
+                work.at.push(at);
+                work.buffer.extend(copy.read.iter().map(|&(_, k)| x[k]));
             }
         }
-        let mut scratch = std::mem::take(&mut self.scratch);
-        let mut buffer = std::mem::take(&mut self.buffer);
-        self.unsolved = None;
-        let mut steps = std::mem::take(&mut self.steps);
-        for step in &mut steps {
+    }
+
+    /// Writes the estimates of the rows, and the copy's states, into their slots.
+    fn scatter_estimates(&self, n: usize, work: &mut Work) {
+        let m = work.rows.len();
+        work.values.clear();
+        work.values.resize(self.slots * m, 0.0);
+        let contiguous = work.rows.first().is_some_and(|&r| r + m == n);
+        for (reads, estimates) in self.scatter.iter().zip(&work.estimates) {
+            for &(order, slot) in reads {
+                let column = &estimates[order * n..][..n];
+                let to = &mut work.values[slot * m..][..m];
+                if contiguous {
+                    to.copy_from_slice(&column[n - m..]);
+                } else {
+                    for (to, &i) in to.iter_mut().zip(&work.rows) {
+                        *to = column[i];
+                    }
+                }
+            }
+        }
+        if let Some(copy) = &self.copy {
+            let width = copy.read.len();
+            for (j, states) in work.buffer.chunks_exact(width.max(1)).enumerate().take(m) {
+                for (&(slot, _), &x) in copy.read.iter().zip(states) {
+                    work.values[slot * m + j] = x;
+                }
+            }
+        }
+    }
+
+    /// Fills the slots set by integrating or by solving a law, in order, over the rows.
+    fn steps(&mut self, work: &mut Work) {
+        let m = work.rows.len();
+        for step in &mut self.steps {
             match step {
                 Step::Integral {
                     slot,
                     integrand,
                     rule,
                 } => {
-                    let leaf = |l| self.leaf(l, at);
-                    integrand.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
-                    let v = buffer[0];
-                    self.values[*slot] = rule.push(at, v);
+                    let (values, at) = (&work.values, &work.at);
+                    integrand.columns_into(
+                        m,
+                        |l, to| leaf_column(l, to, values, at),
+                        |_, to| to.fill(f64::NAN),
+                        &mut work.scratch,
+                        &mut work.buffer,
+                    );
+                    let to = &mut work.values[*slot * m..][..m];
+                    for ((to, &v), &at) in to.iter_mut().zip(&work.buffer).zip(&work.at) {
+                        *to = rule.push(at, v);
+                    }
                 }
                 Step::Root { slot, law, finder } => {
-                    let root = finder.solve(|z| {
-                        self.values[*slot] = z;
-                        let leaf = |l| self.leaf(l, at);
-                        law.values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
-                        (buffer[0], buffer[1])
-                    });
-                    self.values[*slot] = match root {
-                        Some(z) => z,
-                        // No root at this instant: what reads it is not a number, and the
-                        // estimate says which slot was unsolved.
-                        None => {
-                            self.unsolved = self.unsolved.or(Some(*slot));
-                            f64::NAN
-                        }
-                    };
+                    for j in 0..m {
+                        let at = work.at[j];
+                        let root = finder.solve(|z| {
+                            work.values[*slot * m + j] = z;
+                            let values = &work.values;
+                            let leaf = |l| leaf_at(l, j, m, values, at);
+                            law.values_into(leaf, |_| f64::NAN, &mut work.scratch, &mut work.point);
+                            (work.point[0], work.point[1])
+                        });
+                        work.values[*slot * m + j] = match root {
+                            Some(z) => z,
+                            // No root at this instant: what reads it is not a number, and the
+                            // estimate says which slot was unsolved.
+                            None => {
+                                work.unsolved[j] = work.unsolved[j].or(Some(*slot));
+                                f64::NAN
+                            }
+                        };
+                    }
                 }
             }
         }
-        self.steps = steps;
-        let mut out = std::mem::take(&mut self.out);
-        (self.residuals).values_into(|l| self.leaf(l, at), |_| f64::NAN, &mut scratch, &mut out);
+    }
+
+    /// The residuals over the rows, integrated ones taken from their references, and their
+    /// bounds.
+    fn residuals_of(&mut self, bounds: bool, work: &mut Work) {
+        let m = work.rows.len();
+        let (values, at) = (&work.values, &work.at);
+        (self.residuals).columns_into(
+            m,
+            |l, to| leaf_column(l, to, values, at),
+            |_, to| to.fill(f64::NAN),
+            &mut work.scratch,
+            &mut work.residuals,
+        );
         for (k, reference) in &mut self.references {
-            if let Some(r) = out.get_mut(*k) {
+            for r in work.residuals[*k * m..][..m].iter_mut() {
                 *r = reference.push(*r);
             }
         }
-        self.bounds.clear();
-        self.bounds.resize(out.len(), 0.0);
+        work.bounds.clear();
+        work.bounds.resize(work.residuals.len(), 0.0);
         if bounds && !self.weights.is_empty() {
-            let leaf = |l| self.leaf(l, at);
-            (self.sensitivities).values_into(leaf, |_| f64::NAN, &mut scratch, &mut buffer);
-            for (&(k, delta), s) in self.weights.iter().zip(&buffer) {
-                self.bounds[k] += s.abs() * delta;
-            }
-        }
-        self.scratch = scratch;
-        self.buffer = buffer;
-        self.out = out;
-        Some(Estimate {
-            at,
-            residuals: &self.out,
-            bounds: &self.bounds,
-            unsolved: self.unsolved,
-        })
-    }
-
-    /// Feeds every channel its sample and writes the estimates into their slots; whether
-    /// every window is full.
-    fn estimate(&mut self, t: f64, raw: &[f64]) -> bool {
-        let mut ready = true;
-        let channels = self.estimators.iter_mut().zip(&mut self.feeds);
-        for (c, (estimator, feed)) in channels.enumerate() {
-            let x = match feed {
-                Feed::Raw(k) => raw[*k],
-                Feed::Integral(k, rule) => rule.push(t, raw[*k]),
-            };
-            match estimator.push(x) {
-                Some(d) => {
-                    for &(n, i) in &self.scatter[c] {
-                        self.values[i] = d[n];
-                    }
+            (self.sensitivities).columns_into(
+                m,
+                |l, to| leaf_column(l, to, values, at),
+                |_, to| to.fill(f64::NAN),
+                &mut work.scratch,
+                &mut work.buffer,
+            );
+            for (&(k, delta), s) in self.weights.iter().zip(work.buffer.chunks_exact(m.max(1))) {
+                for (b, s) in work.bounds[k * m..][..m].iter_mut().zip(s) {
+                    *b += s.abs() * delta;
                 }
-                None => ready = false,
             }
         }
-        ready
     }
+}
 
-    fn leaf(&self, l: Leaf, at: f64) -> f64 {
-        match l {
-            Leaf::Slot(h) => self.values[h.index()],
-            Leaf::Time => at,
-            // Folded, or read only by the copy's rates.
-            Leaf::Parameter(_) | Leaf::State(_) | Leaf::Input(_) => f64::NAN,
-        }
+/// How many samples [`Generator::run`] takes at a time: enough that each stage's dispatch
+/// is paid over many samples, few enough that a block's values stay in the cache.
+pub const BLOCK: usize = 256;
+
+/// A leaf's values over the rows: a slot's, or the estimates' instants.
+fn leaf_column(l: Leaf, to: &mut [f64], values: &[f64], at: &[f64]) {
+    let m = to.len();
+    match l {
+        Leaf::Slot(h) => to.copy_from_slice(&values[h.index() * m..][..m]),
+        Leaf::Time => to.copy_from_slice(at),
+        // Folded, or read only by the copy's rates.
+        Leaf::Parameter(_) | Leaf::State(_) | Leaf::Input(_) => to.fill(f64::NAN),
+    }
+}
+
+/// A leaf's value at row `j` of `m`.
+fn leaf_at(l: Leaf, j: usize, m: usize, values: &[f64], at: f64) -> f64 {
+    match l {
+        Leaf::Slot(h) => values[h.index() * m + j],
+        Leaf::Time => at,
+        Leaf::Parameter(_) | Leaf::State(_) | Leaf::Input(_) => f64::NAN,
     }
 }

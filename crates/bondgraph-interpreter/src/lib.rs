@@ -10,5 +10,5 @@ mod generator;
 mod step;
 
 pub use fit::{Estimator, Fit, Integration};
-pub use generator::{Estimate, Generator};
+pub use generator::{Estimates, Generator, BLOCK};
 pub use step::{uniform_step, StepError, STEP_TOLERANCE};

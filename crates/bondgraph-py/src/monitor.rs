@@ -5,7 +5,9 @@
 use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
-use bondgraph_interpreter::{uniform_step, Estimator, Fit, Generator, Integration, StepError};
+use bondgraph_interpreter::{
+    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError,
+};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -222,80 +224,112 @@ fn run(
     roots: &[usize],
 ) -> Pass {
     let m = settings.thresholds.len();
-    let mut alarms: Vec<Option<Threshold>> = (settings.thresholds.iter())
-        .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
-        .collect();
-    let fsm = |n: usize| {
-        rows.iter()
-            .map(move |(name, s)| (*name, Signature::new(n, s)))
-    };
     let mut pass = Pass {
         episodes: vec![String::new()],
         ..Pass::default()
     };
-    let mut known: HashMap<Vec<bool>, usize> = HashMap::new();
-    let mut on = vec![false; m];
-    let mut last: Option<usize> = None;
-    let mut episode = Episode::new(m);
-    let mut seen: Vec<bool> = Vec::new();
-    let mut now_seen: Vec<bool> = Vec::with_capacity(m);
-    let mut raw = vec![0.0; data.len()];
-    for (k, &t) in time.iter().enumerate() {
-        for (v, column) in raw.iter_mut().zip(data) {
-            *v = column[k];
+    // At most one estimate per sample: the outputs never move once reserved.
+    let n = time.len();
+    pass.at.reserve(n);
+    for v in [&mut pass.residuals, &mut pass.levels] {
+        v.reserve(n * m);
+    }
+    pass.alarms.reserve(n * m);
+    for v in [&mut pass.pattern, &mut pass.episode, &mut pass.unsolved] {
+        v.reserve(n);
+    }
+    let mut watch = Watch {
+        settings,
+        rows,
+        roots,
+        alarms: (settings.thresholds.iter())
+            .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
+            .collect(),
+        on: vec![false; m],
+        known: HashMap::new(),
+        last: None,
+        episode: Episode::new(m),
+        seen: vec![false; m],
+        began: false,
+    };
+    generator.run(time, data, settings.adaptive, |e| {
+        pass.at.extend_from_slice(e.at());
+        for j in 0..e.len() {
+            watch.estimate(&mut pass, e, j);
         }
-        let Some(e) = generator.push(t, &raw, settings.adaptive) else {
-            continue;
-        };
-        pass.at.push(e.at);
-        for ((((alarm, on), level), &r), &b) in (alarms.iter_mut())
-            .zip(&mut on)
-            .zip(&settings.thresholds)
-            .zip(e.residuals)
-            .zip(e.bounds)
-        {
+    });
+    pass
+}
+
+/// What the pass carries from one estimate to the next.
+struct Watch<'a> {
+    settings: &'a Settings,
+    rows: &'a [(&'a str, Vec<u32>)],
+    roots: &'a [usize],
+    alarms: Vec<Option<Threshold>>,
+    /// The last estimate's alarms, and its pattern's index.
+    on: Vec<bool>,
+    last: Option<usize>,
+    known: HashMap<Vec<bool>, usize>,
+    episode: Episode,
+    /// The residuals the episode has seen in alarm, and whether it has begun.
+    seen: Vec<bool>,
+    began: bool,
+}
+
+impl Watch<'_> {
+    /// Takes estimate `j` of `e` into `pass`.
+    fn estimate(&mut self, pass: &mut Pass, e: &Estimates<'_>, j: usize) {
+        let mut changed = self.last.is_none();
+        let each = (self.alarms.iter_mut())
+            .zip(&mut self.on)
+            .zip(&self.settings.thresholds);
+        for (k, ((alarm, on), level)) in each.enumerate() {
+            let (r, b) = (e.residual(k)[j], e.bound(k)[j]);
             let now = level.map(|l| l + b);
             pass.residuals.push(r);
             // Where there is none, 0 and `has_threshold` false: Python marks it missing.
             pass.levels.push(now.unwrap_or(0.0));
             // A residual that is not a number raises no alarm; its debounce goes on.
-            *on = match (alarm.as_mut(), now) {
+            let alarmed = match (alarm.as_mut(), now) {
                 (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
                 _ => false,
             };
-            pass.alarms.push(*on);
+            changed |= alarmed != *on;
+            *on = alarmed;
+            pass.alarms.push(alarmed);
         }
-        let code = match last {
-            Some(code) if pass.patterns[code] == on => code,
-            _ => *known.entry(on.clone()).or_insert_with(|| {
-                pass.patterns.push(on.clone());
+        let code = match self.last {
+            Some(code) if !changed => code,
+            _ => *self.known.entry(self.on.clone()).or_insert_with(|| {
+                pass.patterns.push(self.on.clone());
                 pass.patterns.len() - 1
             }),
         };
-        last = Some(code);
-        pass.pattern.push(u32::try_from(code).unwrap_or(u32::MAX));
-        episode.push(&on);
-        if episode.started() {
-            episode.seen_into(&mut now_seen);
-            if now_seen != seen {
-                std::mem::swap(&mut seen, &mut now_seen);
-                pass.episodes.push(episode.candidates(fsm(m)).join(" "));
+        self.last = Some(code);
+        pass.pattern.push(index(code));
+        self.episode.push(&self.on);
+        let mut episode_code = 0;
+        if self.episode.started() {
+            let moved = self.episode.update_seen(&mut self.seen);
+            if moved || !self.began {
+                self.began = true;
+                let m = self.on.len();
+                let fsm = (self.rows.iter()).map(|(name, s)| (*name, Signature::new(m, s)));
+                pass.episodes.push(self.episode.candidates(fsm).join(" "));
             }
+            episode_code = pass.episodes.len() - 1;
         }
-        let episode_code = if episode.started() {
-            pass.episodes.len() - 1
-        } else {
-            0
-        };
-        pass.episode
-            .push(u32::try_from(episode_code).unwrap_or(u32::MAX));
-        let unsolved = e
-            .unsolved
-            .and_then(|slot| roots.iter().position(|&r| r == slot));
-        pass.unsolved
-            .push(unsolved.map_or(0, |i| u32::try_from(i + 1).unwrap_or(u32::MAX)));
+        pass.episode.push(index(episode_code));
+        let unsolved =
+            (e.unsolved()[j]).and_then(|slot| self.roots.iter().position(|&r| r == slot));
+        pass.unsolved.push(unsolved.map_or(0, |i| index(i + 1)));
     }
-    pass
+}
+
+/// An index into one of the pass's tables, as numpy stores it.
+fn index(i: usize) -> u32 {
+    u32::try_from(i).unwrap_or(u32::MAX)
 }
 
 /// The pass as numpy arrays and tables.

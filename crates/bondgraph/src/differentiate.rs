@@ -2,7 +2,7 @@
 
 use std::fmt;
 
-use crate::window::Window;
+use crate::fir::Fir;
 
 /// Estimates a signal's value and time derivatives from samples at a uniform step.
 pub trait Differentiator {
@@ -16,6 +16,28 @@ pub trait Differentiator {
 
     /// The highest derivative estimated.
     fn order(&self) -> u32;
+
+    /// [`Differentiator::push`] of each of `xs` in turn, for a caller that holds many
+    /// samples: the estimate of order `k` after sample `i` goes to `out[k·xs.len() + i]`
+    /// (`out` holds `(order + 1)·xs.len()` values). Returns how many of the first samples
+    /// gave no estimate; their entries are left as they were. An estimator gives estimates
+    /// from some sample on, then one after every sample.
+    fn push_slice(&mut self, xs: &[f64], out: &mut [f64]) -> usize {
+        let n = xs.len();
+        let mut skip = 0;
+        for (i, &x) in xs.iter().enumerate() {
+            match self.push(x) {
+                Some(d) => {
+                    for (v, column) in d.iter().zip(out.chunks_exact_mut(n)) {
+                        column[i] = *v;
+                    }
+                }
+                // Whatever came before is not an estimate either: nothing is made up.
+                None => skip = i + 1,
+            }
+        }
+        skip
+    }
 }
 
 /// Why an estimator cannot be built as asked.
@@ -81,13 +103,8 @@ impl std::error::Error for EstimatorError {}
 /// about `σ / (w^(k+1/2) h^k)`: widen the window against noise, narrow it against bias.
 #[derive(Clone, Debug)]
 pub struct SavitzkyGolay {
-    /// `weights[k·window + j]`: the k-th derivative's weight of the j-th oldest sample, one
-    /// flat array so that a sample's estimates read one block of memory.
-    weights: Vec<f64>,
-    window: usize,
-    /// The last `window` samples.
-    samples: Window<f64>,
-    out: Vec<f64>,
+    /// The fit's weights over the last `window` samples.
+    fir: Fir,
     delay: f64,
     degree: u32,
     /// `|t_j − t_eval|^(degree+1)` of each sample of the window, in seconds.
@@ -112,10 +129,7 @@ impl SavitzkyGolay {
             .map(|j| ((j as f64 - at as f64).abs() * step).powi(degree as i32 + 1))
             .collect();
         Ok(SavitzkyGolay {
-            weights: weights.concat(),
-            window,
-            samples: Window::new(window, 0.0),
-            out: vec![0.0; order as usize + 1],
+            fir: Fir::new(weights.concat(), window, order),
             delay: (window - 1 - at) as f64 * step,
             degree,
             reach,
@@ -129,17 +143,14 @@ impl SavitzkyGolay {
     #[must_use]
     pub fn error_bound(&self, k: u32, max_next: f64) -> f64 {
         let factorial: f64 = (1..=self.degree + 1).map(f64::from).product();
-        let row = k as usize * self.window;
-        self.weights
-            .get(row..row + self.window)
-            .map_or(f64::INFINITY, |w| {
-                w.iter()
-                    .zip(&self.reach)
-                    .map(|(w, r)| w.abs() * r)
-                    .sum::<f64>()
-                    * max_next
-                    / factorial
-            })
+        self.fir.row(k).map_or(f64::INFINITY, |w| {
+            w.iter()
+                .zip(&self.reach)
+                .map(|(w, r)| w.abs() * r)
+                .sum::<f64>()
+                * max_next
+                / factorial
+        })
     }
 }
 
@@ -231,32 +242,9 @@ pub(crate) fn fit_weights(
     Some(out)
 }
 
-/// `Σ aᵢ bᵢ` with four running sums: independent additions keep the floating-point unit
-/// busy where one sum would wait on each addition.
-pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
-    let mut sums = [0.0f64; 4];
-    let (a4, a_rest) = a.split_at(a.len() / 4 * 4);
-    let (b4, b_rest) = b.split_at(a4.len().min(b.len()));
-    for (x, y) in a4.chunks_exact(4).zip(b4.chunks_exact(4)) {
-        for k in 0..4 {
-            sums[k] += x[k] * y[k];
-        }
-    }
-    let rest: f64 = a_rest.iter().zip(b_rest).map(|(x, y)| x * y).sum();
-    (sums[0] + sums[1]) + (sums[2] + sums[3]) + rest
-}
-
 impl Differentiator for SavitzkyGolay {
     fn push(&mut self, x: f64) -> Option<&[f64]> {
-        let window = self.window;
-        let samples = self.samples.push(x)?;
-        // Rows by offset, not `chunks_exact`, whose count costs an integer division.
-        let mut row = 0;
-        for out in &mut self.out {
-            *out = dot(samples, &self.weights[row..row + window]);
-            row += window;
-        }
-        Some(&self.out)
+        self.fir.push(x)
     }
 
     fn delay(&self) -> f64 {
@@ -264,7 +252,11 @@ impl Differentiator for SavitzkyGolay {
     }
 
     fn order(&self) -> u32 {
-        self.out.len() as u32 - 1
+        self.fir.order()
+    }
+
+    fn push_slice(&mut self, xs: &[f64], out: &mut [f64]) -> usize {
+        self.fir.push_slice(xs, out)
     }
 }
 
@@ -405,6 +397,36 @@ impl Differentiator for StateVariableFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The estimates of a slice, from each kind of estimator, are those of its samples
+    /// pushed one at a time, to the bit, wherever the slices are cut.
+    #[test]
+    fn a_slice_is_its_samples_pushed_in_turn() {
+        let xs: Vec<f64> = (0..120).map(|k| (k as f64 * 0.03).sin()).collect();
+        let kinds: [fn() -> Box<dyn Differentiator>; 3] = [
+            || Box::new(SavitzkyGolay::new(2, 3, 11, 0.01, true).expect("valid")),
+            || Box::new(crate::ModulatingFunction::new(2, 3, 11, 0.01).expect("valid")),
+            || Box::new(StateVariableFilter::new(2, 50.0, 0.7, 0.01).expect("valid")),
+        ];
+        for make in kinds {
+            let mut one = make();
+            let single: Vec<Option<Vec<u64>>> = (xs.iter())
+                .map(|&x| one.push(x).map(|d| d.iter().map(|v| v.to_bits()).collect()))
+                .collect();
+            for cut in [1usize, 3, 10, 50] {
+                let mut many = make();
+                for (c, chunk) in xs.chunks(cut).enumerate() {
+                    let mut out = vec![f64::NAN; 3 * chunk.len()];
+                    let skip = many.push_slice(chunk, &mut out);
+                    for (i, expected) in single[c * cut..][..chunk.len()].iter().enumerate() {
+                        let got = (i >= skip)
+                            .then(|| (0..3).map(|k| out[k * chunk.len() + i].to_bits()).collect());
+                        assert_eq!(&got, expected, "cut {cut}, sample {}", c * cut + i);
+                    }
+                }
+            }
+        }
+    }
 
     /// A fit of degree d is exact on polynomials of degree d, centred or at the end, for
     /// every derivative up to the order asked.

@@ -92,20 +92,24 @@ impl Episode {
     /// Which residuals have been seen in alarm: for the share of the episode it takes.
     #[must_use]
     pub fn seen(&self) -> Vec<bool> {
-        let mut out = Vec::with_capacity(self.on.len());
-        self.seen_into(&mut out);
+        let mut out = vec![false; self.on.len()];
+        self.update_seen(&mut out);
         out
     }
 
-    /// [`Episode::seen`] into `out` (cleared first): no allocation per sample once it has
-    /// grown, for a caller that asks at every sample.
-    pub fn seen_into(&self, out: &mut Vec<bool>) {
+    /// Brings `seen` (one flag per residual) up to [`Episode::seen`] and says whether a flag
+    /// changed: for a caller that follows the seen residuals sample by sample, with no
+    /// allocation and no second pass to compare.
+    pub fn update_seen(&self, seen: &mut [bool]) -> bool {
         let n = self.samples.max(1) as f64;
-        out.clear();
-        out.extend(self.on.iter().map(|&k| {
+        let mut changed = false;
+        for (flag, &k) in seen.iter_mut().zip(&self.on) {
             let share = k as f64 / n;
-            share > 0.0 && share >= self.seen
-        }));
+            let now = share > 0.0 && share >= self.seen;
+            changed |= now != *flag;
+            *flag = now;
+        }
+        changed
     }
 
     /// The components `rows` (name, signature) ranked by how well a single fault of each
@@ -208,6 +212,10 @@ mod tests {
         e.push(&[false, false, true]);
         assert_eq!(e.shares(), [0.0, 0.25, 1.0]);
         assert_eq!(e.seen(), [false, true, true]);
+        let mut followed = [false, true, false];
+        assert!(e.update_seen(&mut followed));
+        assert_eq!(followed, [false, true, true]);
+        assert!(!e.update_seen(&mut followed));
         e.reset();
         assert!(!e.started());
     }

@@ -17,6 +17,7 @@ mod bank;
 mod decision;
 mod differentiate;
 mod episode;
+mod fir;
 mod integrate;
 mod modulating;
 mod reference;

@@ -1,8 +1,7 @@
 //! Derivatives by modulating functions: integration by parts against a smooth window.
 
-use crate::differentiate::dot;
 use crate::differentiate::{Differentiator, EstimatorError};
-use crate::window::Window;
+use crate::fir::Fir;
 
 /// Estimates a signal's derivatives as `∫ φ(s) x⁽ᵏ⁾ ds = (−1)ᵏ ∫ φ⁽ᵏ⁾(s) x ds` over the last
 /// `window` samples, with `φ(s) = sᵃ (T − s)ᵃ` (`T` the window's span) normalised to unit
@@ -26,10 +25,7 @@ use crate::window::Window;
 #[derive(Clone, Debug)]
 pub struct ModulatingFunction {
     /// `weights[k·window + j]`: the k-th derivative's weight of the j-th oldest sample.
-    weights: Vec<f64>,
-    window: usize,
-    samples: Window<f64>,
-    out: Vec<f64>,
+    fir: Fir,
     delay: f64,
 }
 
@@ -107,10 +103,7 @@ impl ModulatingFunction {
             }));
         }
         Ok(ModulatingFunction {
-            weights,
-            window,
-            samples: Window::new(window, 0.0),
-            out: vec![0.0; order as usize + 1],
+            fir: Fir::new(weights, window, order),
             delay: span / 2.0,
         })
     }
@@ -118,12 +111,11 @@ impl ModulatingFunction {
 
 impl Differentiator for ModulatingFunction {
     fn push(&mut self, x: f64) -> Option<&[f64]> {
-        let samples = self.samples.push(x)?;
-        for (k, out) in self.out.iter_mut().enumerate() {
-            let row = k * self.window;
-            *out = dot(samples, &self.weights[row..row + self.window]);
-        }
-        Some(&self.out)
+        self.fir.push(x)
+    }
+
+    fn push_slice(&mut self, xs: &[f64], out: &mut [f64]) -> usize {
+        self.fir.push_slice(xs, out)
     }
 
     fn delay(&self) -> f64 {
@@ -131,7 +123,7 @@ impl Differentiator for ModulatingFunction {
     }
 
     fn order(&self) -> u32 {
-        self.out.len() as u32 - 1
+        self.fir.order()
     }
 }
 
@@ -147,7 +139,7 @@ mod tests {
         let mut f = ModulatingFunction::new(4, 5, window, h).expect("valid");
         // φ's transform at 1: the weighted average of a unit sine is that times the sine.
         let centre = (window - 1) as f64 / 2.0;
-        let g: f64 = (f.weights[..window].iter().enumerate())
+        let g: f64 = (f.fir.row(0).unwrap_or_default().iter().enumerate())
             .map(|(j, w)| w * ((j as f64 - centre) * h).cos())
             .sum();
         let mut worst = [0.0f64; 5];

@@ -40,6 +40,28 @@ impl<T: Copy> Window<T> {
         }
         Some(&self.buffer[self.next..self.next + len])
     }
+
+    /// How many samples were taken.
+    pub(crate) fn seen(&self) -> usize {
+        self.seen
+    }
+
+    /// The last `k` samples (at most the window's length), oldest first; the zero stands
+    /// for those not yet taken.
+    pub(crate) fn last(&self, k: usize) -> &[T] {
+        let end = self.next + self.len;
+        &self.buffer[end - k.min(self.len)..end]
+    }
+
+    /// Takes the samples `xs` in turn.
+    pub(crate) fn extend(&mut self, xs: &[T]) {
+        // Only the last `len` stay.
+        let kept = xs.len().saturating_sub(self.len);
+        for &x in &xs[kept..] {
+            self.push(x);
+        }
+        self.seen = self.seen.saturating_add(kept);
+    }
 }
 
 #[cfg(test)]
@@ -55,6 +77,17 @@ mod tests {
         assert_eq!(w.push(4), Some(&[2, 3, 4][..]));
         assert_eq!(w.push(5), Some(&[3, 4, 5][..]));
         assert_eq!(w.push(6), Some(&[4, 5, 6][..]));
+        assert_eq!(w.push(7), Some(&[5, 6, 7][..]));
+    }
+
+    #[test]
+    fn extending_is_pushing_each_in_turn() {
+        let mut w = Window::new(3, 0);
+        assert_eq!(w.last(2), &[0, 0]);
+        w.extend(&[1]);
+        assert_eq!((w.seen(), w.last(2)), (1, &[0, 1][..]));
+        w.extend(&[2, 3, 4, 5, 6]);
+        assert_eq!((w.seen(), w.last(3)), (6, &[4, 5, 6][..]));
         assert_eq!(w.push(7), Some(&[5, 6, 7][..]));
     }
 }

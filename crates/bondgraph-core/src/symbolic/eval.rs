@@ -199,4 +199,125 @@ impl<L: LeafKind> Tape<L> {
         out.clear();
         out.extend(self.roots.iter().map(|&r| s[r.index()]));
     }
+
+    /// [`Tape::values_into`] at `n` points at once, each step over all of them before the
+    /// next (arithmetic the processor runs as vectors): `leaf` fills a leaf's `n` values,
+    /// `integral` an integral's; root `r`'s values end up in `out[r·n..(r + 1)·n]`. Each
+    /// point's values are those `values_into` gives, to the bit.
+    pub fn columns_into(
+        &self,
+        n: usize,
+        mut leaf: impl FnMut(L, &mut [f64]),
+        mut integral: impl FnMut(ExprId<L>, &mut [f64]),
+        scratch: &mut Vec<f64>,
+        out: &mut Vec<f64>,
+    ) {
+        // As in `values_into`, every step's column is written before it is read.
+        let len = self.ops.len() * n;
+        if scratch.len() < len {
+            scratch.resize(len, 0.0);
+        }
+        for (i, op) in self.ops.iter().enumerate() {
+            // Children come first: their columns are all below this one's.
+            let (done, rest) = scratch.split_at_mut(i * n);
+            let to = &mut rest[..n];
+            let at = |a: Slot| &done[a.index() * n..][..n];
+            match *op {
+                Op::Num(x) => to.fill(x),
+                Op::Leaf(l) => leaf(l, to),
+                Op::Neg(a) => map(to, at(a), |x| -x),
+                Op::Add(a, b) => map2(to, at(a), at(b), |x, y| x + y),
+                Op::Sub(a, b) => map2(to, at(a), at(b), |x, y| x - y),
+                Op::Mul(a, b) => map2(to, at(a), at(b), |x, y| x * y),
+                Op::Div(a, b) => map2(to, at(a), at(b), |x, y| x / y),
+                Op::Powi(a, k) => map(to, at(a), |x| x.powi(k)),
+                Op::Pow(a, b) => map2(to, at(a), at(b), f64::powf),
+                Op::Call1(f, a) => map(to, at(a), |x| f.apply(&[x])),
+                Op::Call2(f, a, b) => map2(to, at(a), at(b), |x, y| f.apply(&[x, y])),
+                Op::Int(id) => integral(ExprId::from_index(id), to),
+            }
+        }
+        out.clear();
+        for r in &self.roots {
+            out.extend_from_slice(&scratch[r.index() * n..][..n]);
+        }
+    }
+}
+
+/// `to[i] = f(a[i])` for every point.
+#[inline(always)]
+fn map(to: &mut [f64], a: &[f64], f: impl Fn(f64) -> f64) {
+    for (to, &a) in to.iter_mut().zip(a) {
+        *to = f(a);
+    }
+}
+
+/// `to[i] = f(a[i], b[i])` for every point.
+#[inline(always)]
+fn map2(to: &mut [f64], a: &[f64], b: &[f64], f: impl Fn(f64, f64) -> f64) {
+    for ((to, &a), &b) in to.iter_mut().zip(a).zip(b) {
+        *to = f(a, b);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every kind of step, shared subexpressions and all: each point of `columns_into` is
+    /// what `values_into` gives at that point alone, to the bit.
+    #[test]
+    fn columns_are_the_points_values_to_the_bit() {
+        let mut p: Pool<u8> = Pool::default();
+        let (x, y) = (p.leaf(0), p.leaf(1));
+        let (two, half, three) = (p.num(2.0), p.num(0.5), p.num(3.0));
+        let sq = p.pow(x, two);
+        let root = p.pow(y, half);
+        let xy = p.mul(x, y);
+        let quotient = p.div(sq, xy);
+        let e = p.call(Func::Exp, &[quotient]);
+        let m = p.call(Func::Max, &[x, y]);
+        let diff = p.sub(e, m);
+        let neg = p.neg(root);
+        let sum = p.add(diff, neg);
+        let size = p.call(Func::Abs, &[sum]);
+        let powered = p.pow(size, x);
+        let cubed = p.pow(powered, three);
+        let integral = p.int(x);
+        let with_int = p.add(cubed, integral);
+        let roots = [with_int, sum, sq];
+        let tape = Tape::new(&p, &roots);
+        let points: Vec<[f64; 2]> = (0..37)
+            .map(|k| [0.1 + 0.07 * k as f64, 1.3 - 0.02 * k as f64])
+            .collect();
+        let n = points.len();
+        let (mut scratch, mut out) = (Vec::new(), Vec::new());
+        tape.columns_into(
+            n,
+            |l, to| {
+                for (to, v) in to.iter_mut().zip(&points) {
+                    *to = v[usize::from(l)];
+                }
+            },
+            |_, to| {
+                for (to, v) in to.iter_mut().zip(&points) {
+                    *to = v[0] * 10.0;
+                }
+            },
+            &mut scratch,
+            &mut out,
+        );
+        assert_eq!(out.len(), roots.len() * n);
+        for (i, v) in points.iter().enumerate() {
+            let one = tape.values(|l| v[usize::from(l)], |_| v[0] * 10.0, &mut Vec::new());
+            for (r, value) in one.iter().enumerate() {
+                assert!(value.is_finite(), "{value} at {v:?}");
+                assert_eq!(
+                    out[r * n + i].to_bits(),
+                    value.to_bits(),
+                    "root {r} at {v:?}"
+                );
+            }
+        }
+    }
 }
