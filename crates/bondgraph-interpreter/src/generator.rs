@@ -442,3 +442,119 @@ fn leaf_at(l: Leaf, j: usize, m: usize, values: &[f64], at: f64) -> f64 {
         Leaf::Parameter(_) | Leaf::State(_) | Leaf::Input(_) => f64::NAN,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fit::Estimator;
+    use bondgraph_core::{Options, Realise, ResidualSet};
+
+    /// Everything a run gives, estimate by estimate, as bits.
+    #[derive(Debug, PartialEq)]
+    struct Run {
+        at: Vec<u64>,
+        residuals: Vec<u64>,
+        bounds: Vec<u64>,
+        unsolved: Vec<Option<usize>>,
+    }
+
+    /// `g` over `time` and `raw`, cut into blocks of the lengths `cuts` gives in turn.
+    fn run(mut g: Generator, time: &[f64], raw: &[Vec<f64>], cuts: &[usize]) -> Run {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let mut out = Run {
+            at: Vec::new(),
+            residuals: Vec::new(),
+            bounds: Vec::new(),
+            unsolved: Vec::new(),
+        };
+        let (mut start, mut cut) = (0, 0);
+        while start < time.len() {
+            let end = (start + cuts[cut % cuts.len()]).min(time.len());
+            cut += 1;
+            let block: Vec<&[f64]> = raw.iter().map(|c| &c[start..end]).collect();
+            let e = g.push_block(&time[start..end], &block, true);
+            out.at.extend(bits(e.at()));
+            for j in 0..e.len() {
+                for k in 0..e.residual_count() {
+                    out.residuals.push(e.residual(k)[j].to_bits());
+                    out.bounds.push(e.bound(k)[j].to_bits());
+                }
+            }
+            out.unsolved.extend_from_slice(e.unsolved());
+            start = end;
+        }
+        out
+    }
+
+    /// Every model of `models/`, with every kind of residual: blocks of any length (one
+    /// sample, a few, many) give what one block of the whole record gives, to the bit, with
+    /// integrals, roots and copies of the model among them.
+    #[test]
+    fn every_cut_of_a_record_gives_the_same_estimates() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        let mut paths: Vec<_> = (std::fs::read_dir(dir).expect("models/"))
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "bg"))
+            .collect();
+        paths.sort();
+        let (mut copies, mut roots, mut integrals, mut runs) = (0, 0, 0, 0);
+        for path in &paths {
+            let text = std::fs::read_to_string(path).expect("a model");
+            for (residuals, realise) in [
+                (ResidualSet::PerSensor, Realise::Lowest),
+                (ResidualSet::All, Realise::Direct),
+            ] {
+                let options = Options {
+                    residuals,
+                    realise,
+                    ..Options::default()
+                };
+                let Ok(out) = bondgraph_core::compile(&text, "m.bg", &options) else {
+                    continue;
+                };
+                let c = &out.compiled;
+                if c.residual_code_refused() || c.arrs.is_empty() {
+                    continue;
+                }
+                let program = c.program();
+                let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+                let fit = Fit {
+                    step: 1e-2,
+                    estimator: Estimator::SavitzkyGolay {
+                        window: 11,
+                        degree: program.top_order().max(3),
+                    },
+                    integration: Vec::new(),
+                };
+                let make = || Generator::new(c, &program, &params, &fit).expect("valid");
+                let g = make();
+                copies += usize::from(g.copy.is_some());
+                roots += (g.steps.iter())
+                    .filter(|s| matches!(s, Step::Root { .. }))
+                    .count();
+                integrals += (g.steps.iter())
+                    .filter(|s| matches!(s, Step::Integral { .. }))
+                    .count();
+                let time: Vec<f64> = (0..400).map(|k| k as f64 * 1e-2).collect();
+                let raw: Vec<Vec<f64>> = (0..program.raw.len())
+                    .map(|r| {
+                        let w = 0.7 * (r + 1) as f64;
+                        time.iter().map(|t| 1.5 + 0.5 * (w * t).sin()).collect()
+                    })
+                    .collect();
+                let whole = run(g, &time, &raw, &[time.len()]);
+                assert!(!whole.at.is_empty(), "{}", path.display());
+                for cuts in [&[1usize][..], &[3, 1, 7, 2], &[100, 37]] {
+                    let cut = run(make(), &time, &raw, cuts);
+                    assert!(cut == whole, "{} cut {cuts:?}", path.display());
+                }
+                runs += 1;
+            }
+        }
+        assert!(runs >= 20, "{runs} models ran");
+        assert!(
+            copies > 0 && roots > 0 && integrals > 0,
+            "{copies} {roots} {integrals}"
+        );
+    }
+}
