@@ -193,6 +193,17 @@ impl Generator {
             })
             .collect();
         let delay = estimators.iter().map(|e| e.delay()).fold(0.0, f64::max);
+        // A channel no slot reads (a raw signal only its integral is read of) costs a fit per
+        // sample for nothing. Every channel has the same window, so the others say when the
+        // estimates start; with none read at all, they all stay to say it.
+        if scatter.iter().any(|reads| !reads.is_empty()) {
+            let read: Vec<bool> = scatter.iter().map(|reads| !reads.is_empty()).collect();
+            let mut keep = read.iter().copied();
+            estimators.retain(|_| keep.next().unwrap_or(true));
+            let mut keep = read.iter().copied();
+            feeds.retain(|_| keep.next().unwrap_or(true));
+            scatter.retain(|reads| !reads.is_empty());
+        }
         Ok(Generator {
             estimators,
             feeds,
@@ -266,9 +277,8 @@ impl Generator {
             let xs: &[f64] = match feed {
                 Feed::Raw(k) => &raw[*k][..n],
                 Feed::Integral(k, rule) => {
-                    work.fed.clear();
-                    work.fed
-                        .extend(time.iter().zip(raw[*k]).map(|(&t, &x)| rule.push(t, x)));
+                    work.fed.resize(n, 0.0);
+                    rule.push_slice(time, &raw[*k][..n], &mut work.fed);
                     &work.fed
                 }
             };
@@ -354,9 +364,7 @@ impl Generator {
                         &mut work.buffer,
                     );
                     let to = &mut work.values[*slot * m..][..m];
-                    for ((to, &v), &at) in to.iter_mut().zip(&work.buffer).zip(&work.at) {
-                        *to = rule.push(at, v);
-                    }
+                    rule.push_slice(&work.at, &work.buffer, to);
                 }
                 Step::Root { slot, law, finder } => {
                     for j in 0..m {
@@ -396,9 +404,7 @@ impl Generator {
             &mut work.residuals,
         );
         for (k, reference) in &mut self.references {
-            for r in work.residuals[*k * m..][..m].iter_mut() {
-                *r = reference.push(*r);
-            }
+            reference.push_slice(&mut work.residuals[*k * m..][..m]);
         }
         work.bounds.clear();
         work.bounds.resize(work.residuals.len(), 0.0);

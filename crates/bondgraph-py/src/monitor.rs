@@ -5,9 +5,7 @@
 use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
-use bondgraph_interpreter::{
-    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError,
-};
+use bondgraph_interpreter::{uniform_step, Estimator, Fit, Generator, Integration, StepError};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -254,8 +252,10 @@ fn run(
     };
     generator.run(time, data, settings.adaptive, |e| {
         pass.at.extend_from_slice(e.at());
-        for j in 0..e.len() {
-            watch.estimate(&mut pass, e, j);
+        // Once per block of estimates, not per estimate.
+        let columns: Vec<_> = (0..m).map(|k| (e.residual(k), e.bound(k))).collect();
+        for (j, unsolved) in e.unsolved().iter().enumerate() {
+            watch.estimate(&mut pass, &columns, j, *unsolved);
         }
     });
     pass
@@ -278,14 +278,22 @@ struct Watch<'a> {
 }
 
 impl Watch<'_> {
-    /// Takes estimate `j` of `e` into `pass`.
-    fn estimate(&mut self, pass: &mut Pass, e: &Estimates<'_>, j: usize) {
+    /// Takes estimate `j` of a block, each residual's values and bounds in `columns` and
+    /// the slot of the root not found there in `unsolved`, into `pass`.
+    fn estimate(
+        &mut self,
+        pass: &mut Pass,
+        columns: &[(&[f64], &[f64])],
+        j: usize,
+        unsolved: Option<usize>,
+    ) {
         let mut changed = self.last.is_none();
         let each = (self.alarms.iter_mut())
             .zip(&mut self.on)
-            .zip(&self.settings.thresholds);
-        for (k, ((alarm, on), level)) in each.enumerate() {
-            let (r, b) = (e.residual(k)[j], e.bound(k)[j]);
+            .zip(&self.settings.thresholds)
+            .zip(columns);
+        for (((alarm, on), level), (r, b)) in each {
+            let (r, b) = (r[j], b[j]);
             let now = level.map(|l| l + b);
             pass.residuals.push(r);
             // Where there is none, 0 and `has_threshold` false: Python marks it missing.
@@ -321,8 +329,7 @@ impl Watch<'_> {
             episode_code = pass.episodes.len() - 1;
         }
         pass.episode.push(index(episode_code));
-        let unsolved =
-            (e.unsolved()[j]).and_then(|slot| self.roots.iter().position(|&r| r == slot));
+        let unsolved = unsolved.and_then(|slot| self.roots.iter().position(|&r| r == slot));
         pass.unsolved.push(unsolved.map_or(0, |i| index(i + 1)));
     }
 }

@@ -26,6 +26,21 @@ impl Trapezoid {
         self.sum
     }
 
+    /// [`Trapezoid::push`] of each sample `(t[i], x[i])` in turn, the integral after each
+    /// written to `out[i]`: the same sums, with the rule's state held in registers over
+    /// the slice rather than stored back after every sample.
+    pub fn push_slice(&mut self, t: &[f64], x: &[f64], out: &mut [f64]) {
+        let (mut last, mut sum) = (self.last, self.sum);
+        for ((&t, &x), out) in t.iter().zip(x).zip(out) {
+            if let Some((t0, x0)) = last {
+                sum += 0.5 * (t - t0) * (x + x0);
+            }
+            last = Some((t, x));
+            *out = sum;
+        }
+        (self.last, self.sum) = (last, sum);
+    }
+
     /// An integral that continues from `sum` at time `t`, where the signal is `x`.
     #[must_use]
     pub fn resume(t: f64, x: f64, sum: f64) -> Trapezoid {
@@ -129,6 +144,23 @@ mod tests {
 
     /// After the window fills, the integral of the estimate is the estimate of the integral:
     /// the same numbers, up to rounding, as a second fit over the raw integral.
+    #[test]
+    fn a_slice_is_its_samples_pushed_in_turn() {
+        let t: Vec<f64> = (0..50).map(|k| f64::from(k) * 0.1).collect();
+        let x: Vec<f64> = t.iter().map(|t| (3.0 * t).cos()).collect();
+        let mut one = Trapezoid::new();
+        let single: Vec<u64> = (t.iter().zip(&x))
+            .map(|(&t, &x)| one.push(t, x).to_bits())
+            .collect();
+        let mut many = Trapezoid::new();
+        let mut out = vec![0.0; t.len()];
+        for (start, end) in [(0, 1), (1, 17), (17, 50)] {
+            many.push_slice(&t[start..end], &x[start..end], &mut out[start..end]);
+        }
+        assert_eq!(out.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), single);
+        assert_eq!(many, one);
+    }
+
     #[test]
     fn the_integral_of_the_estimate_is_the_estimate_of_the_integral() {
         let h = 1e-3;

@@ -51,10 +51,21 @@ impl Reference {
 
     /// Takes the running value at the next sample and returns the residual; over a window,
     /// zero until the window has filled.
+    #[inline]
     pub fn push(&mut self, g: f64) -> f64 {
         match &mut self.kind {
             Kind::Start(start) => g - *start.get_or_insert(g),
             Kind::Window(window) => window.push(g).map_or(0.0, |w| g - w[0]),
+        }
+    }
+}
+
+impl Reference {
+    /// [`Reference::push`] of each running value of `g` in turn, each replaced by its
+    /// residual.
+    pub fn push_slice(&mut self, g: &mut [f64]) {
+        for g in g {
+            *g = self.push(*g);
         }
     }
 }

@@ -230,6 +230,9 @@ impl<L: LeafKind> Tape<L> {
                 Op::Sub(a, b) => map2(to, at(a), at(b), |x, y| x - y),
                 Op::Mul(a, b) => map2(to, at(a), at(b), |x, y| x * y),
                 Op::Div(a, b) => map2(to, at(a), at(b), |x, y| x / y),
+                // The square by itself: `powi` with an exponent known only at run time is a
+                // call, and squaring by multiplication is what it computes.
+                Op::Powi(a, 2) => map(to, at(a), |x| x * x),
                 Op::Powi(a, k) => map(to, at(a), |x| x.powi(k)),
                 Op::Pow(a, b) => map2(to, at(a), at(b), f64::powf),
                 Op::Call1(f, a) => map(to, at(a), |x| f.apply(&[x])),
