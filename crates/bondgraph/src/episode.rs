@@ -60,6 +60,7 @@ impl Episode {
     }
 
     /// Takes one sample's alarms (one flag per residual); the episode starts at the first.
+    #[inline]
     pub fn push(&mut self, alarms: &[bool]) {
         if self.samples == 0 && !alarms.iter().any(|&a| a) {
             return;
@@ -78,6 +79,7 @@ impl Episode {
 
     /// Whether an alarm has started the episode.
     #[must_use]
+    #[inline]
     pub fn started(&self) -> bool {
         self.samples > 0
     }
@@ -100,6 +102,7 @@ impl Episode {
     /// Brings `seen` (one flag per residual) up to [`Episode::seen`] and says whether a flag
     /// changed: for a caller that follows the seen residuals sample by sample, with no
     /// allocation and no second pass to compare.
+    #[inline]
     pub fn update_seen(&self, seen: &mut [bool]) -> bool {
         let n = self.samples.max(1) as f64;
         let mut changed = false;

@@ -25,6 +25,7 @@ impl Threshold {
     }
 
     /// Takes one residual sample and returns whether the alarm is on.
+    #[inline]
     pub fn update(&mut self, residual: f64) -> bool {
         // A residual that is not a number is as alarming as a large one.
         let above = residual.is_nan() || residual.abs() > self.level;
@@ -42,6 +43,7 @@ impl Threshold {
 
     /// [`Threshold::update`] against a level that moves with the operating point (an
     /// adaptive threshold), which stays the level from then on.
+    #[inline]
     pub fn update_with_level(&mut self, residual: f64, level: f64) -> bool {
         self.level = level;
         self.update(residual)

@@ -227,7 +227,9 @@ class Residuals:
         self.time: np.ndarray = out["time"]
         self.values: np.ndarray = out["residuals"]
         # A residual without a threshold: its column is missing (NaN, as pandas marks it).
-        self.thresholds: np.ndarray = np.where(np.asarray(out["has_threshold"]), out["thresholds"], np.nan)
+        # Marked in place: the array is this object's own, and a copy of it costs a pass.
+        self.thresholds: np.ndarray = out["thresholds"]
+        self.thresholds[:, ~np.asarray(out["has_threshold"], dtype=bool)] = np.nan
         self.alarms: np.ndarray = out["alarms"]
         self._pattern: np.ndarray = out["pattern"]
         self._candidates: List[str] = out["candidates"]
