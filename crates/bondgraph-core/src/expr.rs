@@ -42,7 +42,6 @@ impl BinOp {
 
     /// Its value at `a`, `b`.
     #[inline]
-    #[inline]
     pub fn apply(self, a: f64, b: f64) -> f64 {
         match self {
             BinOp::Add => a + b,
@@ -159,7 +158,6 @@ impl Func {
     }
 
     /// Its value at `args`, which has [`Func::arity`] elements (a call node holds as many).
-    #[inline]
     #[inline]
     pub fn apply(self, args: &[f64]) -> f64 {
         let x = args[0];
