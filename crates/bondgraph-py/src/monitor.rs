@@ -5,7 +5,9 @@
 use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
-use bondgraph_interpreter::{uniform_step, Estimator, Fit, Generator, Integration, StepError};
+use bondgraph_interpreter::{
+    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError,
+};
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -27,9 +29,31 @@ struct Settings {
 #[derive(Default)]
 struct Pass {
     at: Vec<f64>,
+    /// Row by row, each residual's value and alarm.
     residuals: Vec<f64>,
-    levels: Vec<f64>,
+    levels: Levels,
     alarms: Vec<bool>,
+    labels: Labels,
+}
+
+/// Each residual's threshold: where there is none, 0 (and `has_threshold` false: Python
+/// marks it missing).
+enum Levels {
+    /// The same at every estimate, one per residual: numpy broadcasts the row.
+    Fixed(Vec<f64>),
+    /// Row by row, each residual's level with its bound from parameter uncertainty.
+    Moving(Vec<f64>),
+}
+
+impl Default for Levels {
+    fn default() -> Self {
+        Levels::Fixed(Vec::new())
+    }
+}
+
+/// What the alarms of each estimate point to.
+#[derive(Default)]
+struct Labels {
     /// Per estimate, the index of its alarm pattern in `patterns`.
     pattern: Vec<u32>,
     patterns: Vec<Vec<bool>>,
@@ -223,17 +247,31 @@ fn run(
 ) -> Pass {
     let m = settings.thresholds.len();
     let mut pass = Pass {
-        episodes: vec![String::new()],
+        levels: if settings.adaptive {
+            Levels::Moving(Vec::with_capacity(time.len() * m))
+        } else {
+            Levels::Fixed(
+                settings
+                    .thresholds
+                    .iter()
+                    .map(|l| l.unwrap_or(0.0))
+                    .collect(),
+            )
+        },
         ..Pass::default()
     };
+    pass.labels.episodes.push(String::new());
     // At most one estimate per sample: the outputs never move once reserved.
     let n = time.len();
     pass.at.reserve(n);
-    for v in [&mut pass.residuals, &mut pass.levels] {
-        v.reserve(n * m);
-    }
+    pass.residuals.reserve(n * m);
     pass.alarms.reserve(n * m);
-    for v in [&mut pass.pattern, &mut pass.episode, &mut pass.unsolved] {
+    let labels = &mut pass.labels;
+    for v in [
+        &mut labels.pattern,
+        &mut labels.episode,
+        &mut labels.unsolved,
+    ] {
         v.reserve(n);
     }
     let mut watch = Watch {
@@ -250,14 +288,7 @@ fn run(
         seen: vec![false; m],
         began: false,
     };
-    generator.run(time, data, settings.adaptive, |e| {
-        pass.at.extend_from_slice(e.at());
-        // Once per block of estimates, not per estimate.
-        let columns: Vec<_> = (0..m).map(|k| (e.residual(k), e.bound(k))).collect();
-        for (j, unsolved) in e.unsolved().iter().enumerate() {
-            watch.estimate(&mut pass, &columns, j, *unsolved);
-        }
-    });
+    generator.run(time, data, settings.adaptive, |e| watch.block(&mut pass, e));
     pass
 }
 
@@ -278,45 +309,57 @@ struct Watch<'a> {
 }
 
 impl Watch<'_> {
-    /// Takes estimate `j` of a block, each residual's values and bounds in `columns` and
-    /// the slot of the root not found there in `unsolved`, into `pass`.
-    fn estimate(
-        &mut self,
-        pass: &mut Pass,
-        columns: &[(&[f64], &[f64])],
-        j: usize,
-        unsolved: Option<usize>,
-    ) {
-        let mut changed = self.last.is_none();
-        let each = (self.alarms.iter_mut())
-            .zip(&mut self.on)
-            .zip(&self.settings.thresholds)
-            .zip(columns);
-        for (((alarm, on), level), (r, b)) in each {
-            let (r, b) = (r[j], b[j]);
-            let now = level.map(|l| l + b);
-            pass.residuals.push(r);
-            // Where there is none, 0 and `has_threshold` false: Python marks it missing.
-            pass.levels.push(now.unwrap_or(0.0));
-            // A residual that is not a number raises no alarm; its debounce goes on.
-            let alarmed = match (alarm.as_mut(), now) {
-                (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
-                _ => false,
-            };
-            changed |= alarmed != *on;
-            *on = alarmed;
-            pass.alarms.push(alarmed);
+    /// Takes a block of estimates into `pass`: each residual's values, levels and alarms,
+    /// a residual at a time over the block, then what each estimate's alarms point to.
+    fn block(&mut self, pass: &mut Pass, e: &Estimates<'_>) {
+        let (len, m) = (e.len(), self.on.len());
+        pass.at.extend_from_slice(e.at());
+        let base = pass.residuals.len();
+        pass.residuals.resize(base + len * m, 0.0);
+        pass.alarms.resize(base + len * m, false);
+        if let Levels::Moving(levels) = &mut pass.levels {
+            levels.resize(base + len * m, 0.0);
         }
+        let each = self.alarms.iter_mut().zip(&self.settings.thresholds);
+        for (k, (alarm, level)) in each.enumerate() {
+            for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
+                let at = base + j * m + k;
+                let now = level.map(|l| l + b);
+                pass.residuals[at] = r;
+                if let Levels::Moving(levels) = &mut pass.levels {
+                    levels[at] = now.unwrap_or(0.0);
+                }
+                // A residual that is not a number raises no alarm; its debounce goes on.
+                pass.alarms[at] = match (alarm.as_mut(), now) {
+                    (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
+                    _ => false,
+                };
+            }
+        }
+        let rows = pass.alarms[base..].chunks_exact(m.max(1));
+        for (on, &unsolved) in rows.zip(e.unsolved()) {
+            self.follow(on, unsolved, &mut pass.labels);
+        }
+    }
+
+    /// Takes one estimate's alarms `on`, and the slot of the root not found there, into
+    /// `labels`: its pattern, and the episode's candidates.
+    fn follow(&mut self, on: &[bool], unsolved: Option<usize>, labels: &mut Labels) {
+        // Compared flag by flag: a few flags, where a slice comparison is a call.
+        let same = self.last.is_some() && on.iter().zip(&self.on).all(|(a, b)| a == b);
         let code = match self.last {
-            Some(code) if !changed => code,
-            _ => *self.known.entry(self.on.clone()).or_insert_with(|| {
-                pass.patterns.push(self.on.clone());
-                pass.patterns.len() - 1
-            }),
+            Some(code) if same => code,
+            _ => {
+                self.on.copy_from_slice(on);
+                *self.known.entry(self.on.clone()).or_insert_with(|| {
+                    labels.patterns.push(self.on.clone());
+                    labels.patterns.len() - 1
+                })
+            }
         };
         self.last = Some(code);
-        pass.pattern.push(index(code));
-        self.episode.push(&self.on);
+        labels.pattern.push(index(code));
+        self.episode.push(on);
         let mut episode_code = 0;
         if self.episode.started() {
             let moved = self.episode.update_seen(&mut self.seen);
@@ -324,13 +367,13 @@ impl Watch<'_> {
                 self.began = true;
                 let m = self.on.len();
                 let fsm = (self.rows.iter()).map(|(name, s)| (*name, Signature::new(m, s)));
-                pass.episodes.push(self.episode.candidates(fsm).join(" "));
+                labels.episodes.push(self.episode.candidates(fsm).join(" "));
             }
-            episode_code = pass.episodes.len() - 1;
+            episode_code = labels.episodes.len() - 1;
         }
-        pass.episode.push(index(episode_code));
+        labels.episode.push(index(episode_code));
         let unsolved = unsolved.and_then(|slot| self.roots.iter().position(|&r| r == slot));
-        pass.unsolved.push(unsolved.map_or(0, |i| index(i + 1)));
+        labels.unsolved.push(unsolved.map_or(0, |i| index(i + 1)));
     }
 }
 
@@ -348,10 +391,10 @@ fn into_dict<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = pass.at.len();
     let fsm = || rows.iter().map(|(name, s)| (*name, Signature::new(m, s)));
-    let candidates: Vec<String> = (pass.patterns.iter())
+    let candidates: Vec<String> = (pass.labels.patterns.iter())
         .map(|on| bondgraph::candidates(fsm(), on).join(" "))
         .collect();
-    let suspects: Vec<String> = (pass.patterns.iter())
+    let suspects: Vec<String> = (pass.labels.patterns.iter())
         .map(|on| bondgraph::suspects(fsm(), on).join(" "))
         .collect();
     let out = PyDict::new(py);
@@ -360,19 +403,22 @@ fn into_dict<'py>(
         "residuals",
         PyArray1::from_vec(py, pass.residuals).reshape([n, m])?,
     )?;
-    out.set_item(
-        "thresholds",
-        PyArray1::from_vec(py, pass.levels).reshape([n, m])?,
-    )?;
+    match pass.levels {
+        Levels::Fixed(row) => out.set_item("thresholds", PyArray1::from_vec(py, row))?,
+        Levels::Moving(levels) => out.set_item(
+            "thresholds",
+            PyArray1::from_vec(py, levels).reshape([n, m])?,
+        )?,
+    }
     out.set_item(
         "alarms",
         PyArray1::from_vec(py, pass.alarms).reshape([n, m])?,
     )?;
-    out.set_item("pattern", PyArray1::from_vec(py, pass.pattern))?;
+    out.set_item("pattern", PyArray1::from_vec(py, pass.labels.pattern))?;
     out.set_item("candidates", candidates)?;
     out.set_item("suspects", suspects)?;
-    out.set_item("episode", PyArray1::from_vec(py, pass.episode))?;
-    out.set_item("episodes", pass.episodes)?;
-    out.set_item("unsolved", PyArray1::from_vec(py, pass.unsolved))?;
+    out.set_item("episode", PyArray1::from_vec(py, pass.labels.episode))?;
+    out.set_item("episodes", pass.labels.episodes)?;
+    out.set_item("unsolved", PyArray1::from_vec(py, pass.labels.unsolved))?;
     Ok(out)
 }

@@ -50,6 +50,25 @@ def test_the_residuals_are_the_clis(bench, record, tmp_path):
     assert run.alarms.any(), "the dead zone raises alarms"
 
 
+def test_adaptive_thresholds_are_the_clis_and_fixed_ones_one_row(bench, record, tmp_path):
+    path = tmp_path / "record.csv"
+    record.to_csv(path, index=False, float_format="%.17g")
+    run = bench.residuals(record, thresholds=0.05, adaptive=True)
+    header, rows = read_csv(bgc_cli(
+            "residuals", str(BENCH), str(path), "--threshold", "ARR1=0.05", "--threshold", "ARR2=0.05", "--adaptive"
+        ))
+    column = {name: k for k, name in enumerate(header)}
+    for j, name in enumerate(run.names):
+        cli = np.array([float(r[column[f"threshold_{name}"]]) for r in rows])
+        np.testing.assert_allclose(run.thresholds[:, j], cli, rtol=1e-12, atol=1e-15)
+        assert np.ptp(cli) > 0, "the bound moves the level"
+    assert (np.array([[r[column[f"alarm_{n}"]] == "1" for n in run.names] for r in rows]) == run.alarms).all()
+    # Fixed levels: every estimate's row is the same one, not a copy per estimate.
+    fixed = bench.residuals(record, thresholds=0.05)
+    assert fixed.thresholds.shape == fixed.values.shape and (fixed.thresholds == 0.05).all()
+    assert fixed.thresholds.strides[0] == 0
+
+
 def test_pandas_polars_and_dicts_give_the_same_residuals(bench, record):
     polars = pytest.importorskip("polars")
     levels = {"ARR1": 0.5, "ARR2": 0.05}

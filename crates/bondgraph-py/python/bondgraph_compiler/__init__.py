@@ -218,7 +218,8 @@ class Residuals:
 
     Every array has a row per estimate (the estimators start once their window is full):
     `time` its instant, `values` and `thresholds` a column per ARR (``NaN`` where a residual
-    is not a number, or has no threshold), `alarms` booleans likewise; `candidates`,
+    is not a number, or has no threshold; `thresholds` is a read-only view of one row unless
+    they are adaptive), `alarms` booleans likewise; `candidates`,
     `suspects` and `episode` the components the alarms point to, per estimate.
     """
 
@@ -227,9 +228,16 @@ class Residuals:
         self.time: np.ndarray = out["time"]
         self.values: np.ndarray = out["residuals"]
         # A residual without a threshold: its column is missing (NaN, as pandas marks it).
-        # Marked in place: the array is this object's own, and a copy of it costs a pass.
-        self.thresholds: np.ndarray = out["thresholds"]
-        self.thresholds[:, ~np.asarray(out["has_threshold"], dtype=bool)] = np.nan
+        missing = ~np.asarray(out["has_threshold"], dtype=bool)
+        levels = out["thresholds"]
+        if levels.ndim == 1:
+            # Fixed levels: one row, broadcast (read-only) to every estimate.
+            levels[missing] = np.nan
+            self.thresholds: np.ndarray = np.broadcast_to(levels, (len(self.time), len(names)))
+        else:
+            # Marked in place: the array is this object's own, and a copy costs a pass.
+            levels[:, missing] = np.nan
+            self.thresholds = levels
         self.alarms: np.ndarray = out["alarms"]
         self._pattern: np.ndarray = out["pattern"]
         self._candidates: List[str] = out["candidates"]
@@ -351,6 +359,16 @@ class Model:
         self._native = native
         self._options = (residuals, realise)
         self._json: Dict[str, Any] = json.loads(native.json())
+        self._written: Optional["Model"] = None
+
+    def _as_written(self) -> "Model":
+        """This model with its ARRs realised as written (``realise="direct"``), the form
+        their bounds from parameter uncertainty are derived for; compiled once."""
+        if self._options[1] == "direct":
+            return self
+        if self._written is None:
+            self._written = _recompile(self._native.text, self._native.file, self._options[0], "direct")
+        return self._written
 
     def __reduce__(self) -> Any:
         return (_recompile, (self._native.text, self._native.file, *self._options))
@@ -526,12 +544,16 @@ class Model:
         healthy record with the same columns, sets every other one at the (1 -
         `false_alarm_rate`) quantile of |residual| there, times 1 + `margin`. A residual
         without a threshold raises no alarm. `adaptive` adds the bound from the parameters'
-        stated uncertainties (`+- 5%`) at each sample.
+        stated uncertainties (`+- 5%`) at each sample; as ``bgc residuals --adaptive``, it
+        evaluates the ARRs as written (``realise="direct"``), the form those bounds are
+        derived for, whatever the model was compiled with.
 
         Estimation: `window` samples (odd; default 11 for ``"savitzky-golay"``, 101 for
         ``"modulating"``) of polynomial `degree` (default 3 or the highest derivative read);
         integrated residuals over the last `integration` samples, or ``"start"``.
         """
+        # The bounds are derived for the relations as written: the CLI switches too.
+        native = (self._as_written() if adaptive else self)._native
         names = self.arrs
         arr_names = [a.name for a in names]
         levels: List[Optional[float]] = [None] * len(arr_names)
@@ -554,7 +576,7 @@ class Model:
                 raise ValueError("false_alarm_rate must be in [0, 1) and margin non-negative")
             t, cols, labels = _columns(calibrate, self.signals, time, columns)
             healthy = _native.residuals(
-                self._native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False, **options
+                native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False, **options
             )
             values = np.abs(healthy["residuals"])
             for k in range(len(arr_names)):
@@ -567,7 +589,7 @@ class Model:
             levels = [0.0 if level is None else level for level in levels]
         t, cols, labels = _columns(data, self.signals, time, columns)
         out = _native.residuals(
-            self._native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive, **options
+            native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive, **options
         )
         return Residuals(arr_names, out)
 
