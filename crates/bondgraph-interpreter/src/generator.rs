@@ -70,10 +70,14 @@ struct Work {
     rows: Vec<usize>,
     /// Each slot's values over the estimates, slot by slot.
     values: Vec<f64>,
+    /// What [`Estimates`] reads: each estimate's instant and unsolved root, each
+    /// residual's values and bounds over the estimates.
     at: Vec<f64>,
     unsolved: Vec<Option<usize>>,
     residuals: Vec<f64>,
     bounds: Vec<f64>,
+    /// The tapes' working columns; an integrand's values, or the copy's states, over the
+    /// estimates; one sample's raw values, or a law and its slope at one estimate.
     scratch: Vec<f64>,
     buffer: Vec<f64>,
     point: Vec<f64>,
@@ -197,12 +201,11 @@ impl Generator {
         // sample for nothing. Every channel has the same window, so the others say when the
         // estimates start; with none read at all, they all stay to say it.
         if scatter.iter().any(|reads| !reads.is_empty()) {
-            let read: Vec<bool> = scatter.iter().map(|reads| !reads.is_empty()).collect();
-            let mut keep = read.iter().copied();
-            estimators.retain(|_| keep.next().unwrap_or(true));
-            let mut keep = read.iter().copied();
-            feeds.retain(|_| keep.next().unwrap_or(true));
-            scatter.retain(|reads| !reads.is_empty());
+            let read = (estimators.into_iter().zip(feeds).zip(scatter))
+                .filter(|(_, reads)| !reads.is_empty());
+            let channels: Vec<_>;
+            (channels, scatter) = read.unzip();
+            (estimators, feeds) = channels.into_iter().unzip();
         }
         Ok(Generator {
             estimators,
