@@ -26,7 +26,6 @@ struct Settings {
 }
 
 /// What one pass gives, flat, before it becomes numpy arrays.
-#[derive(Default)]
 struct Pass {
     at: Vec<f64>,
     /// Row by row, each residual's value and alarm.
@@ -43,12 +42,6 @@ enum Levels {
     Fixed(Vec<f64>),
     /// Row by row, each residual's level with its bound from parameter uncertainty.
     Moving(Vec<f64>),
-}
-
-impl Default for Levels {
-    fn default() -> Self {
-        Levels::Fixed(Vec::new())
-    }
 }
 
 /// What the alarms of each estimate point to.
@@ -245,51 +238,42 @@ fn run(
     rows: &[(&str, Vec<u32>)],
     roots: &[usize],
 ) -> Pass {
-    let m = settings.thresholds.len();
-    let mut pass = Pass {
-        levels: if settings.adaptive {
-            Levels::Moving(Vec::with_capacity(time.len() * m))
+    let mut pass = Pass::reserved(time.len(), settings);
+    let mut watch = Watch::new(settings, rows, roots);
+    generator.run(time, data, settings.adaptive, |e| watch.block(&mut pass, e));
+    pass
+}
+
+impl Pass {
+    /// An empty pass with room for `n` estimates: at most one per sample, so that the
+    /// outputs never move once reserved.
+    fn reserved(n: usize, settings: &Settings) -> Pass {
+        let m = settings.thresholds.len();
+        let levels = if settings.adaptive {
+            Levels::Moving(Vec::with_capacity(n * m))
         } else {
             Levels::Fixed(
-                settings
-                    .thresholds
-                    .iter()
+                (settings.thresholds.iter())
                     .map(|l| l.unwrap_or(0.0))
                     .collect(),
             )
-        },
-        ..Pass::default()
-    };
-    pass.labels.episodes.push(String::new());
-    // At most one estimate per sample: the outputs never move once reserved.
-    let n = time.len();
-    pass.at.reserve(n);
-    pass.residuals.reserve(n * m);
-    pass.alarms.reserve(n * m);
-    let labels = &mut pass.labels;
-    for v in [
-        &mut labels.pattern,
-        &mut labels.episode,
-        &mut labels.unsolved,
-    ] {
-        v.reserve(n);
+        };
+        let labels = Labels {
+            pattern: Vec::with_capacity(n),
+            episode: Vec::with_capacity(n),
+            // The first episode's index is 1: 0 is no episode.
+            episodes: vec![String::new()],
+            unsolved: Vec::with_capacity(n),
+            ..Labels::default()
+        };
+        Pass {
+            at: Vec::with_capacity(n),
+            residuals: Vec::with_capacity(n * m),
+            levels,
+            alarms: Vec::with_capacity(n * m),
+            labels,
+        }
     }
-    let mut watch = Watch {
-        settings,
-        rows,
-        roots,
-        alarms: (settings.thresholds.iter())
-            .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
-            .collect(),
-        on: vec![false; m],
-        known: HashMap::new(),
-        last: None,
-        episode: Episode::new(m),
-        seen: vec![false; m],
-        began: false,
-    };
-    generator.run(time, data, settings.adaptive, |e| watch.block(&mut pass, e));
-    pass
 }
 
 /// What the pass carries from one estimate to the next.
@@ -306,6 +290,27 @@ struct Watch<'a> {
     /// The residuals the episode has seen in alarm, and whether it has begun.
     seen: Vec<bool>,
     began: bool,
+}
+
+impl<'a> Watch<'a> {
+    /// Nothing seen yet: no alarm, no episode.
+    fn new(settings: &'a Settings, rows: &'a [(&'a str, Vec<u32>)], roots: &'a [usize]) -> Self {
+        let m = settings.thresholds.len();
+        Watch {
+            settings,
+            rows,
+            roots,
+            alarms: (settings.thresholds.iter())
+                .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
+                .collect(),
+            on: vec![false; m],
+            last: None,
+            known: HashMap::new(),
+            episode: Episode::new(m),
+            seen: vec![false; m],
+            began: false,
+        }
+    }
 }
 
 impl Watch<'_> {
