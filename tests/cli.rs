@@ -636,7 +636,9 @@ fn steps_in_messages_are_decimals() {
     ]);
     assert_ne!(code(&out), 0);
     assert!(
-        stderr(&out).contains("line 5: a step of 0.0025 s where the record's is 0.002 s"),
+        stderr(&out).contains(
+            "line 5: a step of 0.0025 s where the record's (its median interval) is 0.002 s"
+        ),
         "{}",
         stderr(&out)
     );

@@ -15,6 +15,8 @@ mod cli;
 mod end_to_end;
 #[path = "fuzz.rs"]
 mod fuzz;
+#[path = "identify.rs"]
+mod identify;
 #[path = "isolability.rs"]
 mod isolability;
 #[path = "models.rs"]

@@ -40,6 +40,10 @@ pub(crate) enum Command {
     /// measured signal) and write residuals, thresholds, alarms and candidate components as
     /// CSV.
     Residuals(crate::residuals::ResidualArgs),
+    /// Fit the model's parameters to healthy records (least squares on the residuals as they
+    /// are evaluated) and write them as a parameter file (`--params` of every command), with
+    /// each estimate's 95 % interval and what the records do not determine.
+    Identify(crate::identify::IdentifyArgs),
     /// Propose the fewest detectors to add so that components become detectable, or as
     /// isolable as detectors can make them (judged structurally).
     Sensors(crate::sensors::SensorArgs),

@@ -33,6 +33,8 @@ pub(crate) struct EmitArgs {
 
     #[command(flatten)]
     choice: ResidualChoice,
+    #[command(flatten)]
+    values: crate::options::ValuesArg,
 
     #[command(flatten)]
     simplify: SimplifyArgs,
@@ -85,6 +87,7 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
     };
     let c = io::compile_with(
         model,
+        args.values.path(),
         derive,
         limits,
         (args.choice.set(), args.choice.realise()),

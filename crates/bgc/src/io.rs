@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use bondgraph_core::{Compiled, Derive, Limits, Options, Realise, ResidualSet, Stop, Unsimplified};
+use bondgraph_core::{
+    Compiled, Derive, Limits, Options, ParameterValues, Realise, ResidualSet, Stop, Unsimplified,
+};
 
 use crate::report::{self, Failure};
 
@@ -47,20 +49,27 @@ pub(crate) fn compile(
 ) -> Result<Compiled, Failure> {
     compile_with(
         path,
+        None,
         derive,
         simplify,
         (ResidualSet::PerSensor, Realise::default()),
     )
 }
 
-/// [`compile`] with the residual set asked for and how to realise them.
+/// [`compile`] with the parameter values of a parameter file (`--params`) in place of the
+/// model's, the residual set asked for and how to realise them.
 pub(crate) fn compile_with(
     path: &Path,
+    values: Option<&Path>,
     derive: Derive,
     simplify: Option<Limits>,
     (residuals, realise): (ResidualSet, Realise),
 ) -> Result<Compiled, Failure> {
     let (name, bytes) = read(path)?;
+    let bytes = match values {
+        Some(values) => with_values(bytes, values)?,
+        None => bytes,
+    };
     let options = Options {
         derive,
         simplify,
@@ -70,6 +79,29 @@ pub(crate) fn compile_with(
     let out = report::compile(&name, bytes, &options).ok_or(Failure::Invalid)?;
     warn_unsimplified(&out.unsimplified);
     Ok(out.compiled)
+}
+
+/// The parameter file at `path`, read and checked.
+pub(crate) fn read_values(path: &Path) -> Result<ParameterValues, Failure> {
+    let (name, bytes) = read(path)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| report::usage(format!("{name}: a parameter file is UTF-8 text")))?;
+    ParameterValues::parse(&text).map_err(|e| report::usage(format!("{name}:{e}")))
+}
+
+/// A model's text with the values of the parameter file at `values`: its lines, columns and
+/// everything but the values stay as they were, so that every diagnostic points where it
+/// would in the model.
+fn with_values(model: Vec<u8>, values: &Path) -> Result<Vec<u8>, Failure> {
+    let file = read_values(values)?;
+    // A model that is not UTF-8 is the compiler's to report.
+    let Ok(text) = String::from_utf8(model.clone()) else {
+        return Ok(model);
+    };
+    let text = file
+        .apply(&text)
+        .map_err(|e| report::usage(format!("{}:{e}", values.display())))?;
+    Ok(text.into_bytes())
 }
 
 /// A model or record's name and bytes, from a file or standard input (`-`).

@@ -3,7 +3,7 @@
 //! Exit codes: 0 when the model is valid and the output written, 1 when the model is invalid,
 //! 2 for a usage error (bad arguments, a file that cannot be read or written).
 //!
-//! One module per command (`check`, `verify`, `simulate`, `residuals`, `sensors`,
+//! One module per command (`check`, `verify`, `simulate`, `residuals`, `identify`, `sensors`,
 //! `causality`, `completions`, and `emit` when none is given); `io` reads and writes for all
 //! of them, `report` says everything they have to say on standard error.
 
@@ -13,6 +13,7 @@ mod causality;
 mod check;
 mod completions;
 mod emit;
+mod identify;
 mod io;
 mod options;
 mod parquet_record;
@@ -48,6 +49,7 @@ fn run(args: Args) -> Result<(), Failure> {
         (Some(Command::Verify(a)), _) => verify::run(a),
         (Some(Command::Simulate(a)), _) => simulate::run(a),
         (Some(Command::Residuals(a)), _) => residuals::run(a),
+        (Some(Command::Identify(a)), _) => identify::run(a),
         (Some(Command::Sensors(a)), _) => sensors::run(a),
         (Some(Command::Causality(a)), _) => causality::run(a),
         (Some(Command::Completions { shell }), _) => completions::run(shell, Args::command()),

@@ -130,3 +130,19 @@ impl SimplifyArgs {
         }))
     }
 }
+
+/// `--params`, which every command that evaluates a model takes.
+#[derive(clap::Args, Debug, Default)]
+pub(crate) struct ValuesArg {
+    /// A parameter file (`NAME = VALUE` lines, as `bgc identify` writes them) whose values
+    /// replace the model's.
+    #[arg(long = "params", value_name = "FILE")]
+    params: Option<std::path::PathBuf>,
+}
+
+impl ValuesArg {
+    /// The parameter file, if one was given.
+    pub(crate) fn path(&self) -> Option<&std::path::Path> {
+        self.params.as_deref()
+    }
+}

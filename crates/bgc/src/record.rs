@@ -1,10 +1,13 @@
 //! Recorded samples read from CSV or Parquet: a time column with a uniform step and the
 //! columns a model's ARRs read.
 
-use bondgraph_interpreter::{uniform_step, StepError};
+use bondgraph_interpreter::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
+
+use std::path::Path;
 
 use crate::io;
 use crate::parquet_record;
+use crate::report::{self, Failure};
 
 /// Which columns of a record hold the time and the signals: the model's names, or others
 /// (`--time`, `--column SIGNAL=NAME`).
@@ -15,17 +18,68 @@ pub(crate) struct Layout {
     pub(crate) signals: Vec<String>,
 }
 
+impl Layout {
+    /// The columns of the signals `names` (the program's raw signals), named as in the model
+    /// unless `columns` maps one (`SIGNAL=COLUMN`), and the time column `time`.
+    pub(crate) fn new(names: &[String], time: &str, columns: &[String]) -> Result<Layout, Failure> {
+        let mut signals = names.to_vec();
+        for given in columns {
+            let Some((signal, column)) = given.split_once('=') else {
+                return Err(report::usage(format!(
+                    "--column `{given}`: expected SIGNAL=COLUMN, e.g. y1=motor_speed"
+                )));
+            };
+            let (signal, column) = (signal.trim(), column.trim());
+            let Some(k) = names.iter().position(|n| n == signal) else {
+                let near = bondgraph_core::closest(signal, names.iter().map(String::as_str));
+                let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+                return Err(report::usage(format!(
+                    "--column `{given}`: the ARRs read no `{signal}`{hint}; they read {}",
+                    names.join(", ")
+                )));
+            };
+            if column.is_empty() {
+                return Err(report::usage(format!(
+                    "--column `{given}`: the column's name is empty"
+                )));
+            }
+            signals[k] = column.to_string();
+        }
+        Ok(Layout {
+            time: time.to_string(),
+            signals,
+        })
+    }
+}
+
 /// Recorded samples: the time and the columns asked for, checked.
 pub(crate) struct Data {
     /// The time of each row.
     pub(crate) time: Vec<f64>,
-    /// The step between rows.
+    /// The step between rows (the median interval).
     pub(crate) step: f64,
+    /// How far the time stamps stray from it, and where.
+    pub(crate) clock: Step,
+    /// Where that is, as the user finds it (a line of a CSV, a row of a table).
+    clock_place: String,
     /// One column per name asked for, in that order.
     pub(crate) columns: Vec<Vec<f64>>,
 }
 
 impl Data {
+    /// Reads the record at `path` as [`Data::read`] does, saying on standard error how far
+    /// its time stamps jitter; a record that cannot be used is refused under its name.
+    pub(crate) fn load(path: &Path, layout: &Layout, window: usize) -> Result<Data, Failure> {
+        let name = path.display().to_string();
+        let (_, bytes) = io::read(path)?;
+        let data = Data::read(bytes, layout, window)
+            .map_err(|e| report::refused(format!("{name}: {e}")))?;
+        if let Some(note) = data.jitter_note() {
+            report::note(format!("{name}: {note}"));
+        }
+        Ok(data)
+    }
+
     /// Reads the record `bytes` (Parquet, or else CSV), keeping the columns of `layout`;
     /// needs at least `window` rows.
     pub(crate) fn read(bytes: Vec<u8>, layout: &Layout, window: usize) -> Result<Data, String> {
@@ -35,13 +89,16 @@ impl Data {
                 .collect();
             let mut columns = parquet_record::columns(bytes, &names)?;
             let time = columns.remove(0);
-            let step = check_time(&time, &|k| format!("row {}", k + 1))?;
-            (time, columns, step)
+            let place = |k: usize| format!("row {}", k + 1);
+            let step = check_time(&time, &place)?;
+            (time, columns, (step, place(step.row)))
         } else {
             let (time, columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
-            let step = check_time(&time, &|k| format!("line {}", lines[k]))?;
-            (time, columns, step)
+            let place = |k: usize| format!("line {}", lines[k]);
+            let step = check_time(&time, &place)?;
+            (time, columns, (step, place(step.row)))
         };
+        let (clock, clock_place) = step;
         if time.len() < window {
             return Err(format!(
                 "{} rows: the estimator's window of {window} samples needs at least {window}",
@@ -50,8 +107,25 @@ impl Data {
         }
         Ok(Data {
             time,
-            step,
+            step: clock.step,
+            clock,
+            clock_place,
             columns,
+        })
+    }
+
+    /// What to tell the user of the record's time stamps, where they jitter: the step taken
+    /// and how far the stamps stray from it.
+    pub(crate) fn jitter_note(&self) -> Option<String> {
+        (self.clock.jitter > JITTER_NOTED).then(|| {
+            format!(
+                "time stamps jitter: the step is their median interval, {} s; the farthest \
+                 interval strays from it by {:.2e} of it ({}; up to {} is accepted)",
+                io::seconds(self.step),
+                self.clock.jitter,
+                self.clock_place,
+                STEP_TOLERANCE
+            )
         })
     }
 }
@@ -232,9 +306,9 @@ fn parse_part(
     Ok((columns, lines))
 }
 
-/// The uniform step of `time`, or the first row where it is not (`place` names row `k` as
+/// The step of `time`, or the first row where it is not uniform (`place` names row `k` as
 /// the user finds it: a line of a CSV, a row of a table).
-fn check_time(time: &[f64], place: &dyn Fn(usize) -> String) -> Result<f64, String> {
+fn check_time(time: &[f64], place: &dyn Fn(usize) -> String) -> Result<Step, String> {
     uniform_step(time).map_err(|e| match e {
         StepError::TooFew(n) => format!("{n} rows: too few samples"),
         StepError::NotIncreasing { row, from, to } => format!(
@@ -244,10 +318,14 @@ fn check_time(time: &[f64], place: &dyn Fn(usize) -> String) -> Result<f64, Stri
             io::seconds(to)
         ),
         StepError::Uneven { row, found, step } => format!(
-            "{}: a step of {} s where the record's is {} s: the estimators need a uniform step",
+            "{}: a step of {} s where the record's (its median interval) is {} s, {:.1} % off \
+             where {} % is accepted: the estimators need a uniform step (a dropped or doubled \
+             sample, or a clock that jumped; resample the record to one step first)",
             place(row),
             io::seconds(found),
-            io::seconds(step)
+            io::seconds(step),
+            100.0 * (found - step).abs() / step,
+            100.0 * STEP_TOLERANCE
         ),
     })
 }

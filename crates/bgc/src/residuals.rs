@@ -103,6 +103,8 @@ pub(crate) struct ResidualArgs {
     debounce: u32,
     #[command(flatten)]
     choice: ResidualChoice,
+    #[command(flatten)]
+    values: crate::options::ValuesArg,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -134,6 +136,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     // same residuals.
     let c = io::compile_with(
         &args.model,
+        args.values.path(),
         Derive::Everything,
         Some(bondgraph_core::Limits::default()),
         (args.choice.set(), realise),
@@ -162,11 +165,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         _ => {}
     }
     let data_name = args.data.display().to_string();
-    let (_, bytes) = io::read(&args.data)?;
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
-    let layout = layout(&names, &args.time, &args.columns)?;
-    let data = Data::read(bytes, &layout, shortest)
-        .map_err(|e| report::refused(format!("{data_name}: {e}")))?;
+    let layout = Layout::new(&names, &args.time, &args.columns)?;
+    let data = Data::load(&args.data, &layout, shortest)?;
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
@@ -195,9 +196,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
     if let Some(path) = &args.calibrate {
         let name = path.display().to_string();
-        let (_, bytes) = io::read(path)?;
-        let healthy = Data::read(bytes, &layout, shortest)
-            .map_err(|e| report::refused(format!("{name}: {e}")))?;
+        let healthy = Data::load(path, &layout, shortest)?;
         if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
             return Err(report::refused(format!(
                 "{name}: its step ({} s) is not the record's ({} s)",
@@ -420,38 +419,6 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
 }
 
 /// A row's marks as the runtime's sparse signatures hold them.
-/// Where the record holds the time and each of the signals `names`: their own names unless
-/// `--column SIGNAL=COLUMN` renames one.
-fn layout(names: &[String], time: &str, columns: &[String]) -> Result<Layout, Failure> {
-    let mut signals = names.to_vec();
-    for given in columns {
-        let Some((signal, column)) = given.split_once('=') else {
-            return Err(report::usage(format!(
-                "--column `{given}`: expected SIGNAL=COLUMN, e.g. y1=motor_speed"
-            )));
-        };
-        let (signal, column) = (signal.trim(), column.trim());
-        let Some(k) = names.iter().position(|n| n == signal) else {
-            let near = bondgraph_core::closest(signal, names.iter().map(String::as_str));
-            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            return Err(report::usage(format!(
-                "--column `{given}`: the ARRs read no `{signal}`{hint}; they read {}",
-                names.join(", ")
-            )));
-        };
-        if column.is_empty() {
-            return Err(report::usage(format!(
-                "--column `{given}`: the column's name is empty"
-            )));
-        }
-        signals[k] = column.to_string();
-    }
-    Ok(Layout {
-        time: time.to_string(),
-        signals,
-    })
-}
-
 fn marks(marks: &[usize]) -> Vec<u32> {
     marks
         .iter()

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use bondgraph_core::{Compiled, Derive};
+use bondgraph_core::{Compiled, Derive, Realise, ResidualSet};
 use bondgraph_sim::{parse_scenario, Simulation, Solver, Trajectory};
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -34,6 +34,8 @@ pub(crate) struct SimulateArgs {
     /// The integration method (overrides the scenario).
     #[arg(long, value_enum, value_name = "METHOD")]
     solver: Option<SolverArg>,
+    #[command(flatten)]
+    values: crate::options::ValuesArg,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -58,7 +60,13 @@ pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
     if let Some(path) = &args.plot {
         crate::plot::check_path(path).map_err(report::usage)?;
     }
-    let c = io::compile(&args.model, Derive::StateEquations, None)?;
+    let c = io::compile_with(
+        &args.model,
+        args.values.path(),
+        Derive::StateEquations,
+        None,
+        (ResidualSet::PerSensor, Realise::default()),
+    )?;
     let (name, text) = scenario_text(&args)?;
     let (scenario, diagnostics) = parse_scenario(&text);
     report::print(&name, &text, &diagnostics);

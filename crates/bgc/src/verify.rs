@@ -31,6 +31,8 @@ pub(crate) struct VerifyArgs {
     step: f64,
     #[command(flatten)]
     choice: ResidualChoice,
+    #[command(flatten)]
+    values: crate::options::ValuesArg,
     /// Write the table to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -42,6 +44,7 @@ pub(crate) struct VerifyArgs {
 pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
     let c = io::compile_with(
         &args.model,
+        args.values.path(),
         Derive::Everything,
         args.simplify.limits()?,
         (args.choice.set(), args.choice.realise()),

@@ -21,6 +21,7 @@ pub mod program;
 mod state_space;
 mod symbolic;
 mod syntax;
+mod values;
 
 pub use compile::{compile, without_bom, Derive, Options, Output, Realise};
 pub use display::Unsimplified;
@@ -35,6 +36,7 @@ pub use symbolic::rewrite::{Limits, Stop};
 pub use symbolic::{children, Derivatives, Evaluator, ExprId, LeafKind, Node, Pool, Printer, Tape};
 pub use syntax::ast::{AstExpr, Ident};
 pub use syntax::parse_expr;
+pub use values::{ParameterValues, ValuesError};
 
 use diagnostic::Diagnostics;
 

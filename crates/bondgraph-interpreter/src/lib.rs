@@ -7,8 +7,14 @@ mod copy;
 mod fit;
 mod fold;
 mod generator;
+mod identify;
+mod linalg;
 mod step;
 
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
-pub use step::{uniform_step, StepError, STEP_TOLERANCE};
+pub use identify::{
+    identify, Combination, Determined, Estimate, Identification, IdentifyError, Record, Settings,
+    Stop,
+};
+pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError,
+    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -57,17 +57,22 @@ struct Labels {
     unsolved: Vec<u32>,
 }
 
-/// The uniform step of `time`, or why it has none.
+/// The step of `time` (its median interval, the stamps may jitter within the tolerance),
+/// or why it has none.
 fn step_of(time: &[f64]) -> PyResult<f64> {
-    uniform_step(time).map_err(|e| match e {
+    let step = uniform_step(time).map_err(|e| match e {
         StepError::TooFew(n) => errors::data(format!("{n} samples: too few to estimate anything")),
         StepError::NotIncreasing { row, from, to } => errors::data(format!(
             "row {row}: time goes from {from} to {to}: it must increase"
         )),
         StepError::Uneven { row, found, step } => errors::data(format!(
-            "row {row}: a step of {found} s where the record's is {step} s: the estimators need a uniform step"
+            "row {row}: a step of {found} s where the record's (its median interval) is {step} s, \
+             {:.1} % off where {} % is accepted: the estimators need a uniform step",
+            100.0 * (found - step).abs() / step,
+            100.0 * STEP_TOLERANCE
         )),
-    })
+    })?;
+    Ok(step.step)
 }
 
 /// The first sample of a column that is not a finite number.

@@ -1,0 +1,337 @@
+//! `bgc identify`: the model's parameters fitted to healthy records, written as a parameter
+//! file that every command reads (`--params`), with the interval of each estimate and what
+//! the records do not determine as comments.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use bondgraph_core::{Compiled, Derive, ParameterValues};
+use bondgraph_interpreter::{
+    identify, Combination, Determined, Estimator, Fit, Identification, Integration, Record,
+    Settings,
+};
+
+use crate::io;
+use crate::options::{ResidualChoice, ValuesArg};
+use crate::record::{Data, Layout};
+use crate::report::{self, Failure};
+
+/// What `bgc identify` takes.
+#[derive(clap::Args, Debug)]
+pub(crate) struct IdentifyArgs {
+    /// The model.
+    #[arg(value_name = "MODEL")]
+    model: PathBuf,
+    /// Healthy records of the plant (CSV or Parquet, as `bgc residuals` reads them), fitted
+    /// together.
+    #[arg(value_name = "RECORD", required = true)]
+    records: Vec<PathBuf>,
+    /// The records' time column, where it is not `t`.
+    #[arg(long, value_name = "NAME", default_value = "t")]
+    time: String,
+    /// The records' column of a signal named otherwise in the model, as `SIGNAL=COLUMN`;
+    /// repeat for more.
+    #[arg(long = "column", value_name = "SIGNAL=COLUMN")]
+    columns: Vec<String>,
+    /// Fit only these parameters (repeat); the others keep their values.
+    #[arg(long = "only", value_name = "NAME")]
+    only: Vec<String>,
+    /// Keep these parameters at their values (repeat).
+    #[arg(long = "fix", value_name = "NAME")]
+    fix: Vec<String>,
+    /// Keep the parameters the model gives a `+- x%` within it (by default an estimate
+    /// outside it is only flagged: a plant further from its data sheet than stated is worth
+    /// knowing about).
+    #[arg(long)]
+    bounded: bool,
+    /// Samples in the Savitzky–Golay window of the estimates (odd).
+    #[arg(long, value_name = "N", default_value_t = 11)]
+    window: usize,
+    /// Samples the integrated residuals are integrated over.
+    #[arg(long, value_name = "N", default_value_t = 250)]
+    integration_window: usize,
+    #[command(flatten)]
+    choice: ResidualChoice,
+    #[command(flatten)]
+    values: ValuesArg,
+    /// Write the parameter file to FILE instead of standard output.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Also write the model with its values replaced by the estimates (comments and layout
+    /// kept) to FILE.
+    #[arg(long, value_name = "FILE")]
+    write_model: Option<PathBuf>,
+}
+
+/// Runs `bgc identify`.
+pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
+    let c = io::compile_with(
+        &args.model,
+        args.values.path(),
+        Derive::Everything,
+        Some(bondgraph_core::Limits::default()),
+        (args.choice.set(), args.choice.realise()),
+    )?;
+    io::succeeded(&c)?;
+    if c.residual_code_refused() {
+        return Err(report::refused(format!(
+            "{}: no ARRs to fit the parameters to",
+            c.file_name
+        )));
+    }
+    let program = c.program();
+    let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
+    let layout = Layout::new(&names, &args.time, &args.columns)?;
+    let records = (args.records.iter())
+        .map(|path| Data::load(path, &layout, args.window))
+        .collect::<Result<Vec<Data>, Failure>>()?;
+    let step = records[0].step;
+    let degree = program.top_order().max(3);
+    let settings = Settings {
+        fit: Fit {
+            step,
+            estimator: Estimator::SavitzkyGolay {
+                window: args.window,
+                degree,
+            },
+            integration: vec![Integration::Window(args.integration_window); c.arrs.len()],
+        },
+        free: free(&c, &args.only, &args.fix)?,
+        bounded: args.bounded,
+    };
+    check_steps(&args.records, &records)?;
+    let views: Vec<Record<'_>> = (records.iter())
+        .map(|d| Record {
+            time: &d.time,
+            raw: d.columns.iter().map(Vec::as_slice).collect(),
+        })
+        .collect();
+    let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let found = identify(&c, &program, &start, &views, &settings)
+        .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+    let sources: Vec<String> = args
+        .records
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    io::write(
+        args.output.as_deref(),
+        &parameter_file(&c, &found, &sources),
+    )?;
+    if let Some(path) = &args.write_model {
+        write_model(&args, &c, &found, path)?;
+    }
+    Ok(())
+}
+
+/// The parameters to fit, by their place: `only` (or every one), less `fix`.
+fn free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<usize>, Failure> {
+    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let place = |name: &String, option: &str| {
+        names.iter().position(|n| n == name).ok_or_else(|| {
+            let hint = bondgraph_core::closest(name, names.iter().copied())
+                .map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            report::usage(format!(
+                "{option} {name}: the model has no parameter `{name}`{hint}"
+            ))
+        })
+    };
+    let only = (only.iter())
+        .map(|n| place(n, "--only"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let fixed = (fix.iter())
+        .map(|n| place(n, "--fix"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let candidates: Vec<usize> = if only.is_empty() {
+        (0..names.len()).collect()
+    } else {
+        only
+    };
+    let free: Vec<usize> = candidates
+        .into_iter()
+        .filter(|k| !fixed.contains(k))
+        .collect();
+    if free.is_empty() {
+        return Err(report::usage("no parameter left to fit (--only and --fix)"));
+    }
+    Ok(free)
+}
+
+/// Every record at the first's step: the estimators are built for one.
+fn check_steps(paths: &[PathBuf], records: &[Data]) -> Result<(), Failure> {
+    let step = records[0].step;
+    for (path, data) in paths.iter().zip(records) {
+        if (data.step - step).abs() > bondgraph_interpreter::STEP_TOLERANCE * step {
+            return Err(report::refused(format!(
+                "{}: its step ({} s) is not the first record's ({} s)",
+                path.display(),
+                io::seconds(data.step),
+                io::seconds(step)
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The parameter file: a line per parameter with its interval and the model's value as a
+/// comment, and what the records do not determine in the header.
+fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "# {}: parameters identified by bgc identify from {}",
+        c.name,
+        sources.join(", ")
+    );
+    let _ = writeln!(
+        out,
+        "# {} residual samples in {} batches; 95 % intervals (Student, batch means); \
+         condition number {:.3e}; {} after {} iterations",
+        found.samples,
+        found.batches,
+        found.condition,
+        match found.stop.0 {
+            bondgraph_interpreter::Stop::Converged => "converged",
+            bondgraph_interpreter::Stop::Iterations => "stopped at the iteration limit",
+        },
+        found.stop.1
+    );
+    for (arr, (before, after)) in c.arrs.iter().zip(&found.rms) {
+        let _ = writeln!(
+            out,
+            "# {}: RMS {} with the model's values, {} fitted",
+            arr.name,
+            significant(*before),
+            significant(*after)
+        );
+    }
+    for combination in &found.undetermined {
+        let _ = writeln!(out, "# {}", undetermined(c, combination));
+    }
+    for e in &found.estimates {
+        let value = to_interval(e.value, e.half_width);
+        let note = match e.determined {
+            Determined::Yes | Determined::Weakly => {
+                let change = if e.start == 0.0 {
+                    String::new()
+                } else {
+                    format!(" ({:+.2} %)", 100.0 * (e.value / e.start - 1.0))
+                };
+                let weak = if e.determined == Determined::Weakly {
+                    "; weakly determined: the interval is wider than the value"
+                } else {
+                    ""
+                };
+                let bound = if e.at_bound {
+                    "; at the model's +- bound (--bounded): the records pull it further".into()
+                } else {
+                    outside(c, e)
+                };
+                format!(
+                    "± {} (95 %), model {}{change}{weak}{bound}",
+                    significant(e.half_width),
+                    significant(e.start)
+                )
+            }
+            Determined::No => {
+                "not determined apart from others (see above): moved only along what the \
+                 records determine"
+                    .into()
+            }
+            Determined::Unread => "no residual reads it: model's value".into(),
+            Determined::Held => "held (--only/--fix)".into(),
+        };
+        let _ = writeln!(out, "{} = {value}  # {note}", e.name);
+    }
+    out
+}
+
+/// A flag for an estimate outside the model's `+- x%` by more than its interval.
+fn outside(c: &Compiled, e: &bondgraph_interpreter::Estimate) -> String {
+    let Some(p) = c.parameters.values().nth(e.parameter) else {
+        return String::new();
+    };
+    match p.uncertainty {
+        Some(half) if (e.value - e.start).abs() > half + e.half_width => format!(
+            "; outside the model's +- {} by more than its interval",
+            significant(half)
+        ),
+        _ => String::new(),
+    }
+}
+
+/// What a combination the records do not determine means, in the parameters' names.
+fn undetermined(c: &Compiled, combination: &Combination) -> String {
+    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    // Exponents to two decimals: those that round to 0 barely take part.
+    let moves: Vec<String> = (combination.scalings.iter())
+        .map(|&(k, x)| (k, (x * 100.0).round() / 100.0))
+        .filter(|&(_, e)| e != 0.0)
+        .map(|(k, e)| match e {
+            1.0 => format!("{}·s", names[k]),
+            -1.0 => format!("{}/s", names[k]),
+            e if e > 0.0 => format!("{}·s^{e}", names[k]),
+            e => format!("{}/s^{}", names[k], -e),
+        })
+        .collect();
+    let why = if combination.structural {
+        "the ARRs hold them only so: no record of these sensors separates them"
+    } else {
+        "these records do not excite what separates them: a record with other inputs (another \
+         frequency, amplitude or level) may"
+    };
+    format!(
+        "not determined apart: {} (any s) leave every residual as it is; {why}",
+        moves.join(", ")
+    )
+}
+
+/// `x` to 6 significant digits, as the language reads numbers back (in exponent form when
+/// it is very small or large).
+fn significant(x: f64) -> String {
+    if !x.is_finite() {
+        return "inf".into();
+    }
+    let text = format!("{x:.5e}");
+    let value: f64 = text.parse().unwrap_or(x);
+    if value != 0.0 && !(1e-4..1e6).contains(&value.abs()) {
+        let short = format!("{value:e}");
+        return short;
+    }
+    format!("{value}")
+}
+
+/// An estimate to a hundredth of its interval's half-width (at least 6 significant digits):
+/// the file's value must not be further from the estimate than its interval allows.
+fn to_interval(x: f64, half_width: f64) -> String {
+    if !(half_width.is_finite() && half_width > 0.0) || x == 0.0 {
+        return significant(x);
+    }
+    let digits = (x.abs().log10().floor() - (half_width / 100.0).log10().floor()).max(5.0);
+    // At most what an f64 holds.
+    let digits = digits.min(16.0) as usize;
+    let text = format!("{x:.digits$e}");
+    let value: f64 = text.parse().unwrap_or(x);
+    if !(1e-4..1e6).contains(&value.abs()) {
+        return text;
+    }
+    format!("{value}")
+}
+
+/// The model with the estimates in place of its values.
+fn write_model(
+    args: &IdentifyArgs,
+    c: &Compiled,
+    found: &Identification,
+    path: &std::path::Path,
+) -> Result<(), Failure> {
+    let (_, bytes) = io::read(&args.model)?;
+    let text = String::from_utf8(bytes).map_err(|_| report::usage("the model is not UTF-8"))?;
+    let values = ParameterValues::from_pairs(
+        (c.parameters.values().zip(&found.values)).map(|(p, &v)| (p.name.clone(), v)),
+    );
+    let text = values
+        .apply(&text)
+        .map_err(|e| report::usage(format!("{}: {e}", args.model.display())))?;
+    io::write(Some(path), &text)
+}

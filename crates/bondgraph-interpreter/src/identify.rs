@@ -1,0 +1,816 @@
+//! Identification: the model's parameters fitted to healthy records.
+//!
+//! The residual program is the equation error of the model: on a healthy record of the
+//! plant, every residual would vanish if the parameters were the plant's and the signals
+//! exact. So the parameters are the ones that make the residuals smallest in the least
+//! squares sense, each residual weighted by the inverse of its RMS at the fit (its noise:
+//! the ARRs have units of their own). The residuals are evaluated as the program realises
+//! them (integrated over a window where they can be, so that no second derivative of a
+//! measured signal is read), by the same generator `bgc residuals` runs; the relation
+//! between a residual and the parameters is whatever the ARR makes it, linear or not, so
+//! the fit is Levenberg–Marquardt on the logarithms of the parameters (a parameter keeps
+//! its sign; a product of parameters the records cannot split shows as a direction of
+//! scalings), with the sensitivities by forward differences of the generator.
+//!
+//! What the records determine is read from the fit's information matrix: a direction along
+//! which no residual moves (to rounding, relative to the best-determined one) is a
+//! combination of parameters the records cannot tell apart; the fit leaves the model's
+//! values along it. Whether the ARRs themselves hold that combination only (no record can
+//! separate it) or this record's excitation does not separate it is told by evaluating the
+//! residual program at random values of its signals with the parameters moved along that
+//! direction.
+//!
+//! The intervals allow for what least squares on a time series must: successive residuals
+//! are correlated (an estimator's window, an integration window), so the covariance is the
+//! sandwich `H⁻¹ B H⁻¹` with `B` estimated from batch means of the score over stretches much
+//! longer than those windows, and the interval is Student's with as many degrees of freedom
+//! as batches less one.
+
+use bondgraph_core::program::{Code, Fill, Leaf, Program};
+use bondgraph_core::{Compiled, Evaluator};
+
+use crate::fit::{Estimator, Fit, Integration};
+use crate::generator::Generator;
+use crate::linalg::{dot, eigen_symmetric, Square};
+
+/// A record to fit: its times and its raw columns in the program's raw order.
+pub struct Record<'a> {
+    /// The time of each sample.
+    pub time: &'a [f64],
+    /// One column per raw signal of the program.
+    pub raw: Vec<&'a [f64]>,
+}
+
+/// What to fit, and how.
+#[derive(Clone, Debug)]
+pub struct Settings {
+    /// How the residuals are estimated while fitting.
+    pub fit: Fit,
+    /// The parameters to fit, by their place in the model; empty: every one the residual
+    /// program reads.
+    pub free: Vec<usize>,
+    /// Keep each parameter within the model's `+- x%` where it gives one.
+    pub bounded: bool,
+}
+
+/// How well the records determine one parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Determined {
+    /// Fitted, with an interval.
+    Yes,
+    /// Fitted, but its interval is wider than its value: the records hardly tell it.
+    Weakly,
+    /// Only in combination with others (see [`Identification::undetermined`]): left at
+    /// the model's value along the combinations the records cannot see.
+    No,
+    /// No residual reads it.
+    Unread,
+    /// Not fitted: held at the given value.
+    Held,
+}
+
+/// One parameter's estimate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// The parameter, by its place in the model.
+    pub parameter: usize,
+    /// Its name.
+    pub name: String,
+    /// The value it was fitted from.
+    pub start: f64,
+    /// The fitted value.
+    pub value: f64,
+    /// Its standard error (infinite where not determined).
+    pub std_error: f64,
+    /// The half-width of its 95 % interval.
+    pub half_width: f64,
+    /// How well the records determine it.
+    pub determined: Determined,
+    /// Whether the fit stopped at the model's `+- x%`.
+    pub at_bound: bool,
+}
+
+/// A combination of parameters the records do not determine: scaling each parameter by
+/// `s^exponent` (any `s`) leaves every residual as it is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Combination {
+    /// Each parameter concerned (by its place in the model) and its exponent, the largest
+    /// magnitude 1.
+    pub scalings: Vec<(usize, f64)>,
+    /// Whether the ARRs themselves cannot separate them (no record can), rather than this
+    /// record's excitation.
+    pub structural: bool,
+}
+
+/// Why a fit stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// The cost stopped decreasing.
+    Converged,
+    /// The iteration limit.
+    Iterations,
+}
+
+/// What identification found.
+#[derive(Clone, Debug)]
+pub struct Identification {
+    /// Every parameter of the model, fitted where the records determine it.
+    pub values: Vec<f64>,
+    /// Each parameter's estimate, in the model's order.
+    pub estimates: Vec<Estimate>,
+    /// The combinations the records do not determine.
+    pub undetermined: Vec<Combination>,
+    /// The condition number of the fitted parameters' normalised information matrix (on
+    /// the determined ones).
+    pub condition: f64,
+    /// Each residual's RMS at the start and at the fit.
+    pub rms: Vec<(f64, f64)>,
+    /// The samples fitted (estimates times residuals), and the batches the intervals rest
+    /// on.
+    pub samples: usize,
+    /// How many batches of samples the intervals rest on.
+    pub batches: usize,
+    /// How the fit stopped, after how many iterations.
+    pub stop: (Stop, usize),
+}
+
+/// Why identification could not be done.
+#[derive(Clone, Debug, PartialEq)]
+pub enum IdentifyError {
+    /// The estimator cannot be built (see the message).
+    Estimator(String),
+    /// No residual is a number anywhere on the records.
+    NoSamples,
+    /// Too few estimates to fit and to tell the intervals.
+    TooShort {
+        /// The estimates there are.
+        estimates: usize,
+        /// The least the fit needs.
+        needed: usize,
+    },
+}
+
+impl std::fmt::Display for IdentifyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            IdentifyError::Estimator(e) => f.write_str(e),
+            IdentifyError::NoSamples => f.write_str("no residual is a number on these records"),
+            IdentifyError::TooShort { estimates, needed } => write!(
+                f,
+                "{estimates} estimates: identification needs at least {needed} (ten batches \
+                 of eight times the estimator's and the integration's windows)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for IdentifyError {}
+
+/// The relative eigenvalue under which a direction of the normalised information matrix
+/// counts as unseen: central differences leave about 1e-10 of a column (rounding over the
+/// step, and the step squared), so an exact null direction shows at about 1e-20, and one
+/// the records barely excite far above 1e-10.
+const UNSEEN: f64 = 1e-10;
+
+/// The relative change of a parameter the sensitivities are taken over.
+const DIFFERENCE: f64 = 1e-6;
+
+/// Most Levenberg–Marquardt iterations per round.
+const ITERATIONS: usize = 60;
+
+/// Most batches for the intervals.
+const MOST_BATCHES: usize = 50;
+
+/// Fits the parameters of `c` (its residual program `program`) to `records`, from the
+/// values `start` (in the model's order).
+pub fn identify(
+    c: &Compiled,
+    program: &Program,
+    start: &[f64],
+    records: &[Record<'_>],
+    settings: &Settings,
+) -> Result<Identification, IdentifyError> {
+    let read = read_parameters(program, start.len());
+    let free: Vec<usize> = if settings.free.is_empty() {
+        (0..start.len()).filter(|&k| read[k]).collect()
+    } else {
+        settings.free.iter().copied().filter(|&k| read[k]).collect()
+    };
+    let problem = Problem {
+        c,
+        program,
+        records,
+        fit: &settings.fit,
+        start,
+        free,
+        bounds: bounds(c, start, settings.bounded),
+    };
+    let first = problem.evaluate(&vec![0.0; problem.free.len()])?;
+    problem.check_length(first.rows)?;
+    let before = first.rms();
+    // Two rounds: the weights of the second are the residuals' RMS at the first fit, which
+    // is their noise rather than the model's error.
+    let mut u = vec![0.0; problem.free.len()];
+    let mut weights = inverse(&before);
+    let mut stop = (Stop::Converged, 0);
+    for _ in 0..2 {
+        stop = problem.minimise(&mut u, &weights)?;
+        weights = inverse(&problem.evaluate(&u)?.rms());
+    }
+    problem.summarise(&u, &weights, before, &read, stop)
+}
+
+/// Which parameters the program reads anywhere: residuals, integrands, roots, the copy.
+fn read_parameters(program: &Program, count: usize) -> Vec<bool> {
+    let mut roots: Vec<Code> = program.residuals.iter().map(|r| r.code).collect();
+    for slot in program.slots.values() {
+        match slot.fill {
+            Fill::Integral(code) => roots.push(code),
+            Fill::Root { residual, slope } => roots.extend([residual, slope]),
+            Fill::Estimate { .. } | Fill::Simulated(_) => {}
+        }
+    }
+    if let Some(copy) = &program.copy {
+        roots.extend(copy.rates.iter().copied());
+    }
+    let mut read = vec![false; count];
+    program.code.visit_reachable(&roots, |_, node| {
+        if let bondgraph_core::Node::Leaf(Leaf::Parameter(p)) = node {
+            read[p.index()] = true;
+        }
+    });
+    read
+}
+
+/// Each parameter's bounds on its log-scaling, from the model's `+- x%`.
+fn bounds(c: &Compiled, start: &[f64], bounded: bool) -> Vec<(f64, f64)> {
+    (c.parameters.values().zip(start))
+        .map(|(p, &v)| match p.uncertainty {
+            Some(half) if bounded && v != 0.0 && half < v.abs() => {
+                let r = half / v.abs();
+                ((1.0 - r).ln(), (1.0 + r).ln())
+            }
+            _ => (f64::NEG_INFINITY, f64::INFINITY),
+        })
+        .collect()
+}
+
+fn inverse(rms: &[f64]) -> Vec<f64> {
+    rms.iter()
+        .map(|&r| if r > 0.0 { 1.0 / r } else { 0.0 })
+        .collect()
+}
+
+/// The residuals of every record at one set of values, row by row: row `i` holds the
+/// residuals of one estimate; rows where one is not a number are dropped.
+struct Samples {
+    /// `rows × residuals`, row-major.
+    values: Vec<f64>,
+    residuals: usize,
+    rows: usize,
+    /// Each kept row's record and place in its record's estimates.
+    at: Vec<(usize, usize)>,
+}
+
+impl Samples {
+    fn rms(&self) -> Vec<f64> {
+        let mut sums = vec![0.0; self.residuals];
+        for row in self.values.chunks_exact(self.residuals) {
+            for (s, r) in sums.iter_mut().zip(row) {
+                *s += r * r;
+            }
+        }
+        let n = self.rows.max(1) as f64;
+        sums.into_iter().map(|s| (s / n).sqrt()).collect()
+    }
+
+    fn cost(&self, weights: &[f64]) -> f64 {
+        (self.values.chunks_exact(self.residuals))
+            .map(|row| {
+                row.iter()
+                    .zip(weights)
+                    .map(|(r, w)| (r * w) * (r * w))
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+}
+
+/// One identification problem.
+struct Problem<'a> {
+    c: &'a Compiled,
+    program: &'a Program,
+    records: &'a [Record<'a>],
+    fit: &'a Fit,
+    start: &'a [f64],
+    /// The fitted parameters, by their place in the model.
+    free: Vec<usize>,
+    bounds: Vec<(f64, f64)>,
+}
+
+/// A parameter's value at log-scaling `u` from `start` (a shift where it starts at 0).
+fn scaled(start: f64, u: f64) -> f64 {
+    if start == 0.0 {
+        u
+    } else {
+        start * u.exp()
+    }
+}
+
+impl Problem<'_> {
+    fn values(&self, u: &[f64]) -> Vec<f64> {
+        let mut values = self.start.to_vec();
+        for (&k, &x) in self.free.iter().zip(u) {
+            values[k] = scaled(self.start[k], x);
+        }
+        values
+    }
+
+    /// The residuals at log-scalings `u`.
+    fn evaluate(&self, u: &[f64]) -> Result<Samples, IdentifyError> {
+        let values = self.values(u);
+        let residuals = self.program.residuals.len();
+        let mut samples = Samples {
+            values: Vec::new(),
+            residuals,
+            rows: 0,
+            at: Vec::new(),
+        };
+        for (r, record) in self.records.iter().enumerate() {
+            let mut generator = Generator::new(self.c, self.program, &values, self.fit)
+                .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
+            let mut place = 0;
+            generator.run(record.time, &record.raw, false, |estimates| {
+                for i in 0..estimates.len() {
+                    let row: Vec<f64> = (0..residuals).map(|k| estimates.residual(k)[i]).collect();
+                    if row.iter().all(|v| v.is_finite()) {
+                        samples.values.extend(row);
+                        samples.at.push((r, place));
+                        samples.rows += 1;
+                    }
+                    place += 1;
+                }
+            });
+        }
+        if samples.rows == 0 {
+            return Err(IdentifyError::NoSamples);
+        }
+        Ok(samples)
+    }
+
+    /// The estimates a stretch of correlated residuals spans: the estimators' window and
+    /// the longest integration window.
+    fn correlation(&self) -> usize {
+        let window = match self.fit.estimator {
+            Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
+        };
+        let integration = (self.fit.integration.iter())
+            .map(|i| match i {
+                Integration::Window(n) => *n,
+                Integration::Start => 0,
+            })
+            .max()
+            .unwrap_or(bondgraph::Reference::DEFAULT_WINDOW);
+        window + integration
+    }
+
+    fn batch_length(&self) -> usize {
+        8 * self.correlation()
+    }
+
+    fn check_length(&self, rows: usize) -> Result<(), IdentifyError> {
+        let needed = 10 * self.batch_length();
+        if rows < needed {
+            return Err(IdentifyError::TooShort {
+                estimates: rows,
+                needed,
+            });
+        }
+        Ok(())
+    }
+
+    /// The sensitivities of the weighted residuals to each log-scaling at `u` by central
+    /// differences, each a column over the rows of `base` (a row either side lacks gives 0).
+    fn jacobian(
+        &self,
+        u: &[f64],
+        base: &Samples,
+        weights: &[f64],
+    ) -> Result<Vec<Vec<f64>>, IdentifyError> {
+        let mut columns = Vec::with_capacity(self.free.len());
+        for j in 0..self.free.len() {
+            let mut up = u.to_vec();
+            up[j] += DIFFERENCE;
+            let mut down = u.to_vec();
+            down[j] -= DIFFERENCE;
+            let (up, down) = (self.evaluate(&up)?, self.evaluate(&down)?);
+            columns.push(difference(base, &up, &down, weights, DIFFERENCE));
+        }
+        Ok(columns)
+    }
+
+    /// Levenberg–Marquardt from `u`, in place, with the residuals weighted by `weights`.
+    fn minimise(&self, u: &mut [f64], weights: &[f64]) -> Result<(Stop, usize), IdentifyError> {
+        let n = self.free.len();
+        if n == 0 {
+            return Ok((Stop::Converged, 0));
+        }
+        let mut current = self.evaluate(u)?;
+        let mut cost = current.cost(weights);
+        let mut damping = 1e-3;
+        for iteration in 1..=ITERATIONS {
+            let columns = self.jacobian(u, &current, weights)?;
+            let system = Normal::new(&columns, &current, weights);
+            let mut improved = false;
+            for _ in 0..20 {
+                let step = system.step(damping);
+                let trial: Vec<f64> = (u.iter().zip(&step).enumerate())
+                    .map(|(j, (x, d))| {
+                        let (lo, hi) = self.bounds[self.free[j]];
+                        (x + d).clamp(lo, hi)
+                    })
+                    .collect();
+                let candidate = self.evaluate(&trial)?;
+                let trial_cost = candidate.cost(weights);
+                if trial_cost.is_finite() && trial_cost <= cost {
+                    let moved = trial.iter().zip(u.iter()).map(|(a, b)| (a - b).abs());
+                    let largest = moved.fold(0.0, f64::max);
+                    let gain = (cost - trial_cost) / cost.max(f64::MIN_POSITIVE);
+                    u.copy_from_slice(&trial);
+                    current = candidate;
+                    cost = trial_cost;
+                    damping = (damping / 3.0).max(1e-12);
+                    improved = true;
+                    if gain < 1e-12 || largest < 1e-10 {
+                        return Ok((Stop::Converged, iteration));
+                    }
+                    break;
+                }
+                damping *= 4.0;
+            }
+            if !improved {
+                return Ok((Stop::Converged, iteration));
+            }
+        }
+        Ok((Stop::Iterations, ITERATIONS))
+    }
+
+    /// The estimates, their intervals and what the records do not determine, at `u`.
+    fn summarise(
+        &self,
+        u: &[f64],
+        weights: &[f64],
+        before: Vec<f64>,
+        read: &[bool],
+        stop: (Stop, usize),
+    ) -> Result<Identification, IdentifyError> {
+        let base = self.evaluate(u)?;
+        let columns = self.jacobian(u, &base, weights)?;
+        let system = Normal::new(&columns, &base, weights);
+        let batches = self.batches(&base);
+        let covariance = system.sandwich(&columns, &base, weights, &batches);
+        let values = self.values(u);
+        let t = student_975(batches.len().saturating_sub(1).max(1));
+        let undetermined = self.undetermined(&system, &values);
+        let mut estimates: Vec<Estimate> = (self.c.parameters.values().enumerate())
+            .map(|(k, p)| Estimate {
+                parameter: k,
+                name: p.name.clone(),
+                start: self.start[k],
+                value: values[k],
+                std_error: f64::INFINITY,
+                half_width: f64::INFINITY,
+                determined: if read[k] {
+                    Determined::Held
+                } else {
+                    Determined::Unread
+                },
+                at_bound: false,
+            })
+            .collect();
+        for (j, &k) in self.free.iter().enumerate() {
+            let e = &mut estimates[k];
+            let (lo, hi) = self.bounds[k];
+            e.at_bound = u[j] <= lo || u[j] >= hi;
+            let hidden = undetermined
+                .iter()
+                .any(|c| c.scalings.iter().any(|&(p, x)| p == k && x.abs() > 1e-3));
+            if hidden {
+                e.determined = Determined::No;
+                continue;
+            }
+            // The covariance is of the log-scalings: to first order, the value's is its
+            // square times the value's.
+            let slope = if self.start[k] == 0.0 {
+                1.0
+            } else {
+                values[k].abs()
+            };
+            let se = covariance[j].sqrt() * slope;
+            e.std_error = se;
+            e.half_width = t * se;
+            e.determined = if e.half_width > values[k].abs() {
+                Determined::Weakly
+            } else {
+                Determined::Yes
+            };
+        }
+        let after = base.rms();
+        Ok(Identification {
+            values,
+            estimates,
+            undetermined,
+            condition: system.condition(),
+            rms: before.into_iter().zip(after).collect(),
+            samples: base.rows * base.residuals,
+            batches: batches.len(),
+            stop,
+        })
+    }
+
+    /// The rows of each batch: consecutive stretches of one record, as long as
+    /// [`Problem::batch_length`] at least, at most [`MOST_BATCHES`] in all.
+    fn batches(&self, base: &Samples) -> Vec<std::ops::Range<usize>> {
+        let length = (base.rows / MOST_BATCHES).max(self.batch_length());
+        let mut batches = Vec::new();
+        let mut start = 0;
+        for i in 1..=base.rows {
+            let boundary = i == base.rows || base.at[i].0 != base.at[start].0;
+            if i - start >= length || boundary {
+                // A short tail of a record joins its last batch.
+                if i - start < length / 2 && !batches.is_empty() && !boundary {
+                    continue;
+                }
+                batches.push(start..i);
+                start = i;
+            }
+        }
+        batches
+    }
+
+    /// The combinations of the fitted parameters along which the normalised information
+    /// matrix has (relatively) no curvature.
+    fn undetermined(&self, system: &Normal, values: &[f64]) -> Vec<Combination> {
+        let (eigenvalues, vectors) = eigen_symmetric(&system.normalised);
+        let top = eigenvalues.first().copied().unwrap_or(0.0);
+        (eigenvalues.iter().zip(&vectors))
+            .filter(|(&l, _)| l <= UNSEEN * top)
+            .map(|(_, v)| {
+                // Back from the normalised coordinates to log-scalings: `D H D v = 0` is
+                // `H (D v) = 0`.
+                let raw: Vec<f64> = (v.iter().zip(&system.scale))
+                    .map(|(x, s)| if *s > 0.0 { x * s } else { *x })
+                    .collect();
+                let largest = raw.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let scalings: Vec<(usize, f64)> = (self.free.iter().zip(&raw))
+                    .map(|(&k, &x)| (k, x / largest))
+                    .filter(|(_, x)| x.abs() > 1e-3)
+                    .collect();
+                let structural = self.structural(&scalings, values);
+                Combination {
+                    scalings,
+                    structural,
+                }
+            })
+            .collect()
+    }
+
+    /// Whether moving the parameters along `scalings` leaves every expression of the
+    /// program as it is, to first order, at random values of its signals: then no record
+    /// can separate them. The move is small (1e-4 in log-scaling), so that a combination
+    /// the ARRs hold as a sum (`R1 + R2`), flat only to first order along a scaling, counts
+    /// too; a direction the ARRs see changes an expression by about the move, 1e-4 of its
+    /// terms, one they do not by its square.
+    fn structural(&self, scalings: &[(usize, f64)], values: &[f64]) -> bool {
+        let mut moved = values.to_vec();
+        for &(k, x) in scalings {
+            moved[k] = if values[k] == 0.0 {
+                values[k] + 1e-4 * x
+            } else {
+                values[k] * (1e-4 * x).exp()
+            };
+        }
+        let roots = program_roots(self.program);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        (0..3).all(|_| {
+            let point: Vec<f64> = (0..self.program.slots.len())
+                .map(|_| 0.5 + uniform(&mut state))
+                .collect();
+            let at = |params: &[f64]| {
+                let mut e = Evaluator::new(&self.program.code, |leaf: Leaf| match leaf {
+                    Leaf::Slot(s) => point[s.index()],
+                    Leaf::Parameter(p) => params[p.index()],
+                    Leaf::Time => 0.7,
+                    Leaf::State(_) | Leaf::Input(_) => 0.3,
+                });
+                roots.iter().map(|&r| e.value(r)).collect::<Vec<f64>>()
+            };
+            let (a, b) = (at(values), at(&moved));
+            a.iter().zip(&b).all(|(x, y)| {
+                (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1e-300)
+                    || (x.is_nan() && y.is_nan())
+            })
+        })
+    }
+}
+
+/// Every expression of a program whose value the parameters may change.
+fn program_roots(program: &Program) -> Vec<Code> {
+    let mut roots: Vec<Code> = program.residuals.iter().map(|r| r.code).collect();
+    for slot in program.slots.values() {
+        match slot.fill {
+            Fill::Integral(code) => roots.push(code),
+            Fill::Root { residual, .. } => roots.push(residual),
+            Fill::Estimate { .. } | Fill::Simulated(_) => {}
+        }
+    }
+    if let Some(copy) = &program.copy {
+        roots.extend(copy.rates.iter().copied());
+    }
+    roots
+}
+
+/// A number in [0, 1) from a xorshift state: the structural check's signals, the same on
+/// every run.
+fn uniform(state: &mut u64) -> f64 {
+    *state ^= *state << 13;
+    *state ^= *state >> 7;
+    *state ^= *state << 17;
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The central difference of the weighted residuals between `up` and `down`, `h` either
+/// side, over the rows of `base` (rows matched by their place; a row either lacks gives 0:
+/// the generator found no number there).
+fn difference(base: &Samples, up: &Samples, down: &Samples, weights: &[f64], h: f64) -> Vec<f64> {
+    let n = base.residuals;
+    let mut column = vec![0.0; base.values.len()];
+    let (mut a, mut b) = (0, 0);
+    for (i, at) in base.at.iter().enumerate() {
+        while a < up.rows && up.at[a] < *at {
+            a += 1;
+        }
+        while b < down.rows && down.at[b] < *at {
+            b += 1;
+        }
+        if a < up.rows && up.at[a] == *at && b < down.rows && down.at[b] == *at {
+            for k in 0..n {
+                let d = up.values[a * n + k] - down.values[b * n + k];
+                column[i * n + k] = weights[k] * d / (2.0 * h);
+            }
+        }
+    }
+    column
+}
+
+/// The normal equations of one iteration, on columns scaled to unit norm.
+struct Normal {
+    /// `Dᵀ JᵀJ D`, `D` the inverse column norms.
+    normalised: Square,
+    /// `D Jᵀr`.
+    gradient: Vec<f64>,
+    /// The inverse column norms (0 for a column of zeros).
+    scale: Vec<f64>,
+}
+
+impl Normal {
+    fn new(columns: &[Vec<f64>], base: &Samples, weights: &[f64]) -> Normal {
+        let n = columns.len();
+        let weighted: Vec<f64> = (base.values.iter().enumerate())
+            .map(|(i, r)| r * weights[i % base.residuals])
+            .collect();
+        let norms: Vec<f64> = columns.iter().map(|c| dot(c, c).sqrt()).collect();
+        let scale: Vec<f64> = norms
+            .iter()
+            .map(|&x| if x > 0.0 { 1.0 / x } else { 0.0 })
+            .collect();
+        let mut normalised = Square::zeros(n);
+        for i in 0..n {
+            for j in i..n {
+                let v = dot(&columns[i], &columns[j]) * scale[i] * scale[j];
+                normalised.a[i * n + j] = v;
+                normalised.a[j * n + i] = v;
+            }
+        }
+        let gradient = (columns.iter().zip(&scale))
+            .map(|(c, s)| dot(c, &weighted) * s)
+            .collect();
+        Normal {
+            normalised,
+            gradient,
+            scale,
+        }
+    }
+
+    /// The Levenberg–Marquardt step with `damping` (relative to the largest eigenvalue),
+    /// in the directions the records determine only.
+    fn step(&self, damping: f64) -> Vec<f64> {
+        let (values, vectors) = eigen_symmetric(&self.normalised);
+        let top = values.first().copied().unwrap_or(0.0);
+        let mut step = vec![0.0; self.scale.len()];
+        for (l, v) in values.iter().zip(&vectors) {
+            if *l <= UNSEEN * top {
+                continue;
+            }
+            let along = -dot(v, &self.gradient) / (l + damping * top);
+            for (s, x) in step.iter_mut().zip(v) {
+                *s += along * x;
+            }
+        }
+        step.iter().zip(&self.scale).map(|(s, d)| s * d).collect()
+    }
+
+    /// `λmax / λmin` over the determined directions.
+    fn condition(&self) -> f64 {
+        let (values, _) = eigen_symmetric(&self.normalised);
+        let top = values.first().copied().unwrap_or(0.0);
+        let smallest = (values.iter().copied())
+            .filter(|&l| l > UNSEEN * top)
+            .fold(f64::INFINITY, f64::min);
+        if smallest.is_finite() && smallest > 0.0 {
+            top / smallest
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The variance of each log-scaling: the diagonal of `H⁺ B H⁺`, `B` the covariance of
+    /// the score from its sums over `batches`.
+    fn sandwich(
+        &self,
+        columns: &[Vec<f64>],
+        base: &Samples,
+        weights: &[f64],
+        batches: &[std::ops::Range<usize>],
+    ) -> Vec<f64> {
+        let n = columns.len();
+        let r = base.residuals;
+        let mut b = Square::zeros(n);
+        for batch in batches {
+            let mut score = vec![0.0; n];
+            for i in batch.clone() {
+                for k in 0..r {
+                    let e = base.values[i * r + k] * weights[k];
+                    for (s, c) in score.iter_mut().zip(columns) {
+                        *s += e * c[i * r + k];
+                    }
+                }
+            }
+            let scaled: Vec<f64> = score.iter().zip(&self.scale).map(|(s, d)| s * d).collect();
+            b.add_outer(&scaled, 1.0);
+        }
+        // H⁺ in the normalised coordinates, over the determined directions.
+        let (values, vectors) = eigen_symmetric(&self.normalised);
+        let top = values.first().copied().unwrap_or(0.0);
+        let mut pinv = Square::zeros(n);
+        for (l, v) in values.iter().zip(&vectors) {
+            if *l > UNSEEN * top {
+                pinv.add_outer(v, 1.0 / l);
+            }
+        }
+        (0..n)
+            .map(|j| {
+                let row: Vec<f64> = (0..n).map(|i| pinv.at(j, i)).collect();
+                let brow: Vec<f64> = (0..n)
+                    .map(|i| (0..n).map(|m| b.at(i, m) * row[m]).sum())
+                    .collect();
+                dot(&row, &brow) * self.scale[j] * self.scale[j]
+            })
+            .collect()
+    }
+}
+
+/// Student's t quantile at 0.975 for `dof` degrees of freedom (Cornish–Fisher expansion
+/// about the normal's; within 1e-3 from 5 degrees on, conservative below).
+fn student_975(dof: usize) -> f64 {
+    let z: f64 = 1.959_963_984_540_054;
+    let v = dof as f64;
+    let z3 = z.powi(3);
+    let z5 = z.powi(5);
+    let z7 = z.powi(7);
+    z + (z3 + z) / (4.0 * v)
+        + (5.0 * z5 + 16.0 * z3 + 3.0 * z) / (96.0 * v * v)
+        + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * v * v * v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn students_quantile_matches_its_table() {
+        for (dof, t) in [
+            (5, 2.571),
+            (10, 2.228),
+            (20, 2.086),
+            (49, 2.010),
+            (1000, 1.962),
+        ] {
+            assert!(
+                (student_975(dof) - t).abs() < 5e-3,
+                "{dof}: {}",
+                student_975(dof)
+            );
+        }
+    }
+}

@@ -1,0 +1,191 @@
+//! `bgc identify` and parameter files: a known change of the plant's parameters recovered
+//! from a simulated record within the intervals bgc states, the file read back by every
+//! command, a pair the ARRs hold only as a sum named as such, and bad files refused where
+//! they are wrong.
+
+use std::path::Path;
+
+use crate::common::{bgc, code, scratch, stderr, stdout};
+
+/// The estimate and half-width of `name` in a parameter file, if it has an interval.
+fn estimate(file: &str, name: &str) -> Option<(f64, f64)> {
+    let line = file
+        .lines()
+        .find(|l| l.starts_with(&format!("{name} = ")))?;
+    let value = line.split_whitespace().nth(2)?.parse().ok()?;
+    let half = line
+        .split("± ")
+        .nth(1)?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()?;
+    Some((value, half))
+}
+
+/// Simulates `model` with the plant's values `plant` (a parameter file) into `dir`.
+fn simulate(dir: &Path, model: &str, plant: &str, input: &str, noise: &[&str]) -> String {
+    let values = dir.join("plant.txt");
+    std::fs::write(&values, plant).expect("plant values");
+    let record = dir.join("record.csv").display().to_string();
+    let mut args = vec![
+        "simulate".to_string(),
+        model.to_string(),
+        "--params".into(),
+        values.display().to_string(),
+        "-e".into(),
+        "duration 60".into(),
+        "-e".into(),
+        "step 0.001".into(),
+        "-e".into(),
+        format!("input U0 = {input}"),
+        "--seed".into(),
+        "3".into(),
+        "-o".into(),
+        record.clone(),
+    ];
+    for n in noise {
+        args.extend(["-e".to_string(), format!("noise {n} 1e-2")]);
+    }
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    record
+}
+
+#[test]
+fn a_changed_plant_is_recovered_within_its_intervals_and_read_back() {
+    let dir = scratch("identify-motor");
+    // The motor with its resistance, inertia and friction off the model's by 10-20 %.
+    let record = simulate(
+        &dir,
+        "models/dc_motor.bg",
+        "Re = 0.36\nJe = 0.88\nfe = 0.12\n",
+        "6 + 12*sin(0.5*t) + 3*sin(7*t)",
+        &["i", "y1"],
+    );
+    let fitted = dir.join("fitted.txt");
+    let out = bgc(&[
+        "identify",
+        "models/dc_motor.bg",
+        &record,
+        "--window",
+        "51",
+        "-o",
+        &fitted.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let file = std::fs::read_to_string(&fitted).expect("parameter file");
+    for (name, truth) in [
+        ("Re", 0.36),
+        ("L", 0.5),
+        ("ke", 0.5),
+        ("Je", 0.88),
+        ("fe", 0.12),
+    ] {
+        let (value, half) = estimate(&file, name).unwrap_or_else(|| panic!("{name}: {file}"));
+        assert!(
+            (value - truth).abs() <= half && half < 0.05 * truth,
+            "{name}: {value} ± {half}, true {truth}\n{file}"
+        );
+    }
+    assert!(!file.contains("not determined"), "{file}");
+    // The file is read back: the fitted model's residuals are smaller on the same record.
+    let rms = |extra: &[&str]| {
+        let mut args = vec!["residuals", "models/dc_motor.bg", &record];
+        args.extend(extra);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let text = stdout(&out);
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+        let k = header.iter().position(|h| *h == "ARR1").expect("ARR1");
+        let values: Vec<f64> = lines
+            .filter_map(|l| l.split(',').nth(k)?.parse().ok())
+            .collect();
+        (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+    };
+    let fitted_path = fitted.display().to_string();
+    let (before, after) = (rms(&[]), rms(&["--params", &fitted_path]));
+    assert!(after < 0.5 * before, "{before} -> {after}");
+    // And the model with its values replaced keeps its comments.
+    let model = dir.join("fitted.bg");
+    let out = bgc(&[
+        "identify",
+        "models/dc_motor.bg",
+        &record,
+        "--window",
+        "51",
+        "--only",
+        "Re",
+        "--write-model",
+        &model.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = std::fs::read_to_string(&model).expect("model written");
+    assert!(text.contains("\"armature resistance\""), "{text}");
+    assert!(!text.contains("param Re = 0.3 "), "{text}");
+    assert!(text.contains("param L  = 0.5 [H]"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_pair_the_arrs_hold_only_as_a_sum_is_named_as_not_separable() {
+    let dir = scratch("identify-sum");
+    let model = dir.join("series.bg");
+    std::fs::write(
+        &model,
+        "model series\nparam R1 = 1\nparam R2 = 2\nparam C = 0.5\ninput U0\n\
+         Se U = U0\nR r1 = R1\nR r2 = R2\nC c = C\nDf i on loop\nU -> 1:loop -> r1, r2, c\n",
+    )
+    .expect("model");
+    let model = model.display().to_string();
+    let record = simulate(&dir, &model, "R1 = 1.2\n", "1 + sin(2*t)", &["i"]);
+    let out = bgc(&["identify", &model, &record]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let file = stdout(&out);
+    let note = file
+        .lines()
+        .find(|l| l.starts_with("# not determined apart"))
+        .unwrap_or_else(|| panic!("{file}"));
+    assert!(
+        note.contains("R1")
+            && note.contains("R2")
+            && !note.contains(" C")
+            && note.contains("no record of these sensors separates them"),
+        "{note}"
+    );
+    assert!(file.contains("R1 = ") && file.contains("not determined apart from others"));
+    // C is determined on its own (its interval is not checked here: the current's noise,
+    // 3 % of it, biases it; see docs/identification.md).
+    let (c, half) = estimate(&file, "C").expect("C has an interval");
+    assert!((c - 0.5).abs() < 0.1 && half < 0.01, "{file}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_parameter_files_are_refused_where_they_are_wrong() {
+    let dir = scratch("identify-bad");
+    let values = dir.join("bad.txt");
+    for (text, expected) in [
+        (
+            "Re = 0.3\nke 0.5\n",
+            ":2:1: `ke 0.5`: expected `NAME = VALUE`",
+        ),
+        ("Re = abc\n", ":1:6: `abc`: expected a finite number"),
+        (
+            "Rr = 0.4\n",
+            ":1:1: the model declares no parameter `Rr` (did you mean `Re`?)",
+        ),
+    ] {
+        std::fs::write(&values, text).expect("file");
+        let out = bgc(&[
+            "models/dc_motor.bg",
+            "--params",
+            &values.display().to_string(),
+        ]);
+        assert_eq!(code(&out), 2, "{text}");
+        assert!(stderr(&out).contains(expected), "{}", stderr(&out));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
