@@ -49,7 +49,7 @@ impl ParameterValues {
     /// Reads a parameter file's text.
     pub fn parse(text: &str) -> Result<ParameterValues, ValuesError> {
         let mut entries: Vec<Entry> = Vec::new();
-        for (k, raw) in crate::without_bom(text).lines().enumerate() {
+        for (k, raw) in crate::compile::without_bom(text).lines().enumerate() {
             let line = k + 1;
             let content = raw.split('#').next().unwrap_or("");
             if content.trim().is_empty() {
