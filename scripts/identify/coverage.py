@@ -63,7 +63,8 @@ def main():
             if not inside:
                 misses.append("%s %.6g ± %.2g, true %.6g (%.1f half-widths off)" % (
                     name, value, half, truth[name], abs(value - truth[name]) / half))
-        print("seed %d: %s" % (seed, "; ".join(misses) if misses else "every interval holds"))
+        print("seed %d: %d determined, %s" % (
+            seed, len(found), "; ".join(misses) if misses else "every interval holds"))
     print("\nparameter  held / seeds")
     for name, flags in held.items():
         print("%-9s  %d / %d" % (name, sum(flags), len(flags)))

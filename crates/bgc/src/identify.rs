@@ -196,6 +196,14 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         },
         found.stop.1
     );
+    if found.jumps > 0 {
+        let _ = writeln!(
+            out,
+            "# {} jumps of a signal (a step input's edges): the {} estimates within the \
+             estimators' and integration's reach of one are left out",
+            found.jumps, found.left_out
+        );
+    }
     for (arr, (before, after)) in c.arrs.iter().zip(&found.rms) {
         let _ = writeln!(
             out,

@@ -88,6 +88,11 @@ pub(crate) struct ResidualArgs {
     /// The share of healthy samples allowed above a calibrated threshold.
     #[arg(long, value_name = "P", default_value_t = 0.0)]
     false_alarm_rate: f64,
+    /// With `--calibrate`, keep the model's parameter values: by default they are first
+    /// fitted to the healthy record (as `bgc identify` fits them), and the thresholds are set
+    /// on the fitted model.
+    #[arg(long, requires = "calibrate")]
+    keep_model: bool,
     /// Headroom over the calibrated quantile, as a fraction of it.
     #[arg(long, value_name = "M", default_value_t = 0.2)]
     margin: f64,
@@ -168,6 +173,21 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
     let layout = Layout::new(&names, &args.time, &args.columns)?;
     let data = Data::load(&args.data, &layout, shortest)?;
+    let healthy = match &args.calibrate {
+        Some(path) => Some((
+            path.display().to_string(),
+            Data::load(path, &layout, shortest)?,
+        )),
+        None => None,
+    };
+    // Calibration fits the model to the healthy record first: thresholds set on a model
+    // that is not the plant's measure the model's error, not the noise.
+    let params = match &healthy {
+        Some((name, record)) if !args.keep_model => {
+            calibrate::fit_model(&c, &program, &params, record, name)?
+        }
+        _ => params,
+    };
     let degree = args.degree.unwrap_or(program.top_order().max(3));
     let mut levels = thresholds(&c, &args.thresholds)?;
     let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
@@ -194,9 +214,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
     // Where a residual taken from the start has its threshold grow with its noise's walk.
     let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
-    if let Some(path) = &args.calibrate {
-        let name = path.display().to_string();
-        let healthy = Data::load(path, &layout, shortest)?;
+    if let Some((name, healthy)) = &healthy {
         if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
             return Err(report::refused(format!(
                 "{name}: its step ({} s) is not the record's ({} s)",

@@ -2,15 +2,20 @@
 //!
 //! The residual program is the equation error of the model: on a healthy record of the
 //! plant, every residual would vanish if the parameters were the plant's and the signals
-//! exact. So the parameters are the ones that make the residuals smallest in the least
-//! squares sense, each residual weighted by the inverse of its RMS at the fit (its noise:
-//! the ARRs have units of their own). The residuals are evaluated as the program realises
-//! them (integrated over a window where they can be, so that no second derivative of a
-//! measured signal is read), by the same generator `bgc residuals` runs; the relation
-//! between a residual and the parameters is whatever the ARR makes it, linear or not, so
-//! the fit is Levenberg–Marquardt on the logarithms of the parameters (a parameter keeps
-//! its sign; a product of parameters the records cannot split shows as a direction of
-//! scalings), with the sensitivities by forward differences of the generator.
+//! exact. The parameters are fitted by least squares on the residuals as the program
+//! realises them (integrated over a window where they can be, so that no second derivative
+//! of a measured signal is read), by the same generator `bgc residuals` runs, each residual
+//! divided by the noise it carries at the current parameters ([`noise`]): the whitened fit,
+//! which neither lets a relation shrink towards zero everywhere nor lets a parameter that
+//! multiplies a noisy signal ignore the noise it brings. The relation between a residual and
+//! the parameters is whatever the ARR makes it, so the fit is Levenberg–Marquardt on the
+//! logarithms of the parameters (a parameter keeps its sign; a product of parameters the
+//! records cannot split shows as a direction of scalings), with sensitivities by central
+//! differences of the generator. It grows its horizon from a few seconds to the whole
+//! records, each stretch starting from the fit of the one before, so that a model error
+//! integrated from the start does not carry a nonlinear law far from where the plant works
+//! before the fit has corrected it. Estimates within the reach of a jump of a signal (a
+//! square input's edge) are left out ([`jumps`]).
 //!
 //! What the records determine is read from the fit's information matrix: a direction along
 //! which no residual moves (to rounding, relative to the best-determined one) is a
@@ -21,10 +26,10 @@
 //! direction.
 //!
 //! The intervals allow for what least squares on a time series must: successive residuals
-//! are correlated (an estimator's window, an integration window), so the covariance is the
-//! sandwich `H⁻¹ B H⁻¹` with `B` estimated from batch means of the score over stretches much
-//! longer than those windows, and the interval is Student's with as many degrees of freedom
-//! as batches less one.
+//! are correlated (an estimator's window, an integration window, integrals from the start),
+//! so the covariance is the sandwich `H⁻¹ B H⁻¹` with `B` estimated from batch means of the
+//! score over stretches much longer than those windows, and the interval is Student's with
+//! as many degrees of freedom as batches less one.
 
 use bondgraph_core::program::{Code, Fill, Leaf, Program};
 use bondgraph_core::{Compiled, Evaluator};
@@ -32,6 +37,11 @@ use bondgraph_core::{Compiled, Evaluator};
 use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
 use crate::linalg::{dot, eigen_symmetric, Square};
+
+mod jumps;
+mod noise;
+
+use noise::Probe;
 
 /// A record to fit: its times and its raw columns in the program's raw order.
 pub struct Record<'a> {
@@ -132,6 +142,11 @@ pub struct Identification {
     pub batches: usize,
     /// How the fit stopped, after how many iterations.
     pub stop: (Stop, usize),
+    /// How many jumps of a signal the records hold (see [`Identification::left_out`]).
+    pub jumps: usize,
+    /// How many estimates were left out of the fit because a jump of a signal was within
+    /// their windows' reach, where the estimators' assumptions fail.
+    pub left_out: usize,
 }
 
 /// Why identification could not be done.
@@ -179,7 +194,7 @@ const DIFFERENCE: f64 = 1e-6;
 const ITERATIONS: usize = 60;
 
 /// Most batches for the intervals.
-const MOST_BATCHES: usize = 50;
+const MOST_BATCHES: usize = 20;
 
 /// Fits the parameters of `c` (its residual program `program`) to `records`, from the
 /// values `start` (in the model's order).
@@ -196,28 +211,33 @@ pub fn identify(
     } else {
         settings.free.iter().copied().filter(|&k| read[k]).collect()
     };
-    let problem = Problem {
-        c,
-        program,
-        records,
-        fit: &settings.fit,
-        start,
-        free,
-        bounds: bounds(c, start, settings.bounded),
-    };
-    let first = problem.evaluate(&vec![0.0; problem.free.len()])?;
-    problem.check_length(first.rows)?;
-    let before = first.rms();
-    // Two rounds: the weights of the second are the residuals' RMS at the first fit, which
-    // is their noise rather than the model's error.
-    let mut u = vec![0.0; problem.free.len()];
-    let mut weights = inverse(&before);
-    let mut stop = (Stop::Converged, 0);
-    for _ in 0..2 {
-        stop = problem.minimise(&mut u, &weights)?;
-        weights = inverse(&problem.evaluate(&u)?.rms());
+    // The fit grows its horizon: over a short first stretch the model's error has not yet
+    // accumulated in what the relations integrate from the start (the bench's twist, from
+    // the two encoders and the gear ratio), so the fit starts near its basin; each longer
+    // stretch starts from the fit of the one before.
+    let mut u = vec![0.0; free.len()];
+    let total = records.iter().map(|r| r.time.len()).max().unwrap_or(0);
+    let mut length = Problem::new(c, program, records, settings, start, &free).first_horizon();
+    while length < total {
+        let heads: Vec<Record<'_>> = records.iter().map(|r| r.head(length)).collect();
+        let stage = Problem::new(c, program, &heads, settings, start, &free);
+        if stage.evaluate(&u).is_ok() {
+            stage.minimise(&mut u)?;
+        }
+        length *= 2;
     }
-    problem.summarise(&u, &weights, before, &read, stop)
+    let problem = Problem::new(c, program, records, settings, start, &free);
+    let first = problem.evaluate(&vec![0.0; free.len()])?;
+    problem.check_length(first.rows)?;
+    let before = first.raw_rms.clone();
+    let stop = problem.minimise(&mut u)?;
+    let mut found = problem.summarise(&u, before, &read, stop)?;
+    let jumps = (problem.records.iter())
+        .map(|r| jumps::jumps(&r.raw).len())
+        .sum();
+    found.jumps = jumps;
+    found.left_out = problem.left_out.iter().flatten().filter(|&&x| x).count();
+    Ok(found)
 }
 
 /// Which parameters the program reads anywhere: residuals, integrands, roots, the copy.
@@ -255,14 +275,9 @@ fn bounds(c: &Compiled, start: &[f64], bounded: bool) -> Vec<(f64, f64)> {
         .collect()
 }
 
-fn inverse(rms: &[f64]) -> Vec<f64> {
-    rms.iter()
-        .map(|&r| if r > 0.0 { 1.0 / r } else { 0.0 })
-        .collect()
-}
-
 /// The residuals of every record at one set of values, row by row: row `i` holds the
-/// residuals of one estimate; rows where one is not a number are dropped.
+/// residuals of one estimate, each divided by the noise it carries; rows where one is not a
+/// number are dropped.
 struct Samples {
     /// `rows × residuals`, row-major.
     values: Vec<f64>,
@@ -270,6 +285,10 @@ struct Samples {
     rows: usize,
     /// Each kept row's record and place in its record's estimates.
     at: Vec<(usize, usize)>,
+    /// Each residual's RMS before it was divided by its noise.
+    raw_rms: Vec<f64>,
+    /// How many estimates had a residual that is not a number.
+    dropped: usize,
 }
 
 impl Samples {
@@ -284,15 +303,17 @@ impl Samples {
         sums.into_iter().map(|s| (s / n).sqrt()).collect()
     }
 
-    fn cost(&self, weights: &[f64]) -> f64 {
-        (self.values.chunks_exact(self.residuals))
-            .map(|row| {
-                row.iter()
-                    .zip(weights)
-                    .map(|(r, w)| (r * w) * (r * w))
-                    .sum::<f64>()
-            })
-            .sum()
+    fn cost(&self) -> f64 {
+        self.values.iter().map(|r| r * r).sum()
+    }
+
+    /// Divides each residual by `scale`.
+    fn divide(&mut self, scale: &[f64]) {
+        for row in self.values.chunks_exact_mut(self.residuals) {
+            for (r, s) in row.iter_mut().zip(scale) {
+                *r /= s;
+            }
+        }
     }
 }
 
@@ -301,11 +322,75 @@ struct Problem<'a> {
     c: &'a Compiled,
     program: &'a Program,
     records: &'a [Record<'a>],
+    /// Each record's noise probe (see [`noise`]).
+    probes: Vec<Option<Probe>>,
     fit: &'a Fit,
     start: &'a [f64],
     /// The fitted parameters, by their place in the model.
     free: Vec<usize>,
     bounds: Vec<(f64, f64)>,
+    /// Each residual's weight where no noise reaches it.
+    fallback: Vec<f64>,
+    /// For each record, the estimates (by place) a jump of a signal reaches.
+    left_out: Vec<Vec<bool>>,
+}
+
+impl<'a> Record<'a> {
+    /// The record's first `rows` samples.
+    fn head(&self, rows: usize) -> Record<'a> {
+        let rows = rows.min(self.time.len());
+        Record {
+            time: &self.time[..rows],
+            raw: self.raw.iter().map(|c| &c[..rows]).collect(),
+        }
+    }
+}
+
+impl<'a> Problem<'a> {
+    /// The problem of fitting the parameters `free` of `c` to `records` from `start`.
+    fn new(
+        c: &'a Compiled,
+        program: &'a Program,
+        records: &'a [Record<'a>],
+        settings: &'a Settings,
+        start: &'a [f64],
+        free: &[usize],
+    ) -> Problem<'a> {
+        let mut problem = Problem {
+            c,
+            program,
+            records,
+            probes: (records.iter().enumerate())
+                .map(|(k, r)| Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64))
+                .collect(),
+            fit: &settings.fit,
+            start,
+            free: free.to_vec(),
+            bounds: bounds(c, start, settings.bounded),
+            fallback: Vec::new(),
+            left_out: Vec::new(),
+        };
+        let (window, integration) = problem.windows();
+        problem.left_out = (records.iter())
+            .map(|r| jumps::reached(&jumps::jumps(&r.raw), r.time.len(), window, integration))
+            .collect();
+        // A residual no noise reaches (every signal it reads noise-free) is weighed by its
+        // RMS with the model's values instead.
+        if let Ok(first) = problem.evaluate(&vec![0.0; free.len()]) {
+            problem.fallback = (first.raw_rms.iter())
+                .map(|&r| if r > 0.0 { 1.0 / r } else { 1.0 })
+                .collect();
+        }
+        problem
+    }
+
+    /// The first horizon of the fit: two stretches of correlated residuals, short enough
+    /// that a model error integrated from the start (a gear ratio off by 2 % turns the
+    /// bench's twist by tens of radians over minutes) has not carried a nonlinear law far
+    /// from where the plant works.
+    fn first_horizon(&self) -> usize {
+        self.batch_length() / 2
+    }
 }
 
 /// A parameter's value at log-scaling `u` from `start` (a shift where it starts at 0).
@@ -326,41 +411,112 @@ impl Problem<'_> {
         values
     }
 
-    /// The residuals at log-scalings `u`.
+    /// The residuals at log-scalings `u`, each divided by the noise it carries there.
     fn evaluate(&self, u: &[f64]) -> Result<Samples, IdentifyError> {
         let values = self.values(u);
-        let residuals = self.program.residuals.len();
+        let n = self.program.residuals.len();
         let mut samples = Samples {
             values: Vec::new(),
-            residuals,
+            residuals: n,
             rows: 0,
             at: Vec::new(),
+            raw_rms: Vec::new(),
+            dropped: 0,
         };
         for (r, record) in self.records.iter().enumerate() {
-            let mut generator = Generator::new(self.c, self.program, &values, self.fit)
-                .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
-            let mut place = 0;
-            generator.run(record.time, &record.raw, false, |estimates| {
-                for i in 0..estimates.len() {
-                    let row: Vec<f64> = (0..residuals).map(|k| estimates.residual(k)[i]).collect();
-                    if row.iter().all(|v| v.is_finite()) {
-                        samples.values.extend(row);
-                        samples.at.push((r, place));
-                        samples.rows += 1;
-                    }
-                    place += 1;
+            let left_out = self.left_out.get(r);
+            let kept = samples.rows;
+            let seen = self.run(&values, record.time, &record.raw, |place, row| {
+                if left_out.is_some_and(|l| l.get(place) == Some(&true)) {
+                    return;
                 }
-            });
+                samples.values.extend_from_slice(row);
+                samples.at.push((r, place));
+                samples.rows += 1;
+            })?;
+            let left = left_out.map_or(0, |l| l.iter().take(seen).filter(|&&x| x).count());
+            samples.dropped += seen.saturating_sub(samples.rows - kept + left);
         }
         if samples.rows == 0 {
             return Err(IdentifyError::NoSamples);
         }
+        samples.raw_rms = samples.rms();
+        let gains = self.noise_gains(&values, &samples)?;
+        let scale: Vec<f64> = (gains.iter().zip(&self.fallback).enumerate())
+            .map(|(k, (&g, &w))| match g {
+                Some(g) if g > 0.0 => g,
+                _ if w > 0.0 => 1.0 / w,
+                _ => samples.raw_rms[k].max(f64::MIN_POSITIVE),
+            })
+            .collect();
+        samples.divide(&scale);
         Ok(samples)
     }
 
-    /// The estimates a stretch of correlated residuals spans: the estimators' window and
-    /// the longest integration window.
-    fn correlation(&self) -> usize {
+    /// Runs the generator with the parameters `values` over samples, handing each
+    /// estimate's place and residuals (where all are numbers) to `each`; the number of
+    /// estimates.
+    fn run(
+        &self,
+        values: &[f64],
+        time: &[f64],
+        raw: &[&[f64]],
+        mut each: impl FnMut(usize, &[f64]),
+    ) -> Result<usize, IdentifyError> {
+        let n = self.program.residuals.len();
+        let mut generator = Generator::new(self.c, self.program, values, self.fit)
+            .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
+        let mut place = 0;
+        let mut row = vec![0.0; n];
+        generator.run(time, raw, false, |estimates| {
+            for i in 0..estimates.len() {
+                for (k, x) in row.iter_mut().enumerate() {
+                    *x = estimates.residual(k)[i];
+                }
+                if row.iter().all(|v| v.is_finite()) {
+                    each(place, &row);
+                }
+                place += 1;
+            }
+        });
+        Ok(place)
+    }
+
+    /// Each residual's RMS response to the probes' noise (`None` where no probe reaches
+    /// it), against the clean residuals of `samples` at the same places.
+    fn noise_gains(
+        &self,
+        values: &[f64],
+        samples: &Samples,
+    ) -> Result<Vec<Option<f64>>, IdentifyError> {
+        let n = samples.residuals;
+        let mut sums = vec![0.0; n];
+        let mut count = 0usize;
+        let mut j = 0;
+        for (r, probe) in self.probes.iter().enumerate() {
+            let Some(probe) = probe else { continue };
+            let raw: Vec<&[f64]> = probe.raw.iter().map(Vec::as_slice).collect();
+            self.run(values, &probe.time, &raw, |place, row| {
+                while j < samples.rows && samples.at[j] < (r, place) {
+                    j += 1;
+                }
+                if j < samples.rows && samples.at[j] == (r, place) {
+                    let clean = &samples.values[j * n..][..n];
+                    for ((s, a), b) in sums.iter_mut().zip(row).zip(clean) {
+                        *s += (a - b) * (a - b);
+                    }
+                    count += 1;
+                }
+            })?;
+        }
+        Ok(sums
+            .into_iter()
+            .map(|s| (count > 0).then(|| (s / count as f64).sqrt()))
+            .collect())
+    }
+
+    /// The estimators' window and the longest integration window, in samples.
+    fn windows(&self) -> (usize, usize) {
         let window = match self.fit.estimator {
             Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
         };
@@ -371,6 +527,12 @@ impl Problem<'_> {
             })
             .max()
             .unwrap_or(bondgraph::Reference::DEFAULT_WINDOW);
+        (window, integration)
+    }
+
+    /// The estimates a stretch of correlated residuals spans.
+    fn correlation(&self) -> usize {
+        let (window, integration) = self.windows();
         window + integration
     }
 
@@ -391,12 +553,7 @@ impl Problem<'_> {
 
     /// The sensitivities of the weighted residuals to each log-scaling at `u` by central
     /// differences, each a column over the rows of `base` (a row either side lacks gives 0).
-    fn jacobian(
-        &self,
-        u: &[f64],
-        base: &Samples,
-        weights: &[f64],
-    ) -> Result<Vec<Vec<f64>>, IdentifyError> {
+    fn jacobian(&self, u: &[f64], base: &Samples) -> Result<Vec<Vec<f64>>, IdentifyError> {
         let mut columns = Vec::with_capacity(self.free.len());
         for j in 0..self.free.len() {
             let mut up = u.to_vec();
@@ -404,23 +561,26 @@ impl Problem<'_> {
             let mut down = u.to_vec();
             down[j] -= DIFFERENCE;
             let (up, down) = (self.evaluate(&up)?, self.evaluate(&down)?);
-            columns.push(difference(base, &up, &down, weights, DIFFERENCE));
+            columns.push(difference(base, &up, &down, DIFFERENCE));
         }
         Ok(columns)
     }
 
-    /// Levenberg–Marquardt from `u`, in place, with the residuals weighted by `weights`.
-    fn minimise(&self, u: &mut [f64], weights: &[f64]) -> Result<(Stop, usize), IdentifyError> {
+    /// Levenberg–Marquardt from `u`, in place.
+    fn minimise(&self, u: &mut [f64]) -> Result<(Stop, usize), IdentifyError> {
         let n = self.free.len();
         if n == 0 {
             return Ok((Stop::Converged, 0));
         }
         let mut current = self.evaluate(u)?;
-        let mut cost = current.cost(weights);
+        let mut cost = current.cost();
+        // A step that makes a residual not a number somewhere (an exponential overflowing)
+        // is no improvement, however small the rest.
+        let dropped = current.dropped;
         let mut damping = 1e-3;
         for iteration in 1..=ITERATIONS {
-            let columns = self.jacobian(u, &current, weights)?;
-            let system = Normal::new(&columns, &current, weights);
+            let columns = self.jacobian(u, &current)?;
+            let system = Normal::new(&columns, &current);
             let mut improved = false;
             for _ in 0..20 {
                 let step = system.step(damping);
@@ -431,7 +591,11 @@ impl Problem<'_> {
                     })
                     .collect();
                 let candidate = self.evaluate(&trial)?;
-                let trial_cost = candidate.cost(weights);
+                let trial_cost = if candidate.dropped > dropped {
+                    f64::INFINITY
+                } else {
+                    candidate.cost()
+                };
                 if trial_cost.is_finite() && trial_cost <= cost {
                     let moved = trial.iter().zip(u.iter()).map(|(a, b)| (a - b).abs());
                     let largest = moved.fold(0.0, f64::max);
@@ -459,16 +623,15 @@ impl Problem<'_> {
     fn summarise(
         &self,
         u: &[f64],
-        weights: &[f64],
         before: Vec<f64>,
         read: &[bool],
         stop: (Stop, usize),
     ) -> Result<Identification, IdentifyError> {
         let base = self.evaluate(u)?;
-        let columns = self.jacobian(u, &base, weights)?;
-        let system = Normal::new(&columns, &base, weights);
+        let columns = self.jacobian(u, &base)?;
+        let system = Normal::new(&columns, &base);
         let batches = self.batches(&base);
-        let covariance = system.sandwich(&columns, &base, weights, &batches);
+        let covariance = system.sandwich(&columns, &base, &batches);
         let values = self.values(u);
         let t = student_975(batches.len().saturating_sub(1).max(1));
         let undetermined = self.undetermined(&system, &values);
@@ -515,7 +678,7 @@ impl Problem<'_> {
                 Determined::Yes
             };
         }
-        let after = base.rms();
+        let after = base.raw_rms.clone();
         Ok(Identification {
             values,
             estimates,
@@ -525,6 +688,8 @@ impl Problem<'_> {
             samples: base.rows * base.residuals,
             batches: batches.len(),
             stop,
+            jumps: 0,
+            left_out: 0,
         })
     }
 
@@ -642,7 +807,7 @@ fn uniform(state: &mut u64) -> f64 {
 /// The central difference of the weighted residuals between `up` and `down`, `h` either
 /// side, over the rows of `base` (rows matched by their place; a row either lacks gives 0:
 /// the generator found no number there).
-fn difference(base: &Samples, up: &Samples, down: &Samples, weights: &[f64], h: f64) -> Vec<f64> {
+fn difference(base: &Samples, up: &Samples, down: &Samples, h: f64) -> Vec<f64> {
     let n = base.residuals;
     let mut column = vec![0.0; base.values.len()];
     let (mut a, mut b) = (0, 0);
@@ -656,7 +821,7 @@ fn difference(base: &Samples, up: &Samples, down: &Samples, weights: &[f64], h: 
         if a < up.rows && up.at[a] == *at && b < down.rows && down.at[b] == *at {
             for k in 0..n {
                 let d = up.values[a * n + k] - down.values[b * n + k];
-                column[i * n + k] = weights[k] * d / (2.0 * h);
+                column[i * n + k] = d / (2.0 * h);
             }
         }
     }
@@ -674,11 +839,9 @@ struct Normal {
 }
 
 impl Normal {
-    fn new(columns: &[Vec<f64>], base: &Samples, weights: &[f64]) -> Normal {
+    fn new(columns: &[Vec<f64>], base: &Samples) -> Normal {
         let n = columns.len();
-        let weighted: Vec<f64> = (base.values.iter().enumerate())
-            .map(|(i, r)| r * weights[i % base.residuals])
-            .collect();
+        let weighted = &base.values;
         let norms: Vec<f64> = columns.iter().map(|c| dot(c, c).sqrt()).collect();
         let scale: Vec<f64> = norms
             .iter()
@@ -693,7 +856,7 @@ impl Normal {
             }
         }
         let gradient = (columns.iter().zip(&scale))
-            .map(|(c, s)| dot(c, &weighted) * s)
+            .map(|(c, s)| dot(c, weighted) * s)
             .collect();
         Normal {
             normalised,
@@ -740,7 +903,6 @@ impl Normal {
         &self,
         columns: &[Vec<f64>],
         base: &Samples,
-        weights: &[f64],
         batches: &[std::ops::Range<usize>],
     ) -> Vec<f64> {
         let n = columns.len();
@@ -750,7 +912,7 @@ impl Normal {
             let mut score = vec![0.0; n];
             for i in batch.clone() {
                 for k in 0..r {
-                    let e = base.values[i * r + k] * weights[k];
+                    let e = base.values[i * r + k];
                     for (s, c) in score.iter_mut().zip(columns) {
                         *s += e * c[i * r + k];
                     }
