@@ -189,3 +189,37 @@ fn bad_parameter_files_are_refused_where_they_are_wrong() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn calibration_fits_the_model_first_and_keep_model_keeps_its_values() {
+    let dir = scratch("identify-calibrate");
+    let record = simulate(
+        &dir,
+        "models/dc_motor.bg",
+        "Re = 0.36\n",
+        "6 + 12*sin(0.5*t) + 3*sin(7*t)",
+        &["i", "y1"],
+    );
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "residuals",
+            "models/dc_motor.bg",
+            &record,
+            "--calibrate",
+            &record,
+        ];
+        args.extend(extra);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        stderr(&out)
+    };
+    let fitted = run(&[]);
+    let note = fitted
+        .lines()
+        .find(|l| l.contains("the model fitted to it"))
+        .unwrap_or_else(|| panic!("{fitted}"));
+    assert!(note.contains("Re 0.3 -> 0.36"), "{note}");
+    assert!(!note.contains("ke 0.5 ->"), "ke did not move: {note}");
+    assert!(!run(&["--keep-model"]).contains("the model fitted to it"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

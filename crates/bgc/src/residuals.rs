@@ -229,7 +229,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             ));
         }
         if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
-            window = calibrate::longest_steady_window(&|w| build(w, &integration), &healthy)?;
+            window = calibrate::longest_steady_window(&|w| build(w, &integration), healthy)?;
             report::note(format!(
                 "{name}: estimates over {window} samples, the longest window up to which \
                  no residual grows there"
@@ -239,7 +239,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         // window: those compete with the fits.
         if args.window.is_none() && program.linear() {
             let fits = std::iter::once(estimator(EstimatorArg::SavitzkyGolay, window));
-            let modulating = (calibrate::modulating_windows(&healthy, program.top_order()))
+            let modulating = (calibrate::modulating_windows(healthy, program.top_order()))
                 .map(|w| estimator(EstimatorArg::Modulating, w));
             let candidates: Vec<Estimator> = match args.estimator {
                 None => fits.chain(modulating).collect(),
@@ -249,7 +249,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             if !candidates.is_empty() {
                 let (best, said) = calibrate::most_sensitive(
                     &|e, p| generator(e, &integration, p),
-                    &healthy,
+                    healthy,
                     &candidates,
                     &params,
                     args.margin,
@@ -275,7 +275,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         if args.integration_window.is_none() && which.contains(&true) {
             let chosen = calibrate::longest_integration(
                 &|i| build(window, &vec![i; which.len()]),
-                &healthy,
+                healthy,
                 &which,
                 window,
             )?;
@@ -300,7 +300,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         }
         let calibrated = calibrate::thresholds(
             build(window, &integration)?,
-            &healthy,
+            healthy,
             &walks,
             args.false_alarm_rate,
             args.margin,

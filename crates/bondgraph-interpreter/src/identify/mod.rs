@@ -193,6 +193,9 @@ const DIFFERENCE: f64 = 1e-6;
 /// Most Levenberg–Marquardt iterations per round.
 const ITERATIONS: usize = 60;
 
+/// Fresh draws of the signals' noise the intervals' second estimate rests on.
+const REPLICATES: usize = 20;
+
 /// Most batches for the intervals.
 const MOST_BATCHES: usize = 20;
 
@@ -289,6 +292,8 @@ struct Samples {
     raw_rms: Vec<f64>,
     /// How many estimates had a residual that is not a number.
     dropped: usize,
+    /// What each residual was divided by.
+    scale: Vec<f64>,
 }
 
 impl Samples {
@@ -361,7 +366,7 @@ impl<'a> Problem<'a> {
             program,
             records,
             probes: (records.iter().enumerate())
-                .map(|(k, r)| Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64))
+                .map(|(k, r)| Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64, noise::PROBE_ROWS))
                 .collect(),
             fit: &settings.fit,
             start,
@@ -422,6 +427,7 @@ impl Problem<'_> {
             at: Vec::new(),
             raw_rms: Vec::new(),
             dropped: 0,
+            scale: Vec::new(),
         };
         for (r, record) in self.records.iter().enumerate() {
             let left_out = self.left_out.get(r);
@@ -450,6 +456,7 @@ impl Problem<'_> {
             })
             .collect();
         samples.divide(&scale);
+        samples.scale = scale;
         Ok(samples)
     }
 
@@ -631,9 +638,21 @@ impl Problem<'_> {
         let columns = self.jacobian(u, &base)?;
         let system = Normal::new(&columns, &base);
         let batches = self.batches(&base);
-        let covariance = system.sandwich(&columns, &base, &batches);
+        let sandwich = system.sandwich(&columns, &base, &batches);
+        let replicated = self.replicated(u, &base, &columns, &system)?;
         let values = self.values(u);
         let t = student_975(batches.len().saturating_sub(1).max(1));
+        let t_replicated = student_975(REPLICATES - 1);
+        // The wider of the two: batch means see what the records hold beyond the noise
+        // model (a model error), the replicates every correlation the noise takes on.
+        let half_widths: Vec<f64> = (0..self.free.len())
+            .map(|j| {
+                let r = replicated
+                    .as_ref()
+                    .map_or(0.0, |v| t_replicated * v[j].sqrt());
+                (t * sandwich[j].sqrt()).max(r)
+            })
+            .collect();
         let undetermined = self.undetermined(&system, &values);
         let mut estimates: Vec<Estimate> = (self.c.parameters.values().enumerate())
             .map(|(k, p)| Estimate {
@@ -669,9 +688,8 @@ impl Problem<'_> {
             } else {
                 values[k].abs()
             };
-            let se = covariance[j].sqrt() * slope;
-            e.std_error = se;
-            e.half_width = t * se;
+            e.half_width = half_widths[j] * slope;
+            e.std_error = e.half_width / t;
             e.determined = if e.half_width > values[k].abs() {
                 Determined::Weakly
             } else {
@@ -691,6 +709,53 @@ impl Problem<'_> {
             jumps: 0,
             left_out: 0,
         })
+    }
+
+    /// The variance of each log-scaling that the signals' noise alone leaves, from the
+    /// fit's linear response to [`REPLICATES`] fresh draws of it over the whole records:
+    /// every correlation the program puts into the residuals, the random walk of an
+    /// integral read from the start included, which batch means over stretches of the
+    /// record cannot see. `None` where no signal has any noise.
+    fn replicated(
+        &self,
+        u: &[f64],
+        base: &Samples,
+        columns: &[Vec<f64>],
+        system: &Normal,
+    ) -> Result<Option<Vec<f64>>, IdentifyError> {
+        let values = self.values(u);
+        let n = base.residuals;
+        let mut variance = vec![0.0; self.free.len()];
+        let mut any = false;
+        for m in 0..REPLICATES {
+            let mut score = vec![0.0; self.free.len()];
+            let mut j = 0;
+            for (r, record) in self.records.iter().enumerate() {
+                let seed = 0xA076_1D64_78BD_642F ^ ((m as u64) << 16) ^ r as u64;
+                let Some(noisy) = Probe::of(record, seed, usize::MAX) else {
+                    continue;
+                };
+                any = true;
+                let raw: Vec<&[f64]> = noisy.raw.iter().map(Vec::as_slice).collect();
+                self.run(&values, &noisy.time, &raw, |place, row| {
+                    while j < base.rows && base.at[j] < (r, place) {
+                        j += 1;
+                    }
+                    if j < base.rows && base.at[j] == (r, place) {
+                        for (k, x) in row.iter().enumerate() {
+                            let d = x / base.scale[k] - base.values[j * n + k];
+                            for (s, c) in score.iter_mut().zip(columns) {
+                                *s += c[j * n + k] * d;
+                            }
+                        }
+                    }
+                })?;
+            }
+            for (v, d) in variance.iter_mut().zip(system.response(&score)) {
+                *v += d * d / REPLICATES as f64;
+            }
+        }
+        Ok(any.then_some(variance))
     }
 
     /// The rows of each batch: consecutive stretches of one record, as long as
@@ -881,6 +946,25 @@ impl Normal {
             }
         }
         step.iter().zip(&self.scale).map(|(s, d)| s * d).collect()
+    }
+
+    /// The change of the log-scalings a change `score` of `Jᵀr` makes, to first order, in
+    /// the directions the records determine: `−H⁺ score`.
+    fn response(&self, score: &[f64]) -> Vec<f64> {
+        let (values, vectors) = eigen_symmetric(&self.normalised);
+        let top = values.first().copied().unwrap_or(0.0);
+        let scaled: Vec<f64> = score.iter().zip(&self.scale).map(|(s, d)| s * d).collect();
+        let mut out = vec![0.0; self.scale.len()];
+        for (l, v) in values.iter().zip(&vectors) {
+            if *l <= UNSEEN * top {
+                continue;
+            }
+            let along = -dot(v, &scaled) / l;
+            for (o, x) in out.iter_mut().zip(v) {
+                *o += along * x;
+            }
+        }
+        out.iter().zip(&self.scale).map(|(o, d)| o * d).collect()
     }
 
     /// `λmax / λmin` over the determined directions.

@@ -22,10 +22,11 @@ pub(super) struct Probe {
 }
 
 impl Probe {
-    /// The probe of `record`'s first [`PROBE_ROWS`] samples, the noise drawn from `seed`;
-    /// `None` where no signal of it has any noise (then there is nothing to weigh by).
-    pub(super) fn of(record: &Record<'_>, seed: u64) -> Option<Probe> {
-        let rows = record.time.len().min(PROBE_ROWS);
+    /// The probe of `record`'s first `rows` samples (at most all), the noise drawn from
+    /// `seed`; `None` where no signal of it has any noise (then there is nothing to weigh
+    /// by).
+    pub(super) fn of(record: &Record<'_>, seed: u64, rows: usize) -> Option<Probe> {
+        let rows = record.time.len().min(rows);
         let levels: Vec<f64> = record.raw.iter().map(|c| level(c)).collect();
         if levels.iter().all(|&l| l == 0.0) {
             return None;
