@@ -43,6 +43,7 @@ pub(crate) fn fit_model(
         },
         free: Vec::new(),
         bounded: false,
+        span: None,
     };
     let record = Record {
         time: &healthy.time[..rows],

@@ -98,6 +98,7 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
         },
         free: free(&c, &args.only, &args.fix)?,
         bounded: args.bounded,
+        span: None,
     };
     check_steps(&args.records, &records)?;
     let views: Vec<Record<'_>> = (records.iter())

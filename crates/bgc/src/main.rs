@@ -23,6 +23,7 @@ mod report;
 mod residuals;
 mod sensors;
 mod simulate;
+mod size;
 mod summary;
 mod verify;
 

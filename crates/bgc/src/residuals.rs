@@ -110,6 +110,19 @@ pub(crate) struct ResidualArgs {
     choice: ResidualChoice,
     #[command(flatten)]
     values: crate::options::ValuesArg,
+    /// Do not size the fault: by default, once the residuals alarm, each candidate
+    /// component's parameters are fitted alone over `--size-span` seconds from the first
+    /// alarm, and the candidates ranked by how well that explains every residual.
+    #[arg(long)]
+    no_size: bool,
+    /// The seconds from the first alarm the fault's size is fitted over.
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+    size_span: f64,
+    /// Also follow the best candidate's parameters over successive spans to the record's
+    /// end, written as CSV to FILE (`from,to,component,parameter,value,half_width,ratio`):
+    /// the trend of a drifting fault.
+    #[arg(long, value_name = "FILE")]
+    sizes: Option<PathBuf>,
     /// Write the CSV to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -415,6 +428,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     });
     let (out, named) = out;
     named.report(&rows, &c);
+    if let Some((first, ranked)) = named.ranked(&rows, &c).filter(|_| !args.no_size) {
+        size_fault(&args, &c, &program, &params, &data, first, &ranked)?;
+    }
     for (slot, (count, first)) in &unsolved {
         if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
             report::warn(format!("{data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are empty cells there, and the `unsolved` column names it"));
@@ -432,6 +448,33 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     io::write(args.output.as_deref(), &out)?;
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(report::usage)?;
+    }
+    Ok(())
+}
+
+/// The fault's size since its first alarm at `first`, for each candidate of `ranked`; with
+/// `--sizes`, the best one's followed to the record's end.
+fn size_fault(
+    args: &ResidualArgs,
+    c: &Compiled,
+    program: &bondgraph_core::program::Program,
+    params: &[f64],
+    data: &Data,
+    first: f64,
+    ranked: &[String],
+) -> Result<(), Failure> {
+    let sizing = crate::size::Sizing {
+        c,
+        program,
+        params,
+        data,
+    };
+    let span = args.size_span;
+    let sized = sizing.candidates(ranked, first, span);
+    crate::size::note(c, &sized, params, first, span);
+    if let (Some(path), Some(best)) = (&args.sizes, sized.first()) {
+        let followed = sizing.follow(&best.component, first, span);
+        crate::size::write_followed(path, &followed, params)?;
     }
     Ok(())
 }
@@ -660,6 +703,24 @@ impl Named {
     }
 
     /// The ranking of the components by the whole episode, on standard error.
+    /// When the episode started, and its candidate components, best ranked first (those
+    /// that explain every residual in alarm, if any; else all).
+    fn ranked(&self, rows: &[(&str, Vec<u32>)], c: &Compiled) -> Option<(f64, Vec<String>)> {
+        let (episode, first) = (self.episode.as_ref()?, self.first?);
+        let fsm = (rows.iter()).map(|(n, s)| (*n, Signature::new(c.arrs.len(), s)));
+        let ranked = episode.rank(fsm);
+        let explaining: Vec<_> = ranked.iter().filter(|r| r.unexplained == 0).collect();
+        let groups = if explaining.is_empty() {
+            ranked.iter().collect()
+        } else {
+            explaining
+        };
+        let names = (groups.iter())
+            .flat_map(|r| r.names.iter().map(|n| n.to_string()))
+            .collect();
+        Some((first, names))
+    }
+
     fn report(&self, rows: &[(&str, Vec<u32>)], c: &Compiled) {
         let (Some(episode), Some(first)) = (&self.episode, self.first) else {
             return;

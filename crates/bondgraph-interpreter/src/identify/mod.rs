@@ -31,7 +31,7 @@
 //! score over stretches much longer than those windows, and the interval is Student's with
 //! as many degrees of freedom as batches less one.
 
-use bondgraph_core::program::{Code, Fill, Leaf, Program};
+use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program};
 use bondgraph_core::{Compiled, Evaluator};
 
 use crate::fit::{Estimator, Fit, Integration};
@@ -61,6 +61,32 @@ pub struct Settings {
     pub free: Vec<usize>,
     /// Keep each parameter within the model's `+- x%` where it gives one.
     pub bounded: bool,
+    /// Fit only the estimates of a span of the records (which are still run from their
+    /// start, for what the program integrates from there): the size of a fault since its
+    /// alarm. `None`: every estimate.
+    pub span: Option<Span>,
+}
+
+/// A span of the records to fit: the estimates whose instants lie in `[from, to]` seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Span {
+    /// Its first instant.
+    pub from: f64,
+    /// Its last instant.
+    pub to: f64,
+    /// Where residuals integrated from the start are taken from.
+    pub origin: Origin,
+}
+
+/// Where residuals integrated from the start are taken from, over a span.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Origin {
+    /// From the span's start: what a fault adds while it lasts, whatever came before.
+    Span,
+    /// From the record's start: where a relation is the rate of a law (the bench's link),
+    /// its integral is the law itself, which a change of the law's parameters moves even
+    /// where its rate does not (a dead zone's width, once the twist is past it).
+    Record,
 }
 
 /// How well the records determine one parameter.
@@ -135,6 +161,9 @@ pub struct Identification {
     pub condition: f64,
     /// Each residual's RMS at the start and at the fit.
     pub rms: Vec<(f64, f64)>,
+    /// The mean square of the residuals, each over the noise it carries, at the start and
+    /// at the fit: 1 is a fit to the noise.
+    pub cost: (f64, f64),
     /// The samples fitted (estimates times residuals), and the batches the intervals rest
     /// on.
     pub samples: usize,
@@ -221,6 +250,10 @@ pub fn identify(
     let mut u = vec![0.0; free.len()];
     let total = records.iter().map(|r| r.time.len()).max().unwrap_or(0);
     let mut length = Problem::new(c, program, records, settings, start, &free).first_horizon();
+    // Over a span, the fit starts where the span does.
+    if settings.span.is_some() {
+        length = total;
+    }
     while length < total {
         let heads: Vec<Record<'_>> = records.iter().map(|r| r.head(length)).collect();
         let stage = Problem::new(c, program, &heads, settings, start, &free);
@@ -235,6 +268,8 @@ pub fn identify(
     let before = first.raw_rms.clone();
     let stop = problem.minimise(&mut u)?;
     let mut found = problem.summarise(&u, before, &read, stop)?;
+    let per_sample = |s: &Samples| s.cost() / (s.rows * s.residuals).max(1) as f64;
+    found.cost = (per_sample(&first), per_sample(&problem.evaluate(&u)?));
     let jumps = (problem.records.iter())
         .map(|r| jumps::jumps(&r.raw).len())
         .sum();
@@ -336,8 +371,13 @@ struct Problem<'a> {
     bounds: Vec<(f64, f64)>,
     /// Each residual's weight where no noise reaches it.
     fallback: Vec<f64>,
-    /// For each record, the estimates (by place) a jump of a signal reaches.
+    /// For each record, the estimates (by place) a jump of a signal reaches, or outside
+    /// the span fitted.
     left_out: Vec<Vec<bool>>,
+    /// Whether only a span of the records is fitted.
+    span: bool,
+    /// Whether residuals integrated from the start are taken from the span's start.
+    from_span: bool,
 }
 
 impl<'a> Record<'a> {
@@ -365,8 +405,16 @@ impl<'a> Problem<'a> {
             c,
             program,
             records,
+            // Over a span the probe must reach it: the whole records then.
             probes: (records.iter().enumerate())
-                .map(|(k, r)| Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64, noise::PROBE_ROWS))
+                .map(|(k, r)| {
+                    let rows = if settings.span.is_some() {
+                        usize::MAX
+                    } else {
+                        noise::PROBE_ROWS
+                    };
+                    Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64, rows)
+                })
                 .collect(),
             fit: &settings.fit,
             start,
@@ -374,10 +422,28 @@ impl<'a> Problem<'a> {
             bounds: bounds(c, start, settings.bounded),
             fallback: Vec::new(),
             left_out: Vec::new(),
+            span: settings.span.is_some(),
+            from_span: settings.span.is_some_and(|s| s.origin == Origin::Span),
         };
         let (window, integration) = problem.windows();
         problem.left_out = (records.iter())
-            .map(|r| jumps::reached(&jumps::jumps(&r.raw), r.time.len(), window, integration))
+            .map(|r| {
+                // Over a span since an alarm, the fault moves the residuals far more than a
+                // jump's error does, and the span is too short to lose what it reaches.
+                let mut out = if settings.span.is_some() {
+                    vec![false; r.time.len()]
+                } else {
+                    jumps::reached(&jumps::jumps(&r.raw), r.time.len(), window, integration)
+                };
+                if let Some(Span { from, to, .. }) = settings.span {
+                    // An estimate's instant is its window's middle sample's.
+                    for (p, o) in out.iter_mut().enumerate() {
+                        let at = r.time.get(p + window / 2).copied().unwrap_or(f64::INFINITY);
+                        *o |= !(from..=to).contains(&at);
+                    }
+                }
+                out
+            })
             .collect();
         // A residual no noise reaches (every signal it reads noise-free) is weighed by its
         // RMS with the model's values instead.
@@ -432,7 +498,7 @@ impl Problem<'_> {
         for (r, record) in self.records.iter().enumerate() {
             let left_out = self.left_out.get(r);
             let kept = samples.rows;
-            let seen = self.run(&values, record.time, &record.raw, |place, row| {
+            let seen = self.run(&values, r, record.time, &record.raw, |place, row| {
                 if left_out.is_some_and(|l| l.get(place) == Some(&true)) {
                     return;
                 }
@@ -466,6 +532,7 @@ impl Problem<'_> {
     fn run(
         &self,
         values: &[f64],
+        record: usize,
         time: &[f64],
         raw: &[&[f64]],
         mut each: impl FnMut(usize, &[f64]),
@@ -475,10 +542,33 @@ impl Problem<'_> {
             .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
         let mut place = 0;
         let mut row = vec![0.0; n];
+        // Over a span, a residual integrated from the start is taken from the span's start:
+        // its value at the last estimate before the span is the reference.
+        let from_span: Vec<bool> = (0..n)
+            .map(|k| {
+                self.from_span
+                    && self.program.residuals[k].evaluation == Evaluation::Integrated
+                    && self.fit.integration.get(k) == Some(&Integration::Start)
+            })
+            .collect();
+        let before_span = |p: usize| {
+            self.span
+                && (self.left_out.get(record))
+                    .is_some_and(|l| l.get(p) == Some(&true) && l.get(p + 1) == Some(&false))
+        };
+        let mut reference = vec![0.0; n];
         generator.run(time, raw, false, |estimates| {
             for i in 0..estimates.len() {
                 for (k, x) in row.iter_mut().enumerate() {
                     *x = estimates.residual(k)[i];
+                }
+                if before_span(place) {
+                    reference.copy_from_slice(&row);
+                }
+                for ((x, r), &taken) in row.iter_mut().zip(&reference).zip(&from_span) {
+                    if taken {
+                        *x -= r;
+                    }
                 }
                 if row.iter().all(|v| v.is_finite()) {
                     each(place, &row);
@@ -503,7 +593,7 @@ impl Problem<'_> {
         for (r, probe) in self.probes.iter().enumerate() {
             let Some(probe) = probe else { continue };
             let raw: Vec<&[f64]> = probe.raw.iter().map(Vec::as_slice).collect();
-            self.run(values, &probe.time, &raw, |place, row| {
+            self.run(values, r, &probe.time, &raw, |place, row| {
                 while j < samples.rows && samples.at[j] < (r, place) {
                     j += 1;
                 }
@@ -548,7 +638,12 @@ impl Problem<'_> {
     }
 
     fn check_length(&self, rows: usize) -> Result<(), IdentifyError> {
-        let needed = 10 * self.batch_length();
+        // A span since an alarm is short by nature: its intervals rest on the replicates.
+        let needed = if self.span {
+            self.windows().0
+        } else {
+            10 * self.batch_length()
+        };
         if rows < needed {
             return Err(IdentifyError::TooShort {
                 estimates: rows,
@@ -703,6 +798,7 @@ impl Problem<'_> {
             undetermined,
             condition: system.condition(),
             rms: before.into_iter().zip(after).collect(),
+            cost: (0.0, 0.0),
             samples: base.rows * base.residuals,
             batches: batches.len(),
             stop,
@@ -737,7 +833,7 @@ impl Problem<'_> {
                 };
                 any = true;
                 let raw: Vec<&[f64]> = noisy.raw.iter().map(Vec::as_slice).collect();
-                self.run(&values, &noisy.time, &raw, |place, row| {
+                self.run(&values, r, &noisy.time, &raw, |place, row| {
                     while j < base.rows && base.at[j] < (r, place) {
                         j += 1;
                     }
