@@ -70,7 +70,16 @@ pub fn uniform_step(time: &[f64]) -> Result<Step, StepError> {
         }
         intervals.push(d);
     }
-    let step = median(&mut intervals.clone());
+    let middle = median(&mut intervals.clone());
+    // Where the first interval is the median but for rounding (decimal times, `k·h` in
+    // floating point), it is the step: a record and its first rows then share it to the
+    // bit, and so do their estimates.
+    let first = intervals[0];
+    let step = if (first - middle).abs() <= 1e-9 * middle {
+        first
+    } else {
+        middle
+    };
     let mut found = Step {
         step,
         jitter: 0.0,

@@ -7,6 +7,7 @@
 //! names the file, line and column as the CLI does.
 
 mod errors;
+mod fit;
 mod model;
 mod monitor;
 mod sim;
@@ -26,6 +27,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(model::compile, m)?)?;
     m.add_function(wrap_pyfunction!(model::sensors, m)?)?;
     m.add_function(wrap_pyfunction!(monitor::residuals, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::identify, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::with_values, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(sim::verify, m)?)?;
     m.add("VERSION", env!("CARGO_PKG_VERSION"))?;

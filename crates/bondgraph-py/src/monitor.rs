@@ -75,6 +75,53 @@ fn step_of(time: &[f64]) -> PyResult<f64> {
     Ok(step.step)
 }
 
+/// A record's time, its columns and its step.
+pub(crate) type Samples<'a> = (&'a [f64], Vec<&'a [f64]>, f64);
+
+/// The time and columns of a record handed from Python, checked: contiguous, as long as
+/// the time, finite, at one step (within its tolerance); `labels` are the names the data
+/// gives them, for the errors. With the step.
+pub(crate) fn samples<'a>(
+    names: &[&str],
+    time: &'a PyReadonlyArray1<'_, f64>,
+    columns: &'a [PyReadonlyArray1<'_, f64>],
+    labels: Option<Vec<String>>,
+) -> PyResult<Samples<'a>> {
+    let time = time
+        .as_slice()
+        .map_err(|_| errors::data("the time column is not a contiguous, aligned array"))?;
+    let mut data: Vec<&[f64]> = Vec::with_capacity(columns.len());
+    for (column, name) in columns.iter().zip(names) {
+        let slice = column.as_slice().map_err(|_| {
+            errors::data(format!(
+                "column `{name}` is not a contiguous, aligned array"
+            ))
+        })?;
+        if slice.len() != time.len() {
+            return Err(errors::data(format!(
+                "column `{name}` has {} samples where time has {}",
+                slice.len(),
+                time.len()
+            )));
+        }
+        data.push(slice);
+    }
+    // The names the data gives the time and the columns, for its errors.
+    let labels = labels.unwrap_or_else(|| {
+        std::iter::once("t")
+            .chain(names.iter().copied())
+            .map(String::from)
+            .collect()
+    });
+    let label = |k: usize| labels.get(k).map_or("?", String::as_str);
+    check_finite(label(0), time)?;
+    for (k, column) in data.iter().enumerate() {
+        check_finite(label(k + 1), column)?;
+    }
+    let step = step_of(time)?;
+    Ok((time, data, step))
+}
+
 /// The first sample of a column that is not a finite number.
 fn check_finite(name: &str, column: &[f64]) -> PyResult<()> {
     match column.iter().position(|v| !v.is_finite()) {
@@ -133,38 +180,7 @@ pub(crate) fn residuals<'py>(
             names.join(", ")
         )));
     }
-    let time = time
-        .as_slice()
-        .map_err(|_| errors::data("the time column is not a contiguous, aligned array"))?;
-    let mut data: Vec<&[f64]> = Vec::with_capacity(columns.len());
-    for (column, name) in columns.iter().zip(&names) {
-        let slice = column.as_slice().map_err(|_| {
-            errors::data(format!(
-                "column `{name}` is not a contiguous, aligned array"
-            ))
-        })?;
-        if slice.len() != time.len() {
-            return Err(errors::data(format!(
-                "column `{name}` has {} samples where time has {}",
-                slice.len(),
-                time.len()
-            )));
-        }
-        data.push(slice);
-    }
-    // The names the data gives the time and the columns, for its errors.
-    let labels = labels.unwrap_or_else(|| {
-        std::iter::once("t")
-            .chain(names.iter().copied())
-            .map(String::from)
-            .collect()
-    });
-    let label = |k: usize| labels.get(k).map_or("?", String::as_str);
-    check_finite(label(0), time)?;
-    for (k, column) in data.iter().enumerate() {
-        check_finite(label(k + 1), column)?;
-    }
-    let step = step_of(time)?;
+    let (time, data, step) = samples(&names, &time, &columns, labels)?;
     if thresholds.len() != c.arrs.len() {
         return Err(PyValueError::new_err(format!(
             "{} thresholds for {} ARRs",

@@ -35,6 +35,7 @@ __all__ = [
     "Arr",
     "Residuals",
     "Verification",
+    "Identification",
     "BgcError",
     "ModelError",
     "ScenarioError",
@@ -351,6 +352,34 @@ class Verification:
         )
 
 
+@dataclass(frozen=True)
+class Identification:
+    """The model's parameters fitted to a healthy record, as ``bgc identify`` fits them.
+
+    `values` maps every parameter to its fitted value (the model's where the record does not
+    determine it); `estimates` has a row per parameter (``name``, ``model``, ``value``,
+    ``half_width`` of its 95 % interval, ``std_error``, ``determined``: ``"yes"``,
+    ``"weakly"``, ``"combination"``, ``"unread"`` or ``"held"``); `undetermined` the
+    combinations the record does not separate (``scalings``: parameter → exponent, scaling
+    each by ``s**exponent`` leaves every residual as it is; ``structural``: no record of
+    these sensors could separate them); `model` the model with the fitted values.
+    """
+
+    values: Dict[str, float]
+    estimates: List[Dict[str, Any]]
+    undetermined: List[Dict[str, Any]]
+    rms: List["tuple[float, float]"]
+    condition: float
+    converged: bool
+    model: "Model"
+
+    def to_pandas(self) -> Any:
+        """The estimates as a DataFrame indexed by parameter."""
+        import pandas as pd
+
+        return pd.DataFrame(self.estimates).set_index("name")
+
+
 class Model:
     """A compiled model: its parameters, signals, state equations, ARRs, fault signature
     matrix and fault classes, and what can be computed from it."""
@@ -604,6 +633,46 @@ class Model:
         except ImportError:
             return {c: samples[:, k] for k, c in enumerate(columns)}
         return pd.DataFrame(samples, columns=columns)
+
+    def with_parameters(self, values: Mapping[str, float]) -> "Model":
+        """This model with `values` (name → value) in place of its parameters' values, as
+        ``--params`` gives them to the CLI; raises `ValueError` for a name it does not
+        declare."""
+        text = _native.with_values(self._native.text, [(k, float(v)) for k, v in values.items()])
+        return _recompile(text, self._native.file, *self._options)
+
+    def identify(
+        self,
+        data: Any,
+        *,
+        time: str = "t",
+        columns: Optional[Mapping[str, str]] = None,
+        window: int = 51,
+        integration_window: int = 250,
+        only: Optional[Sequence[str]] = None,
+        fix: Optional[Sequence[str]] = None,
+    ) -> Identification:
+        """Fits the parameters to a healthy record (a dict of arrays, a pandas or Polars
+        DataFrame), as ``bgc identify`` does (see docs/identification.md): least squares on
+        the residuals as they are evaluated, each over the noise it carries; 95 % intervals;
+        the combinations the record does not determine. `only` and `fix` choose what is
+        fitted; `window` is the Savitzky–Golay window, `integration_window` the window the
+        integrated residuals are taken over."""
+        t, cols, labels = _columns(data, self.signals, time, columns)
+        out = _native.identify(
+            self._native, t, cols, labels=labels, window=window, integration=integration_window,
+            only=list(only) if only else None, fix=list(fix) if fix else None,
+        )
+        values = {e["name"]: e["value"] for e in out["estimates"]}
+        return Identification(
+            values=values,
+            estimates=list(out["estimates"]),
+            undetermined=list(out["undetermined"]),
+            rms=[tuple(r) for r in out["rms"]],
+            condition=out["condition"],
+            converged=out["converged"],
+            model=self.with_parameters(values),
+        )
 
     def sensors(self, components: Optional[Sequence[str]] = None, goal: str = "isolable") -> Dict[str, Any]:
         """Where to add detectors so that `components` (every one by default) become

@@ -41,6 +41,18 @@ def residuals(
     debounce: int = 1,
     adaptive: bool = False,
 ) -> Dict[str, Any]: ...
+def identify(
+    model: Model,
+    time: npt.NDArray[np.float64],
+    columns: Sequence[npt.NDArray[np.float64]],
+    *,
+    labels: Optional[Sequence[str]] = None,
+    window: int = 51,
+    integration: int = 250,
+    only: Optional[Sequence[str]] = None,
+    fix: Optional[Sequence[str]] = None,
+) -> Dict[str, Any]: ...
+def with_values(text: str, values: Sequence[Tuple[str, float]]) -> str: ...
 def simulate(model: Model, text: str, file: str = "<scenario>") -> Tuple[List[str], npt.NDArray[np.float64]]: ...
 def verify(
     model: Model, *, input_scale: float = 1.0, state_scale: float = 0.5, runs: int = 3

@@ -1,0 +1,152 @@
+//! `identify` and `with_values`: the model's parameters fitted to healthy records, as `bgc
+//! identify` fits them, and a model's text with values of the caller's in place of its own.
+
+use bondgraph_core::ParameterValues;
+use bondgraph_interpreter::{
+    identify as fit, Determined, Estimator, Fit, Integration, Record, Settings, Stop,
+};
+use numpy::PyReadonlyArray1;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::errors::{self, BgcError};
+use crate::model::Model;
+use crate::monitor::samples;
+
+/// Fits the parameters of `model` to one healthy record (`columns` in the order of
+/// `model.signals()`, taken at `time`), as `bgc identify` does; a dict of the estimates,
+/// their intervals and the combinations the record does not determine.
+#[pyfunction]
+#[pyo3(signature = (model, time, columns, *, labels = None, window = 51, integration = 250, only = None, fix = None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn identify<'py>(
+    py: Python<'py>,
+    model: PyRef<'py, Model>,
+    time: PyReadonlyArray1<'py, f64>,
+    columns: Vec<PyReadonlyArray1<'py, f64>>,
+    labels: Option<Vec<String>>,
+    window: usize,
+    integration: usize,
+    only: Option<Vec<String>>,
+    fix: Option<Vec<String>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let c = &model.compiled;
+    if c.residual_code_refused() || c.arrs.is_empty() {
+        return Err(BgcError::new_err(format!(
+            "{}: no ARRs to fit the parameters to (see the diagnostics)",
+            model.file
+        )));
+    }
+    let program = c.program();
+    let names: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    let (time, data, step) = samples(&names, &time, &columns, labels)?;
+    let settings = Settings {
+        fit: Fit {
+            step,
+            estimator: Estimator::SavitzkyGolay {
+                window,
+                degree: program.top_order().max(3),
+            },
+            integration: vec![Integration::Window(integration.max(1)); c.arrs.len()],
+        },
+        free: free(&model, only.as_deref(), fix.as_deref())?,
+        bounded: false,
+        span: None,
+    };
+    let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let record = [Record { time, raw: data }];
+    let found = py
+        .detach(|| fit(c, &program, &start, &record, &settings))
+        .map_err(|e| errors::data(format!("{}: {e}", model.file)))?;
+    let out = PyDict::new(py);
+    let estimates = PyList::empty(py);
+    for e in &found.estimates {
+        let row = PyDict::new(py);
+        row.set_item("name", &e.name)?;
+        row.set_item("model", e.start)?;
+        row.set_item("value", e.value)?;
+        row.set_item("half_width", e.half_width)?;
+        row.set_item("std_error", e.std_error)?;
+        row.set_item("determined", determined(&e.determined))?;
+        estimates.append(row)?;
+    }
+    out.set_item("estimates", estimates)?;
+    let undetermined = PyList::empty(py);
+    for combination in &found.undetermined {
+        let row = PyDict::new(py);
+        let scalings = PyDict::new(py);
+        for &(k, x) in &combination.scalings {
+            scalings.set_item(&found.estimates[k].name, x)?;
+        }
+        row.set_item("scalings", scalings)?;
+        row.set_item("structural", combination.structural)?;
+        undetermined.append(row)?;
+    }
+    out.set_item("undetermined", undetermined)?;
+    out.set_item("condition", found.condition)?;
+    out.set_item("rms", found.rms.clone())?;
+    out.set_item("samples", found.samples)?;
+    out.set_item("batches", found.batches)?;
+    out.set_item("converged", found.stop.0 == Stop::Converged)?;
+    out.set_item("iterations", found.stop.1)?;
+    Ok(out)
+}
+
+/// What a parameter's determination is called in Python.
+fn determined(d: &Determined) -> &'static str {
+    match d {
+        Determined::Yes => "yes",
+        Determined::Weakly => "weakly",
+        Determined::No => "combination",
+        Determined::Unread => "unread",
+        Determined::Held => "held",
+    }
+}
+
+/// The parameters to fit, by their place: `only` (or every one), less `fix`.
+fn free(model: &Model, only: Option<&[String]>, fix: Option<&[String]>) -> PyResult<Vec<usize>> {
+    let names: Vec<&str> = (model.compiled.parameters.values())
+        .map(|p| p.name.as_str())
+        .collect();
+    let place = |name: &String| {
+        names.iter().position(|n| n == name).ok_or_else(|| {
+            let hint = bondgraph_core::closest(name, names.iter().copied())
+                .map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            PyValueError::new_err(format!("the model has no parameter `{name}`{hint}"))
+        })
+    };
+    let only = only
+        .unwrap_or_default()
+        .iter()
+        .map(place)
+        .collect::<PyResult<Vec<_>>>()?;
+    let fixed = fix
+        .unwrap_or_default()
+        .iter()
+        .map(place)
+        .collect::<PyResult<Vec<_>>>()?;
+    let candidates: Vec<usize> = if only.is_empty() {
+        (0..names.len()).collect()
+    } else {
+        only
+    };
+    Ok(candidates
+        .into_iter()
+        .filter(|k| !fixed.contains(k))
+        .collect())
+}
+
+/// The model `text` with the values `values` (name → value) in place of its own, the rest
+/// of the text as it was; a name the model does not declare raises `ValueError`.
+#[pyfunction]
+pub(crate) fn with_values(text: &str, values: Vec<(String, f64)>) -> PyResult<String> {
+    if let Some((name, _)) = values.iter().find(|(_, v)| !v.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "the value of `{name}` must be a finite number"
+        )));
+    }
+    ParameterValues::from_pairs(values)
+        .apply(text)
+        .map_err(|e| PyValueError::new_err(e.message))
+}

@@ -1,0 +1,63 @@
+"""Identification from Python: a known change of the plant recovered within its intervals,
+the CLI's figures, the fitted model, and clear errors."""
+
+import pytest
+
+import bondgraph_compiler as bgc
+
+from conftest import ROOT, bgc_cli
+
+MOTOR = ROOT / "models" / "dc_motor.bg"
+SCENARIO = """duration 30
+step 0.001
+seed 3
+input U0 = 6 + 12*sin(0.5*t) + 3*sin(7*t)
+noise i 1e-2
+noise y1 1e-2
+"""
+
+
+@pytest.fixture(scope="module")
+def motor():
+    return bgc.compile(MOTOR)
+
+
+@pytest.fixture(scope="module")
+def record(motor):
+    """The motor with its resistance 20 % and its friction 20 % up, simulated."""
+    return motor.with_parameters({"Re": 0.36, "fe": 0.12}).simulate(SCENARIO)
+
+
+def test_a_changed_plant_is_recovered_within_its_intervals(motor, record):
+    found = motor.identify(record)
+    rows = {e["name"]: e for e in found.estimates}
+    for name, truth in {"Re": 0.36, "L": 0.5, "ke": 0.5, "Je": 0.8, "fe": 0.12}.items():
+        e = rows[name]
+        assert e["determined"] == "yes"
+        assert abs(e["value"] - truth) <= e["half_width"] < 0.05 * truth, (name, e)
+    assert found.undetermined == []
+    assert found.converged
+    assert found.model.parameters["Re"] == pytest.approx(found.values["Re"])
+    frame = found.to_pandas()
+    assert list(frame.columns[:2]) == ["model", "value"]
+
+
+def test_the_clis_estimates(motor, record, tmp_path):
+    path = tmp_path / "record.csv"
+    record[["t", "U0", "i", "y1"]].to_csv(path, index=False, float_format="%.17g")
+    found = motor.identify(record)
+    text = bgc_cli("identify", str(MOTOR), str(path), "--window", "51")
+    for line in text.splitlines():
+        if line.startswith("#") or "=" not in line:
+            continue
+        name, value = line.split("#")[0].split("=")
+        assert float(value) == pytest.approx(found.values[name.strip()], rel=1e-5), line
+
+
+def test_bad_names_are_refused_with_a_hint(motor, record):
+    with pytest.raises(ValueError, match=r"no parameter `Rr` \(did you mean `Re`\?\)"):
+        motor.with_parameters({"Rr": 0.4})
+    with pytest.raises(ValueError, match=r"no parameter `Rr`"):
+        motor.identify(record, only=["Rr"])
+    with pytest.raises(bgc.DataError, match=r"needs at least"):
+        motor.identify(record.head(2000))
