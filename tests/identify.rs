@@ -25,9 +25,24 @@ fn estimate(file: &str, name: &str) -> Option<(f64, f64)> {
 
 /// Simulates `model` with the plant's values `plant` (a parameter file) into `dir`.
 fn simulate(dir: &Path, model: &str, plant: &str, input: &str, noise: &[&str]) -> String {
+    simulate_with(dir, model, plant, input, noise, &[], "record.csv", 3)
+}
+
+/// [`simulate`] with more scenario statements, into `name`, with the noise's `seed`.
+#[allow(clippy::too_many_arguments)]
+fn simulate_with(
+    dir: &Path,
+    model: &str,
+    plant: &str,
+    input: &str,
+    noise: &[&str],
+    more: &[&str],
+    name: &str,
+    seed: u64,
+) -> String {
     let values = dir.join("plant.txt");
     std::fs::write(&values, plant).expect("plant values");
-    let record = dir.join("record.csv").display().to_string();
+    let record = dir.join(name).display().to_string();
     let mut args = vec![
         "simulate".to_string(),
         model.to_string(),
@@ -40,12 +55,15 @@ fn simulate(dir: &Path, model: &str, plant: &str, input: &str, noise: &[&str]) -
         "-e".into(),
         format!("input U0 = {input}"),
         "--seed".into(),
-        "3".into(),
+        seed.to_string(),
         "-o".into(),
         record.clone(),
     ];
     for n in noise {
         args.extend(["-e".to_string(), format!("noise {n} 1e-2")]);
+    }
+    for m in more {
+        args.extend(["-e".to_string(), m.to_string()]);
     }
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     let out = bgc(&args);
@@ -221,5 +239,62 @@ fn calibration_fits_the_model_first_and_keep_model_keeps_its_values() {
     assert!(note.contains("Re 0.3 -> 0.36"), "{note}");
     assert!(!note.contains("ke 0.5 ->"), "ke did not move: {note}");
     assert!(!run(&["--keep-model"]).contains("the model fitted to it"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_faults_size_is_estimated_and_its_component_ranked_first() {
+    let dir = scratch("identify-size");
+    let (model, input, noise) = (
+        "models/dc_motor.bg",
+        "6 + 12*sin(0.5*t) + 3*sin(7*t)",
+        ["i", "y1"],
+    );
+    let healthy = simulate_with(
+        &dir,
+        model,
+        "Re = 0.3\n",
+        input,
+        &noise,
+        &[],
+        "healthy.csv",
+        1,
+    );
+    let faulty = simulate_with(
+        &dir,
+        model,
+        "Re = 0.3\n",
+        input,
+        &noise,
+        &["fault fe = 2*fe at 30"],
+        "faulty.csv",
+        2,
+    );
+    let out = bgc(&[
+        "residuals",
+        model,
+        &faulty,
+        "--calibrate",
+        &healthy,
+        "-o",
+        "/dev/null",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let said = stderr(&out);
+    let sizes: Vec<&str> = said
+        .lines()
+        .skip_while(|l| !l.contains("the fault's size"))
+        .skip(1)
+        .take_while(|l| l.starts_with("   "))
+        .collect();
+    let first = sizes.first().unwrap_or_else(|| panic!("{said}"));
+    assert!(first.contains("fm: fe = "), "{said}");
+    let ratio: f64 = first
+        .split("× the model's")
+        .next()
+        .and_then(|s| s.rsplit(", ").next())
+        .and_then(|s| s.trim().parse().ok())
+        .unwrap_or_else(|| panic!("{first}"));
+    assert!((ratio - 2.0).abs() < 0.1, "{first}");
     let _ = std::fs::remove_dir_all(&dir);
 }

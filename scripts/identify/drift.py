@@ -45,13 +45,20 @@ def main():
         done = subprocess.run([a.bgc, "residuals", MODEL, drifting, "--calibrate", healthy,
                                "--size-span", str(a.span), "--sizes", sizes, "-o", os.devnull],
                               capture_output=True, text=True, check=True)
+        keep = False
         for line in done.stderr.splitlines():
             if line.startswith("note: alarms from") or line.startswith("note: the fault's size"):
-                print(line[:160])
+                keep = True
+            elif line.startswith("note:") or not line.startswith(" "):
+                keep = False
+            if keep:
+                print(line[:200])
         worst = 0.0
         with open(sizes) as f:
             for row in csv.DictReader(f):
                 if row["parameter"] != "j0":
+                    print("%s-%s s  %s %s = %s" % (row["from"], row["to"], row["component"],
+                                                 row["parameter"], row["value"]))
                     continue
                 a0, a1 = float(row["from"]), float(row["to"])
                 t = 0.5 * (a0 + a1)

@@ -284,11 +284,12 @@ impl Walk {
         (floor + rate > 0.0).then_some(Walk { floor, rate })
     }
 
-    /// The probability a healthy residual that follows this walk may cross its threshold
-    /// anywhere on a record, over [`Walk::HORIZON`] times the healthy record's length.
+    /// The probability a healthy residual may cross its threshold anywhere on a record of
+    /// [`Walk::HORIZON`] times the healthy record's length.
     pub(crate) const CROSSING: f64 = 1e-3;
-    /// How much longer than the healthy record a monitored record may be.
-    pub(crate) const HORIZON: f64 = 10.0;
+    /// The length of the records the crossing probability is stated for, in healthy
+    /// records.
+    pub(crate) const HORIZON: f64 = 1.0;
 
     /// The threshold, in deviations, that a residual following this walk crosses anywhere
     /// on a record of [`Walk::HORIZON`] times `length` samples with probability
@@ -442,8 +443,11 @@ pub(crate) fn thresholds(
 /// The level that a stationary Gaussian residual with the healthy series `s`'s spectrum
 /// crosses, on either side, with probability [`Walk::CROSSING`] over [`Walk::HORIZON`]
 /// times `length` samples: by Rice's formula its upcrossings of `c σ` come at
-/// `ν₀ e^{−c²/2}` per sample, `ν₀ = √(var Δs / var s) / 2π`. The largest value of one
-/// record is an extreme value, which says less of the next record than its spectrum does.
+/// `ν₀ e^{−c²/2}` per sample. `ν₀` is read from the series' own excursions past one
+/// deviation, each counted once from the mean (a slow residual with a little white noise on
+/// it chatters across its mean, not past a deviation). The largest value of one record is an
+/// extreme value, which says less of the next record than this does. 0 (no statement) where
+/// the record holds too few excursions to tell.
 fn rice_level(s: &[f64], length: usize) -> f64 {
     let finite: Vec<f64> = s.iter().copied().filter(|v| v.is_finite()).collect();
     if finite.len() < 3 {
@@ -451,21 +455,41 @@ fn rice_level(s: &[f64], length: usize) -> f64 {
     }
     let mean = finite.iter().sum::<f64>() / finite.len() as f64;
     let var = finite.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / finite.len() as f64;
-    let dvar = (finite.windows(2))
-        .map(|w| (w[1] - w[0]) * (w[1] - w[0]))
-        .sum::<f64>()
-        / (finite.len() - 1) as f64;
     if var <= 0.0 {
         return 0.0;
     }
-    let rate = (dvar / var).sqrt() / (2.0 * std::f64::consts::PI);
+    let sigma = var.sqrt();
+    let excursions = excursions(&finite, mean, sigma);
+    if excursions < 10 {
+        return 0.0;
+    }
+    // Upcrossings of one deviation on either side, per sample, back to the mean level.
+    let rate = excursions as f64 / (2.0 * finite.len() as f64) * 0.5f64.exp();
     let crossings = 2.0 * rate * Walk::HORIZON * length as f64;
     let c = if crossings > Walk::CROSSING {
         (2.0 * (crossings / Walk::CROSSING).ln()).sqrt()
     } else {
         0.0
     };
-    mean.abs() + c * var.sqrt()
+    mean.abs() + c * sigma
+}
+
+/// How many times `s` goes past `mean ± sigma`, each counted once until it is back at the
+/// mean.
+fn excursions(s: &[f64], mean: f64, sigma: f64) -> usize {
+    let mut count = 0;
+    // The side of the excursion under way: +1 above, −1 below, 0 none.
+    let mut side = 0.0;
+    for v in s {
+        let d = v - mean;
+        if side == 0.0 && d.abs() > sigma {
+            count += 1;
+            side = d.signum();
+        } else if side != 0.0 && d * side <= 0.0 {
+            side = 0.0;
+        }
+    }
+    count
 }
 
 /// A series' RMS (at least the smallest positive number), over its finite values.

@@ -429,7 +429,18 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let (out, named) = out;
     named.report(&rows, &c);
     if let Some((first, ranked)) = named.ranked(&rows, &c).filter(|_| !args.no_size) {
-        size_fault(&args, &c, &program, &params, &data, first, &ranked)?;
+        // The estimates at an instant read half a window ahead: the samples from the first
+        // alarm's plus that on hold the fault.
+        let lookahead = (window.saturating_sub(1) / 2) as f64 * data.step;
+        size_fault(
+            &args,
+            &c,
+            &program,
+            &params,
+            &data,
+            first + lookahead,
+            &ranked,
+        )?;
     }
     for (slot, (count, first)) in &unsolved {
         if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
@@ -452,8 +463,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The fault's size since its first alarm at `first`, for each candidate of `ranked`; with
-/// `--sizes`, the best one's followed to the record's end.
+/// The fault's size from `first` (the first alarm's samples on), for each candidate of
+/// `ranked`; with `--sizes`, the best one's followed to the record's end.
 fn size_fault(
     args: &ResidualArgs,
     c: &Compiled,

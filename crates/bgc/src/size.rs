@@ -119,9 +119,9 @@ pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, spa
         return;
     }
     let mut text = format!(
-        "the fault's size: each candidate with parameters fitted alone over {span} s from the \
-         first alarm ({first} s), best fit first (residuals over their noise, mean square: 1 is \
-         the noise):"
+        "the fault's size: each candidate with parameters fitted alone over {span} s from {first} \
+         s (the first alarm's samples on), best fit first (residuals over their noise, mean \
+         square: 1 is the noise):"
     );
     for (k, s) in sized.iter().enumerate() {
         let _ = write!(

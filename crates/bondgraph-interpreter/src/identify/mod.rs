@@ -413,7 +413,7 @@ impl<'a> Problem<'a> {
                     } else {
                         noise::PROBE_ROWS
                     };
-                    Probe::of(r, 0x5DEE_CE66_D1CE_4E5B ^ k as u64, rows)
+                    Probe::of(r.time, &r.raw, 0x5DEE_CE66_D1CE_4E5B ^ k as u64, rows)
                 })
                 .collect(),
             fit: &settings.fit,
@@ -828,7 +828,7 @@ impl Problem<'_> {
             let mut j = 0;
             for (r, record) in self.records.iter().enumerate() {
                 let seed = 0xA076_1D64_78BD_642F ^ ((m as u64) << 16) ^ r as u64;
-                let Some(noisy) = Probe::of(record, seed, usize::MAX) else {
+                let Some(noisy) = Probe::of(record.time, &record.raw, seed, usize::MAX) else {
                     continue;
                 };
                 any = true;

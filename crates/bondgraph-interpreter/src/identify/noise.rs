@@ -7,8 +7,6 @@
 //! parameter that multiplies a noisy signal pays for the noise it lets in, which is what
 //! least squares on the plain residual gets wrong (errors in variables).
 
-use super::Record;
-
 /// How many samples of a record the noise is probed on: enough for an RMS within a few
 /// percent over residuals correlated for a few hundred samples.
 pub(super) const PROBE_ROWS: usize = 50_000;
@@ -22,17 +20,17 @@ pub(super) struct Probe {
 }
 
 impl Probe {
-    /// The probe of `record`'s first `rows` samples (at most all), the noise drawn from
+    /// The probe of a record's first `rows` samples (at most all), the noise drawn from
     /// `seed`; `None` where no signal of it has any noise (then there is nothing to weigh
     /// by).
-    pub(super) fn of(record: &Record<'_>, seed: u64, rows: usize) -> Option<Probe> {
-        let rows = record.time.len().min(rows);
-        let levels: Vec<f64> = record.raw.iter().map(|c| level(c)).collect();
+    pub(super) fn of(time: &[f64], raw: &[&[f64]], seed: u64, rows: usize) -> Option<Probe> {
+        let rows = time.len().min(rows);
+        let levels: Vec<f64> = raw.iter().map(|c| level(c)).collect();
         if levels.iter().all(|&l| l == 0.0) {
             return None;
         }
         let mut normal = Normal::new(seed);
-        let raw = (record.raw.iter().zip(&levels))
+        let noisy = (raw.iter().zip(&levels))
             .map(|(column, &sigma)| {
                 (column[..rows].iter())
                     .map(|&x| x + sigma * normal.next())
@@ -40,8 +38,8 @@ impl Probe {
             })
             .collect();
         Some(Probe {
-            time: record.time[..rows].to_vec(),
-            raw,
+            time: time[..rows].to_vec(),
+            raw: noisy,
         })
     }
 }
