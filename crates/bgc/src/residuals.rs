@@ -714,17 +714,23 @@ impl Named {
     }
 
     /// The ranking of the components by the whole episode, on standard error.
-    /// When the episode started, and its candidate components, best ranked first (those
-    /// that explain every residual in alarm, if any; else all).
+    /// When the episode started, and its candidate components, best ranked first: those
+    /// whose signature is exactly the residuals seen in alarm, else those that explain every
+    /// one of them, else all.
     fn ranked(&self, rows: &[(&str, Vec<u32>)], c: &Compiled) -> Option<(f64, Vec<String>)> {
         let (episode, first) = (self.episode.as_ref()?, self.first?);
         let fsm = (rows.iter()).map(|(n, s)| (*n, Signature::new(c.arrs.len(), s)));
         let ranked = episode.rank(fsm);
+        let exact: Vec<_> = (ranked.iter())
+            .filter(|r| r.unexplained == 0 && r.unseen == 0)
+            .collect();
         let explaining: Vec<_> = ranked.iter().filter(|r| r.unexplained == 0).collect();
-        let groups = if explaining.is_empty() {
-            ranked.iter().collect()
-        } else {
+        let groups = if !exact.is_empty() {
+            exact
+        } else if !explaining.is_empty() {
             explaining
+        } else {
+            ranked.iter().collect()
         };
         let names = (groups.iter())
             .flat_map(|r| r.names.iter().map(|n| n.to_string()))
