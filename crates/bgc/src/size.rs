@@ -1,7 +1,8 @@
-//! The size of a fault: once the residuals alarm, each candidate component's parameters
-//! fitted alone over the samples since the first alarm, ranked by how well a change of that
-//! component alone brings every residual back to its noise; and, on request, the best
-//! one's parameters followed window after window over the rest of the record.
+//! The size of a fault: once the residuals alarm, each parameter of each candidate
+//! component fitted alone over the samples since the first alarm, each component with the
+//! parameter whose change alone brings every residual closest to its noise, ranked by that;
+//! and, on request, the best one's parameter followed window after window over the rest of
+//! the record.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -37,22 +38,40 @@ pub(crate) struct Sizing<'a> {
 }
 
 impl Sizing<'_> {
-    /// The parameters of `component` fitted alone over `[from, to]` seconds, from `start`:
+    /// Each parameter of `component` fitted alone over `[from, to]` seconds, from `start`,
     /// with the residuals integrated from the span's start and from the record's (see
-    /// [`Origin`]), whichever fits better.
+    /// [`Origin`]): the one parameter and origin that fit best. One parameter at a time,
+    /// because that is the question (which parameter moved, by how much) and because two
+    /// parameters of one law fitted together over a few seconds can trade off without
+    /// bound (a dead zone's width and its sigmoid's slope, once the twist is past it).
     fn fit(&self, component: &str, start: &[f64], from: f64, to: f64) -> Option<Sized> {
-        [Origin::Span, Origin::Record]
-            .into_iter()
-            .filter_map(|origin| self.fit_from(component, start, Span { from, to, origin }))
-            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
+        let comp = self.c.components.values().find(|k| k.name == component)?;
+        let mut best: Option<Sized> = None;
+        for &parameter in &comp.parameters {
+            for origin in [Origin::Span, Origin::Record] {
+                let span = Span { from, to, origin };
+                let Some(sized) = self.fit_from(component, parameter.index(), start, span) else {
+                    continue;
+                };
+                if best
+                    .as_ref()
+                    .is_none_or(|b| sized.found.cost.1 < b.found.cost.1)
+                {
+                    best = Some(sized);
+                }
+            }
+        }
+        best
     }
 
-    fn fit_from(&self, component: &str, start: &[f64], span: Span) -> Option<Sized> {
+    fn fit_from(
+        &self,
+        component: &str,
+        parameter: usize,
+        start: &[f64],
+        span: Span,
+    ) -> Option<Sized> {
         let to = span.to;
-        let comp = self.c.components.values().find(|k| k.name == component)?;
-        if comp.parameters.is_empty() {
-            return None;
-        }
         let settings = Settings {
             fit: Fit {
                 step: self.data.step,
@@ -64,7 +83,7 @@ impl Sizing<'_> {
                 // lasts accumulates over it, the noise only as its square root.
                 integration: vec![Integration::Start; self.c.arrs.len()],
             },
-            free: comp.parameters.iter().map(|p| p.index()).collect(),
+            free: vec![parameter],
             bounded: false,
             span: Some(span),
         };
