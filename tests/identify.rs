@@ -174,10 +174,11 @@ fn a_pair_the_arrs_hold_only_as_a_sum_is_named_as_not_separable() {
         "{note}"
     );
     assert!(file.contains("R1 = ") && file.contains("not determined apart from others"));
-    // C is determined on its own (its interval is not checked here: the current's noise,
-    // 3 % of it, biases it; see docs/identification.md).
+    // C is determined on its own, inside its interval although the current's noise is 3 %
+    // of it: weighed by plain RMS, the noisy regressor biased it 3.7 % low (errors in
+    // variables); weighed by its noise, it is not.
     let (c, half) = estimate(&file, "C").expect("C has an interval");
-    assert!((c - 0.5).abs() < 0.1 && half < 0.01, "{file}");
+    assert!((c - 0.5).abs() <= half && half < 0.01, "{file}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
