@@ -484,7 +484,7 @@ fn size_fault(
     let sized = sizing.candidates(ranked, first, span);
     crate::size::note(c, &sized, params, first, span);
     if let (Some(path), Some(best)) = (&args.sizes, sized.first()) {
-        let followed = sizing.follow(&best.component, first, span);
+        let followed = sizing.follow(best, first, span);
         crate::size::write_followed(path, &followed, params)?;
     }
     Ok(())

@@ -25,7 +25,9 @@ const WINDOW: usize = 51;
 pub(crate) struct Sized {
     /// The component.
     pub(crate) component: String,
-    /// The fit of its parameters.
+    /// The parameter fitted, by its place in the model.
+    pub(crate) parameter: usize,
+    /// The fit.
     pub(crate) found: Identification,
 }
 
@@ -46,22 +48,27 @@ impl Sizing<'_> {
     /// bound (a dead zone's width and its sigmoid's slope, once the twist is past it).
     fn fit(&self, component: &str, start: &[f64], from: f64, to: f64) -> Option<Sized> {
         let comp = self.c.components.values().find(|k| k.name == component)?;
-        let mut best: Option<Sized> = None;
-        for &parameter in &comp.parameters {
-            for origin in [Origin::Span, Origin::Record] {
-                let span = Span { from, to, origin };
-                let Some(sized) = self.fit_from(component, parameter.index(), start, span) else {
-                    continue;
-                };
-                if best
-                    .as_ref()
-                    .is_none_or(|b| sized.found.cost.1 < b.found.cost.1)
-                {
-                    best = Some(sized);
-                }
-            }
-        }
-        best
+        (comp.parameters.iter())
+            .filter_map(|p| self.fit_parameter(component, p.index(), start, from, to))
+            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
+    }
+
+    /// `parameter` of `component` fitted alone over `[from, to]` seconds from `start`, from
+    /// whichever origin fits better.
+    fn fit_parameter(
+        &self,
+        component: &str,
+        parameter: usize,
+        start: &[f64],
+        from: f64,
+        to: f64,
+    ) -> Option<Sized> {
+        [Origin::Span, Origin::Record]
+            .into_iter()
+            .filter_map(|origin| {
+                self.fit_from(component, parameter, start, Span { from, to, origin })
+            })
+            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
     }
 
     fn fit_from(
@@ -99,6 +106,7 @@ impl Sizing<'_> {
         let found = identify(self.c, self.program, start, &[record], &settings).ok()?;
         Some(Sized {
             component: component.to_string(),
+            parameter,
             found,
         })
     }
@@ -113,15 +121,18 @@ impl Sizing<'_> {
         sized
     }
 
-    /// `component`'s parameters fitted over successive windows of `span` seconds from
-    /// `first` to the record's end, each from the fit of the one before.
-    pub(crate) fn follow(&self, component: &str, first: f64, span: f64) -> Vec<(f64, f64, Sized)> {
+    /// The parameter `best` sized, fitted over successive windows of `span` seconds from
+    /// `first` to the record's end, each from the fit of the one before: the same parameter
+    /// throughout, so that its trend is one series.
+    pub(crate) fn follow(&self, best: &Sized, first: f64, span: f64) -> Vec<(f64, f64, Sized)> {
         let end = self.data.time.last().copied().unwrap_or(first);
         let mut start = self.params.to_vec();
         let mut out = Vec::new();
         let mut from = first;
         while from + span <= end + 1e-9 {
-            let Some(sized) = self.fit(component, &start, from, from + span) else {
+            let fitted =
+                self.fit_parameter(&best.component, best.parameter, &start, from, from + span);
+            let Some(sized) = fitted else {
                 break;
             };
             start.clone_from(&sized.found.values);
