@@ -280,17 +280,8 @@ pub fn identify(
 
 /// Which parameters the program reads anywhere: residuals, integrands, roots, the copy.
 fn read_parameters(program: &Program, count: usize) -> Vec<bool> {
-    let mut roots: Vec<Code> = program.residuals.iter().map(|r| r.code).collect();
-    for slot in program.slots.values() {
-        match slot.fill {
-            Fill::Integral(code) => roots.push(code),
-            Fill::Root { residual, slope } => roots.extend([residual, slope]),
-            Fill::Estimate { .. } | Fill::Simulated(_) => {}
-        }
-    }
-    if let Some(copy) = &program.copy {
-        roots.extend(copy.rates.iter().copied());
-    }
+    // A root's slope is its law's derivative: it reads no parameter the law does not.
+    let roots = program_roots(program);
     let mut read = vec![false; count];
     program.code.visit_reachable(&roots, |_, node| {
         if let bondgraph_core::Node::Leaf(Leaf::Parameter(p)) = node {
