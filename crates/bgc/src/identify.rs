@@ -127,31 +127,8 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
 
 /// The parameters to fit, by their place: `only` (or every one), less `fix`.
 fn free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<usize>, Failure> {
-    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
-    let place = |name: &String, option: &str| {
-        names.iter().position(|n| n == name).ok_or_else(|| {
-            let hint = bondgraph_core::closest(name, names.iter().copied())
-                .map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            report::usage(format!(
-                "{option} {name}: the model has no parameter `{name}`{hint}"
-            ))
-        })
-    };
-    let only = (only.iter())
-        .map(|n| place(n, "--only"))
-        .collect::<Result<Vec<_>, _>>()?;
-    let fixed = (fix.iter())
-        .map(|n| place(n, "--fix"))
-        .collect::<Result<Vec<_>, _>>()?;
-    let candidates: Vec<usize> = if only.is_empty() {
-        (0..names.len()).collect()
-    } else {
-        only
-    };
-    let free: Vec<usize> = candidates
-        .into_iter()
-        .filter(|k| !fixed.contains(k))
-        .collect();
+    let free = bondgraph_interpreter::choose_free(c, only, fix)
+        .map_err(|e| report::usage(format!("--only/--fix: {e}")))?;
     if free.is_empty() {
         return Err(report::usage("no parameter left to fit (--only and --fix)"));
     }

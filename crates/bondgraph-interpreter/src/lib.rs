@@ -14,7 +14,7 @@ mod step;
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
 pub use identify::{
-    identify, Combination, Determined, Estimate, Identification, IdentifyError, Origin, Record,
-    Settings, Span, Stop,
+    choose_free, identify, Combination, Determined, Estimate, Identification, IdentifyError,
+    Origin, Record, Settings, Span, Stop,
 };
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};

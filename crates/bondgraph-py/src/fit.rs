@@ -3,7 +3,7 @@
 
 use bondgraph_core::ParameterValues;
 use bondgraph_interpreter::{
-    identify as fit, Determined, Estimator, Fit, Integration, Record, Settings, Stop,
+    choose_free, identify as fit, Determined, Estimator, Fit, Integration, Record, Settings, Stop,
 };
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::PyValueError;
@@ -50,7 +50,12 @@ pub(crate) fn identify<'py>(
             },
             integration: vec![Integration::Window(integration.max(1)); c.arrs.len()],
         },
-        free: free(&model, only.as_deref(), fix.as_deref())?,
+        free: choose_free(
+            c,
+            only.as_deref().unwrap_or_default(),
+            fix.as_deref().unwrap_or_default(),
+        )
+        .map_err(PyValueError::new_err)?,
         bounded: false,
         span: None,
     };
@@ -102,39 +107,6 @@ fn determined(d: &Determined) -> &'static str {
         Determined::Unread => "unread",
         Determined::Held => "held",
     }
-}
-
-/// The parameters to fit, by their place: `only` (or every one), less `fix`.
-fn free(model: &Model, only: Option<&[String]>, fix: Option<&[String]>) -> PyResult<Vec<usize>> {
-    let names: Vec<&str> = (model.compiled.parameters.values())
-        .map(|p| p.name.as_str())
-        .collect();
-    let place = |name: &String| {
-        names.iter().position(|n| n == name).ok_or_else(|| {
-            let hint = bondgraph_core::closest(name, names.iter().copied())
-                .map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            PyValueError::new_err(format!("the model has no parameter `{name}`{hint}"))
-        })
-    };
-    let only = only
-        .unwrap_or_default()
-        .iter()
-        .map(place)
-        .collect::<PyResult<Vec<_>>>()?;
-    let fixed = fix
-        .unwrap_or_default()
-        .iter()
-        .map(place)
-        .collect::<PyResult<Vec<_>>>()?;
-    let candidates: Vec<usize> = if only.is_empty() {
-        (0..names.len()).collect()
-    } else {
-        only
-    };
-    Ok(candidates
-        .into_iter()
-        .filter(|k| !fixed.contains(k))
-        .collect())
 }
 
 /// The model `text` with the values `values` (name → value) in place of its own, the rest

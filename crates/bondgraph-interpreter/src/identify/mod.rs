@@ -278,6 +278,31 @@ pub fn identify(
     Ok(found)
 }
 
+/// The parameters to fit, by their place in `c`: those named in `only` (every one when it
+/// is empty) less those named in `fix`. A name the model does not declare is refused, with
+/// the nearest one it does.
+pub fn choose_free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<usize>, String> {
+    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let place = |name: &String| {
+        names.iter().position(|n| n == name).ok_or_else(|| {
+            let hint = bondgraph_core::closest(name, names.iter().copied())
+                .map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
+            format!("the model has no parameter `{name}`{hint}")
+        })
+    };
+    let only = only.iter().map(place).collect::<Result<Vec<_>, _>>()?;
+    let fixed = fix.iter().map(place).collect::<Result<Vec<_>, _>>()?;
+    let candidates: Vec<usize> = if only.is_empty() {
+        (0..names.len()).collect()
+    } else {
+        only
+    };
+    Ok(candidates
+        .into_iter()
+        .filter(|k| !fixed.contains(k))
+        .collect())
+}
+
 /// Which parameters the program reads anywhere: residuals, integrands, roots, the copy.
 fn read_parameters(program: &Program, count: usize) -> Vec<bool> {
     // A root's slope is its law's derivative: it reads no parameter the law does not.
