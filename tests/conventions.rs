@@ -130,6 +130,37 @@ fn rl_circuit() {
 }
 
 #[test]
+fn a_position_encoder_reads_the_integral_of_the_flow() {
+    // Se U -> 1 -> R, I; an encoder's position x = ∫v (`Dq`). Integral causality: p' =
+    // U - R1 p/L1 as with a speed sensor, and x one more state, x' = p/L1. Diagnosis: v = x',
+    // so U - R1 x' - L1 x'' = 0.
+    let d = derive(&format!(
+        "{HEAD}Se u = U\nR res = R1\nI ind = L1\nDq x on j\nu -> 1:j -> res, ind\n"
+    ));
+    assert_eq!(
+        d.states,
+        ["p_ind' = U - R1 * p_ind / L1", "q_x' = p_ind / L1"]
+    );
+    assert_eq!(d.outputs, ["x = q_x"]);
+    assert_eq!(d.arrs, ["ARR1@j: U - R1 * der(x, 1) - L1 * der(x, 2)"]);
+}
+
+#[test]
+fn a_momentum_sensor_reads_the_integral_of_the_effort() {
+    // Sf U -> 0 -> R, C; the integral of the common effort (`Dp`, a flux linkage λ = ∫v):
+    // v = λ', so U - λ'/R1 - C1 λ'' = 0, and λ' = q/C1 is a state of its own.
+    let d = derive(&format!(
+        "{HEAD}Sf src = U\nR res = R1\nC cap = C1\nDp lam on n\nsrc -> 0:n -> res, cap\n"
+    ));
+    assert_eq!(
+        d.states,
+        ["q_cap' = U - q_cap / (R1 * C1)", "p_lam' = q_cap / C1"]
+    );
+    assert_eq!(d.outputs, ["lam = p_lam"]);
+    assert_eq!(d.arrs, ["ARR1@n: U - der(lam, 1) / R1 - C1 * der(lam, 2)"]);
+}
+
+#[test]
 fn transformer() {
     // Se U -> 1:a -> TF(m) -> 1:b -> I, R.  e1 = m e2, f2 = m f1.
     // The load sees e2 = U/m and its velocity is f2; p' = U/m - r p/L1.

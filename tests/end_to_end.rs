@@ -55,11 +55,14 @@ fn excitation(file: &str) -> Excitation {
             "initial q_cold = 5e5",
         ],
         "coulomb_friction.bg" => &["initial p_slide = 2.4"],
+        // Moving at 9 cm/s: a few tenths of a metre over the record.
+        "positioning_axis.bg" => &["initial p_load = 8"],
         _ => &[],
     };
     let inputs: &[&str] = match file {
         // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
         "coulomb_friction.bg" => &["input F = 60*t + 2*sin(3*t)"],
+        "positioning_axis.bg" => &["input tau = 30 + 5*sin(3*t)"],
         "heated_tank.bg" => &[
             "input Qin = 1e-4*(1 - cos(0.0043*t) + 0.3*sin(0.0097*t)^2)",
             "input Tin = 15 + 3*sin(0.006*t)",
@@ -326,7 +329,7 @@ fn each_detectable_fault_is_named() {
                 .filter(|p| !shared.contains(**p))
                 .collect();
             let fault: Vec<String> = match kind {
-                "De" | "Df" => vec![format!("fault sensor {name} * 1.5 at {at}")],
+                "De" | "Df" | "Dq" | "Dp" => vec![format!("fault sensor {name} * 1.5 at {at}")],
                 _ if !own.is_empty() => own
                     .iter()
                     .map(|p| format!("fault {p} = {factor}*{p} from {at} to {}", at + rise))

@@ -96,7 +96,7 @@ fn schema(model: &str, text: &str) {
     assert!(v["model"].is_string() && v["parameters"].is_object() && v["inputs"].is_array());
     for s in sensors {
         assert!(
-            matches!(s["kind"].as_str(), Some("De" | "Df")),
+            matches!(s["kind"].as_str(), Some("De" | "Df" | "Dq" | "Dp")),
             "{model}: {s}"
         );
     }

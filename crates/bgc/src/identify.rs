@@ -174,12 +174,19 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         },
         found.stop.1
     );
-    if found.jumps > 0 {
+    if found.jumps > 0 && found.left_out > 0 {
         let _ = writeln!(
             out,
             "# {} jumps of a signal (a step input's edges): the {} estimates within the \
              estimators' and integration's reach of one are left out",
             found.jumps, found.left_out
+        );
+    } else if found.jumps > 0 {
+        let _ = writeln!(
+            out,
+            "# {} fast changes of a signal, throughout the records: not a step input's \
+             edges but the signal itself (a closed loop's drive), fitted through",
+            found.jumps
         );
     }
     for (arr, (before, after)) in c.arrs.iter().zip(&found.rms) {
@@ -274,7 +281,7 @@ fn undetermined(c: &Compiled, combination: &Combination) -> String {
 
 /// `x` to 6 significant digits, as the language reads numbers back (in exponent form when
 /// it is very small or large).
-fn significant(x: f64) -> String {
+pub(crate) fn significant(x: f64) -> String {
     if !x.is_finite() {
         return "inf".into();
     }

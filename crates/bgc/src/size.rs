@@ -14,6 +14,7 @@ use bondgraph_interpreter::{
     Span,
 };
 
+use crate::identify::significant;
 use crate::io;
 use crate::record::Data;
 use crate::report::{self, Failure};
@@ -167,7 +168,7 @@ pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, spa
     report::note(text);
 }
 
-/// `j0 = 0.61 ± 0.02 (3.05× the model's 0.2)` for each parameter fitted.
+/// `j0 = 0.61 rad ± 0.02, 3.050× the model's 0.2 (+0.41 rad)` for each parameter fitted.
 fn estimates(c: &Compiled, found: &Identification, model: &[f64]) -> Vec<String> {
     (found.estimates.iter())
         .filter(|e| {
@@ -184,17 +185,32 @@ fn estimates(c: &Compiled, found: &Identification, model: &[f64]) -> Vec<String>
                 .and_then(|p| p.unit.clone());
             let unit = unit.map_or_else(String::new, |u| format!(" {u}"));
             let reference = model[e.parameter];
+            // A change by a factor reads best for a coefficient, one by an amount for an
+            // offset: both are given.
+            let change = format!(
+                "{}{}{unit}",
+                if e.value >= reference { "+" } else { "" },
+                significant(e.value - reference)
+            );
             let ratio = if reference == 0.0 {
-                String::new()
+                format!(" ({change} from the model's 0)")
             } else {
-                format!(", {:.3}× the model's {reference}", e.value / reference)
+                format!(
+                    ", {:.3}× the model's {} ({change})",
+                    e.value / reference,
+                    significant(reference)
+                )
             };
             let interval = if e.half_width.is_finite() {
-                format!(" ± {:.2e}", e.half_width)
+                format!(" ± {}", significant(e.half_width))
             } else {
                 " (not determined alone)".to_string()
             };
-            format!("{} = {:.6}{unit}{interval}{ratio}", e.name, e.value)
+            format!(
+                "{} = {}{unit}{interval}{ratio}",
+                e.name,
+                significant(e.value)
+            )
         })
         .collect()
 }

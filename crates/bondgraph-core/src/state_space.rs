@@ -6,7 +6,7 @@ use crate::causality::equations::{Relation, Var};
 use crate::causality::solve::Use;
 use crate::causality::{report, Causal};
 use crate::diagnostic::{Code, Diagnostic, Severity};
-use crate::graph::{BondGraph, NodeId, NodeKind};
+use crate::graph::{BondGraph, DetectorKind, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf, Pool, Simplifier, StateIx, VarId};
 
 /// One state equation, `d(name)/dt = rhs`.
@@ -64,13 +64,23 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
     problems.extend(report::conflicts(model, causal));
     let nan = pool.num(f64::NAN);
     let mut outputs: Vec<(NodeId, ExprId)> = Vec::new();
+    // A `Dq` or `Dp` measures an integral: a state of its own, after the storage elements',
+    // whose rate is the junction's variable.
+    let mut integrands: Vec<(NodeId, ExprId)> = Vec::new();
+    let storage = causal.system.states.len();
     for id in model.nodes() {
-        if let NodeKind::Detector(_) = model.node(id).kind {
+        if let NodeKind::Detector(kind) = model.node(id).kind {
             let value = model
                 .detector_junction(id)
                 .and_then(|j| causal.value(Var::Common(j)))
                 .unwrap_or(nan);
-            outputs.push((id, value));
+            if kind.integrals() == 0 {
+                outputs.push((id, value));
+            } else {
+                let state = StateIx((storage + integrands.len()) as u32);
+                integrands.push((id, value));
+                outputs.push((id, pool.leaf(Leaf::State(state))));
+            }
         }
     }
     let pool = &mut pool;
@@ -92,7 +102,10 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         }
     }
     let map: HashMap<NodeId, ExprId> = outputs.iter().copied().collect();
-    let kept = independent(causal);
+    for (_, e) in integrands.iter_mut() {
+        *e = measured(pool, *e, &map);
+    }
+    let mut kept = independent(causal);
     let mut states: Vec<StateEquation> = Vec::new();
     let mut rates: Vec<VarId> = Vec::new();
     for (s, _) in causal.system.states.iter().zip(&kept).filter(|(_, k)| **k) {
@@ -135,7 +148,11 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             ),
         ));
     }
-    if let Err(element) = solve_rates(pool, &mut states, &mut outputs, &rates) {
+    let detectors = outputs.len();
+    outputs.append(&mut integrands);
+    let solved = solve_rates(pool, &mut states, &mut outputs, &rates);
+    integrands = outputs.split_off(detectors);
+    if let Err(element) = solved {
         problems.push(report::at_nodes(
             model,
             Severity::Error,
@@ -154,7 +171,12 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
             s.rhs = pool.mul(s.rhs, scale);
         }
     }
+    kept.resize(storage + integrands.len(), true);
+    outputs.append(&mut integrands);
     renumber(pool, &mut states, &mut outputs, &mut implicit, &kept);
+    for (detector, rate) in outputs.split_off(detectors) {
+        states.push(measured_state(model, detector, rate));
+    }
     for s in &mut states {
         s.rhs = simplifier.simplify(pool, s.rhs);
     }
@@ -203,6 +225,21 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
         outputs,
         implicit,
         problems,
+    }
+}
+
+/// The state a `Dq` or `Dp` detector measures: `q_NAME` or `p_NAME`, moving at `rate`.
+fn measured_state(model: &BondGraph, detector: NodeId, rate: ExprId) -> StateEquation {
+    let node = model.node(detector);
+    let prefix = match node.kind {
+        NodeKind::Detector(DetectorKind::Dp) => "p",
+        _ => "q",
+    };
+    StateEquation {
+        name: format!("{prefix}_{}", node.name),
+        element: detector,
+        co_energy: false,
+        rhs: rate,
     }
 }
 

@@ -61,3 +61,29 @@ def test_bad_names_are_refused_with_a_hint(motor, record):
         motor.identify(record, only=["Rr"])
     with pytest.raises(bgc.DataError, match=r"needs at least"):
         motor.identify(record.head(2000))
+
+
+AXIS = ROOT / "models" / "positioning_axis.bg"
+# Reversing through zero speed with force to spare: where a Coulomb friction sticks, its
+# sign() chatters; and only reversals tell the Coulomb friction from the offset.
+AXIS_SCENARIO = """duration 30
+step 0.001
+seed 5
+initial p_load = -40
+input tau = 150*sin(1.3*t) + 20*sin(4.1*t)
+noise q 1e-6
+"""
+
+
+def test_a_position_encoder_is_read_as_a_position():
+    """The axis' encoder (`Dq`): the record holds the position, the fit recovers the plant."""
+    axis = bgc.compile(AXIS)
+    assert [s["kind"] for s in axis.to_dict()["sensors"]] == ["Dq"]
+    truth = {"M": 95.0, "Fv": 200.0, "Fc": 20.0, "offset": -3.0}
+    record = axis.with_parameters(truth).simulate(AXIS_SCENARIO)
+    assert "q" in record.columns and "q_q" in record.columns
+    found = axis.identify(record)
+    rows = {e["name"]: e for e in found.estimates}
+    for name, value in truth.items():
+        e = rows[name]
+        assert abs(e["value"] - value) <= e["half_width"], (name, e)

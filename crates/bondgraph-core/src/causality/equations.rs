@@ -9,8 +9,8 @@ use petgraph::Direction::{Incoming, Outgoing};
 use super::mode::Mode;
 use crate::expr::{BinOp, Expr};
 use crate::graph::{
-    BondGraph, BondId, BondKind, ElementKind, JunctionKind, Law, LetId, NodeId, NodeKind, PortVar,
-    Signal, SignalExpr,
+    BondGraph, BondId, BondKind, DetectorKind, ElementKind, JunctionKind, Law, LetId, NodeId,
+    NodeKind, PortVar, Signal, SignalExpr,
 };
 // An unknown's index into [`System::vars`].
 pub(crate) use crate::symbolic::VarId;
@@ -289,7 +289,7 @@ pub(crate) fn build_in(
         match &model.node(node).kind {
             NodeKind::Junction(kind) => b.junction(node, *kind),
             NodeKind::Element(kind, law) => b.element(node, *kind, law),
-            NodeKind::Detector(_) => b.detector(node),
+            NodeKind::Detector(kind) => b.detector(node, *kind),
         }
     }
     b.sys
@@ -542,7 +542,7 @@ impl Builder<'_> {
         self.push(node, Relation::Sum { terms }, Vec::new());
     }
 
-    fn detector(&mut self, node: NodeId) {
+    fn detector(&mut self, node: NodeId, kind: DetectorKind) {
         // Only inverted detectors are equations; in integral mode a detector is an output.
         if self.mode != Mode::Diagnosis {
             return;
@@ -551,7 +551,8 @@ impl Builder<'_> {
             return;
         };
         let var = self.var(Var::Common(junction));
-        let value = self.sys.pool.leaf(Leaf::Sensor(node, 0));
+        // A `Dq` or `Dp` measures the integral: the junction's variable is its derivative.
+        let value = self.sys.pool.leaf(Leaf::Sensor(node, kind.integrals()));
         self.push(node, Relation::Assign { var, value }, Vec::new());
     }
 

@@ -190,7 +190,7 @@ fn not_a_junction(graph: &DiGraph<Node, Bond>, detector: NodeId, span: Span) -> 
             graph[detector.0].name
         ),
     )
-    .with_label("expected a 0-junction (for De) or a 1-junction (for Df)")
+    .with_label("expected a 0-junction (for De, Dp) or a 1-junction (for Df, Dq)")
 }
 
 fn resolve_ref(

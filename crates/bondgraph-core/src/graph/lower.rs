@@ -97,7 +97,7 @@ impl<'a> Lowerer<'a, '_> {
         match (first.name.as_str(), name) {
             ("model", _) => self.model = self.model.or(Some(name.as_ref().unwrap_or(first))),
             ("param" | "input" | "let", Some(name)) => self.scope.break_signal(&name.name),
-            ("De" | "Df", Some(name)) => {
+            ("De" | "Df" | "Dq" | "Dp", Some(name)) => {
                 self.scope.break_signal(&name.name);
                 self.scope.break_node(&name.name);
             }
@@ -452,7 +452,7 @@ pub(crate) fn duplicate(name: &Ident, first: Span) -> Diagnostic {
 
 fn unknown_kind(kind: &Ident) -> Diagnostic {
     let mut names: Vec<&str> = ElementKind::ALL.iter().map(|k| k.name()).collect();
-    names.extend(["De", "Df"]);
+    names.extend(DetectorKind::ALL.iter().map(|k| k.name()));
     let d = Diagnostic::error(
         Code::UnknownKind,
         kind.span,

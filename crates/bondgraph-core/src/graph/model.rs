@@ -257,13 +257,18 @@ impl ElementKind {
     }
 }
 
-/// The two detector kinds.
+/// The detector kinds: a junction's common variable, or its integral.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub(crate) enum DetectorKind {
     /// Measures the effort of a 0-junction.
     De,
     /// Measures the flow of a 1-junction.
     Df,
+    /// Measures the integral of a 1-junction's flow: an encoder's angle, a displacement, a
+    /// volume.
+    Dq,
+    /// Measures the integral of a 0-junction's effort: a momentum, a flux linkage.
+    Dp,
 }
 
 impl DetectorKind {
@@ -272,6 +277,8 @@ impl DetectorKind {
         match self {
             DetectorKind::De => "De",
             DetectorKind::Df => "Df",
+            DetectorKind::Dq => "Dq",
+            DetectorKind::Dp => "Dp",
         }
     }
 
@@ -280,15 +287,34 @@ impl DetectorKind {
         match name {
             "De" => Some(DetectorKind::De),
             "Df" => Some(DetectorKind::Df),
+            "Dq" => Some(DetectorKind::Dq),
+            "Dp" => Some(DetectorKind::Dp),
             _ => None,
+        }
+    }
+
+    /// Every kind, in the order the language reference lists them.
+    pub(crate) const ALL: [DetectorKind; 4] = [
+        DetectorKind::De,
+        DetectorKind::Df,
+        DetectorKind::Dq,
+        DetectorKind::Dp,
+    ];
+
+    /// How many times the junction's common variable is differentiated to give it: 1 for
+    /// `Dq` and `Dp`, whose signal is that variable's integral.
+    pub(crate) fn integrals(self) -> u32 {
+        match self {
+            DetectorKind::De | DetectorKind::Df => 0,
+            DetectorKind::Dq | DetectorKind::Dp => 1,
         }
     }
 
     /// The junction kind whose common variable this detector reads.
     pub(crate) fn junction(self) -> JunctionKind {
         match self {
-            DetectorKind::De => JunctionKind::Zero,
-            DetectorKind::Df => JunctionKind::One,
+            DetectorKind::De | DetectorKind::Dp => JunctionKind::Zero,
+            DetectorKind::Df | DetectorKind::Dq => JunctionKind::One,
         }
     }
 }

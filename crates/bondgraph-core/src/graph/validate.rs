@@ -214,10 +214,14 @@ fn detector(
         let (reads, common) = match kind {
             DetectorKind::De => ("an effort", "a 0-junction"),
             DetectorKind::Df => ("a flow", "a 1-junction"),
+            DetectorKind::Dq => ("the integral of a flow", "a 1-junction"),
+            DetectorKind::Dp => ("the integral of an effort", "a 0-junction"),
         };
         let other = match kind {
             DetectorKind::De => "Df to measure the flow",
             DetectorKind::Df => "De to measure the effort",
+            DetectorKind::Dq => "Dp to measure the integral of the effort",
+            DetectorKind::Dp => "Dq to measure the integral of the flow",
         };
         diagnostics.push(
             Diagnostic::error(

@@ -275,11 +275,13 @@ impl<'m> Builder<'m> {
             .collect();
         for s in &a.state.states {
             let capacitor = matches!(&m.node(s.element).kind, NodeKind::Element(k, _) if k.base() == ElementKind::C);
-            let kind = match (capacitor, s.co_energy) {
-                (true, false) => StateKind::Displacement,
-                (true, true) => StateKind::Effort,
-                (_, false) => StateKind::Momentum,
-                (_, true) => StateKind::Flow,
+            let detector = matches!(&m.node(s.element).kind, NodeKind::Detector(_));
+            let kind = match (detector, capacitor, s.co_energy) {
+                (true, _, _) => StateKind::Measured,
+                (_, true, false) => StateKind::Displacement,
+                (_, true, true) => StateKind::Effort,
+                (_, _, false) => StateKind::Momentum,
+                (_, _, true) => StateKind::Flow,
             };
             c.states.push(State {
                 name: s.name.clone(),
@@ -786,6 +788,8 @@ fn sensor_kind(kind: DetectorKind) -> SensorKind {
     match kind {
         DetectorKind::De => SensorKind::Effort,
         DetectorKind::Df => SensorKind::Flow,
+        DetectorKind::Dq => SensorKind::Displacement,
+        DetectorKind::Dp => SensorKind::Momentum,
     }
 }
 

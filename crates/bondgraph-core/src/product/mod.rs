@@ -90,14 +90,20 @@ pub enum SensorKind {
     Effort,
     /// `Df`: the flow of a 1-junction.
     Flow,
+    /// `Dq`: the integral of a 1-junction's flow (an angle, a position, a volume).
+    Displacement,
+    /// `Dp`: the integral of a 0-junction's effort (a momentum, a flux linkage).
+    Momentum,
 }
 
 impl SensorKind {
-    /// `De` or `Df`.
+    /// `De`, `Df`, `Dq` or `Dp`.
     pub fn name(self) -> &'static str {
         match self {
             SensorKind::Effort => "De",
             SensorKind::Flow => "Df",
+            SensorKind::Displacement => "Dq",
+            SensorKind::Momentum => "Dp",
         }
     }
 }
@@ -128,6 +134,8 @@ pub enum StateKind {
     Effort,
     /// The flow `f` of an `I` whose law gives `p` from `f` with no closed-form inverse.
     Flow,
+    /// What a `Dq` or `Dp` detector measures: the integral of its junction's common variable.
+    Measured,
 }
 
 /// A state variable of the simulation model.
@@ -135,7 +143,7 @@ pub enum StateKind {
 pub struct State {
     /// `p_NAME` or `q_NAME`; `e_NAME` or `f_NAME` for a co-energy state.
     pub name: String,
-    /// The storage element's name.
+    /// The storage element's name (the detector's, for a measured integral).
     pub element: String,
     /// Which variable of the element it is.
     pub kind: StateKind,

@@ -143,24 +143,29 @@ fn exprs_has_int(exprs: &Exprs, e: Expr) -> bool {
     found
 }
 
-/// `e` as `rate + d(level)/dt`, if its derivatives enter linearly, with constant coefficients
-/// or, for first derivatives, coefficients that vary only through integrals and time.
+/// `e` as `rate + d(level)/dt`, if its highest derivatives enter linearly, with constant
+/// coefficients or, for first derivatives, coefficients that vary only through integrals and
+/// time. What reads lower orders only and splits no further goes to the rate whole: a position
+/// encoder's relation `m·x'' + Fc·sign(x') = F` integrates to `m·x' + ∫(Fc·sign(x') − F)`.
 fn split(exprs: &mut Exprs, e: Expr) -> Option<Split> {
     let mut order: Vec<Expr> = Vec::new();
     exprs.visit_reachable(&[e], |id, _| order.push(id));
     let mut facts: HashMap<Expr, Facts> = HashMap::with_capacity(order.len());
-    let mut splits: HashMap<Expr, Option<Split>> = HashMap::new();
-    for id in order {
-        let node = exprs.node(id);
-        let f = node_facts(node, &facts);
+    for &id in &order {
+        let f = node_facts(exprs.node(id), &facts);
         facts.insert(id, f);
-        let s = if f.order == 0 {
-            Some(Split {
-                level: None,
-                rate: Some(id),
-            })
-        } else {
-            split_node(exprs, node, &facts, &splits)
+    }
+    let top = facts.get(&e)?.order;
+    let mut splits: HashMap<Expr, Option<Split>> = HashMap::new();
+    let whole = |id: Expr| Split {
+        level: None,
+        rate: Some(id),
+    };
+    for id in order {
+        let s = match facts[&id].order {
+            0 => Some(whole(id)),
+            n => split_node(exprs, exprs.node(id), top, &facts, &splits)
+                .or_else(|| (n < top).then(|| whole(id))),
         };
         splits.insert(id, s);
     }
@@ -208,6 +213,7 @@ fn node_facts(node: Node<Symbol>, facts: &HashMap<Expr, Facts>) -> Facts {
 fn split_node(
     exprs: &mut Exprs,
     node: Node<Symbol>,
+    top: u32,
     facts: &HashMap<Expr, Facts>,
     splits: &HashMap<Expr, Option<Split>>,
 ) -> Option<Split> {
@@ -240,26 +246,26 @@ fn split_node(
         Node::Binary(BinOp::Div, a, b) if constant(b) => {
             Some(map(exprs, of(a)?, |p, x| p.div(x, b)))
         }
-        Node::Binary(BinOp::Mul, a, b) if slow(a) => product(exprs, a, of(b)?),
-        Node::Binary(BinOp::Mul, a, b) if slow(b) => product(exprs, b, of(a)?),
+        Node::Binary(BinOp::Mul, a, b) if slow(a) => product(exprs, a, of(b)?, top),
+        Node::Binary(BinOp::Mul, a, b) if slow(b) => product(exprs, b, of(a)?, top),
         Node::Binary(BinOp::Div, a, b) if slow(b) => {
             let one = exprs.num(1.0);
             let inverse = exprs.div(one, b);
-            product(exprs, inverse, of(a)?)
+            product(exprs, inverse, of(a)?, top)
         }
         _ => None,
     }
 }
 
 /// `c·x` for `x = rate + d(level)/dt` and `c` a function of integrals and time, by the product
-/// rule: `c·rate − (dc/dt)·level + d(c·level)/dt`, when `level` reads no derivative (else the
-/// new rate would).
-fn product(exprs: &mut Exprs, c: Expr, x: Split) -> Option<Split> {
+/// rule: `c·rate − (dc/dt)·level + d(c·level)/dt`, when `level` reads derivatives of orders
+/// below `top - 1` only (else the new rate would read the order the split removes).
+fn product(exprs: &mut Exprs, c: Expr, x: Split, top: u32) -> Option<Split> {
     let Some(level) = x.level else {
         return Some(map(exprs, x, |p, y| p.mul(c, y)));
     };
     let reads_derivative = (exprs.leaves(level).iter())
-        .any(|l| matches!(l, Symbol::Sensor(_, n) | Symbol::Input(_, n) | Symbol::Auxiliary(_, n) | Symbol::Root(_, n) if *n > 0));
+        .any(|l| matches!(l, Symbol::Sensor(_, n) | Symbol::Input(_, n) | Symbol::Auxiliary(_, n) | Symbol::Root(_, n) if *n + 1 >= top && *n > 0));
     if reads_derivative {
         return None;
     }
@@ -392,6 +398,31 @@ mod tests {
             .iter()
             .all(|a| a.realisation == Realisation::Direct));
         assert_eq!(direct.arrs[0].realised_order(), 1);
+    }
+
+    /// An encoder's axis, read by hand: `tau - M·x'' - b·x' - Fc·sign(x') = 0` is the
+    /// derivative of `-(M·x') - b·x` plus `tau - Fc·sign(x')`: the friction's sign reads the
+    /// first derivative pointwise, so it goes to the rate whole, and nothing reads `x''`.
+    #[test]
+    fn a_position_encoders_relation_reads_one_derivative_fewer() {
+        let axis = "model a\nparam M = 90\nparam b = 180\nparam Fc = 15\ninput tau\n\
+                    Se drive = tau\nI load = M\nR visc = b\nR dry : e = Fc*sign(f)\n\
+                    Dq x on j\ndrive -> 1:j -> load, visc, dry\n";
+        let c = compiled(axis, Realise::Lowest);
+        let Realisation::Integrated(i) = &c.arrs[0].realisation else {
+            panic!("{:?}", c.arrs[0].realisation)
+        };
+        assert_eq!(c.arrs[0].realised_order(), 1);
+        let name = |s: Symbol| match s {
+            Symbol::Parameter(p) => c.parameters[p].name.clone(),
+            Symbol::Sensor(h, 0) => c.sensors[h].name.clone(),
+            Symbol::Sensor(h, n) => format!("der({}, {n})", c.sensors[h].name),
+            Symbol::Input(u, 0) => c.inputs[u].name.clone(),
+            other => format!("{other:?}"),
+        };
+        let text = |e| crate::Printer::new(&c.exprs, name).text(e);
+        assert_eq!(text(i.level), "-(M * der(x, 1)) - b * x");
+        assert_eq!(text(i.rate), "tau - Fc * sign(der(x, 1))");
     }
 
     /// On every model of `models/`, one ARR per detector and the `best` residuals, each

@@ -33,6 +33,26 @@ pub(super) fn jumps(raw: &[&[f64]]) -> Vec<usize> {
     at
 }
 
+/// For each estimate of a record of `samples` samples, whether it is left out of the fit for
+/// a jump of a signal of `raw` within its reach; none is when the jumps would leave out more
+/// than half the record: such a signal (a closed loop's drive, fed back from a quantised
+/// encoder) changes fast throughout, and its fast changes are what the record holds, not
+/// a step input's edges.
+pub(super) fn left_out(
+    raw: &[&[f64]],
+    samples: usize,
+    window: usize,
+    integration: usize,
+) -> Vec<bool> {
+    let out = reached(&jumps(raw), samples, window, integration);
+    let count = out.iter().filter(|&&x| x).count();
+    if 2 * count > samples {
+        vec![false; samples]
+    } else {
+        out
+    }
+}
+
 /// For each estimate of a record of `samples` samples, whether a jump at `jumps` is within
 /// its reach: the estimate at place `p` reads samples `p .. p + window` and, integrated,
 /// the estimates `integration` before it.
@@ -71,6 +91,19 @@ mod tests {
             .map(|k| (k as f64 * 0.01).sin() + 1e-3 * ((k * 7919 % 13) as f64 - 6.0))
             .collect();
         assert!(jumps(&[&sine]).is_empty());
+    }
+
+    #[test]
+    fn jumps_throughout_a_record_leave_nothing_out() {
+        let square: Vec<f64> = (0..1000)
+            .map(|k| if (k / 100) % 2 == 0 { 5.0 } else { 15.0 })
+            .collect();
+        let edges = left_out(&[&square], 1000, 11, 20);
+        assert_eq!(edges.iter().filter(|&&x| x).count(), 9 * 32);
+        let chatter: Vec<f64> = (0..1000)
+            .map(|k| if k % 7 == 0 { 40.0 } else { (k % 3) as f64 })
+            .collect();
+        assert!(left_out(&[&chatter], 1000, 11, 20).iter().all(|&x| !x));
     }
 
     #[test]

@@ -449,7 +449,7 @@ impl<'a> Problem<'a> {
                 let mut out = if settings.span.is_some() {
                     vec![false; r.time.len()]
                 } else {
-                    jumps::reached(&jumps::jumps(&r.raw), r.time.len(), window, integration)
+                    jumps::left_out(&r.raw, r.time.len(), window, integration)
                 };
                 if let Some(Span { from, to, .. }) = settings.span {
                     // An estimate's instant is its window's middle sample's.
