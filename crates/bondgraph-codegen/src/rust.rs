@@ -663,6 +663,8 @@ fn params(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
         .values()
         .map(|p| number(p.uncertainty.unwrap_or(0.0), refused).0)
         .collect();
+    let strings: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let k = count(strings.len());
     quote! {
         /// The model's parameters; [`Default`] gives the values the model declares.
         #[allow(non_snake_case)]
@@ -681,6 +683,23 @@ fn params(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
             /// How far each parameter's true value may be from the model's (`+- 5%` in the
             /// model), as a half-width in its unit; 0 for those it states exactly.
             pub const UNCERTAINTY: Params = Params { #(#names: #uncertainties,)* };
+
+            /// The fields' names, in order.
+            pub const NAMES: [&'static str; #k] = [#(#strings),*];
+
+            /// The fields from an array in the order of [`Params::NAMES`].
+            #[must_use]
+            #[allow(non_snake_case)]
+            pub fn from_array(a: [f64; #k]) -> Self {
+                let [#(#names),*] = a;
+                Params { #(#names),* }
+            }
+
+            /// The fields as an array in the order of [`Params::NAMES`].
+            #[must_use]
+            pub fn to_array(&self) -> [f64; #k] {
+                [#(self.#names),*]
+            }
         }
     }
 }
@@ -1030,6 +1049,41 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                 #(r[#integrated] = self.references[#reference_index].push(r[#integrated]);)*
                 self.last = s;
                 Some(r)
+            }
+        }
+
+        /// What [`bondgraph::FaultSize`] runs, at the parameter values it linearises
+        /// around, to size a fault once a class alarms.
+        impl<B: ::bondgraph::Bank<CHANNELS> + Clone> ::bondgraph::Parametrised for ResidualGenerator<B> {
+            fn parameter_count(&self) -> usize {
+                Params::NAMES.len()
+            }
+
+            fn parameter(&self, k: usize) -> f64 {
+                self.params.to_array()[k]
+            }
+
+            fn set_parameter(&mut self, k: usize, value: f64) {
+                let mut a = self.params.to_array();
+                a[k] = value;
+                self.params = Params::from_array(a);
+            }
+
+            fn residual_count(&self) -> usize {
+                RESIDUAL_COUNT
+            }
+
+            fn push_raw(&mut self, t: f64, raw: &[f64], residuals: &mut [f64]) -> bool {
+                let Ok(raw) = <[f64; #r]>::try_from(raw) else {
+                    return false;
+                };
+                match self.push(t, raw) {
+                    Some(r) => {
+                        residuals[..RESIDUAL_COUNT].copy_from_slice(&r);
+                        true
+                    }
+                    None => false,
+                }
             }
         }
 

@@ -113,5 +113,33 @@ fn generator(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, residuals, generator);
+/// The runtime's fault-size estimator on the bench's generated generator: one parameter
+/// sized (two copies of the generator and the recursive least squares), per sample.
+fn fault_size(c: &mut Criterion) {
+    let h = 1e-3;
+    let samples: Vec<(f64, [f64; 3])> = (0..10_000)
+        .map(|k| {
+            let t = k as f64 * h;
+            (t, [t.sin(), (1.3 * t).cos(), (0.7 * t).sin()])
+        })
+        .collect();
+    let template = lowest::ResidualGenerator::savitzky_golay(lowest::Params::default(), h, 31, 3)
+        .expect("valid estimator");
+    let j0 = (lowest::Params::NAMES.iter().position(|n| *n == "j0")).expect("the dead zone");
+    let mut group = c.benchmark_group("fault_size");
+    group.throughput(Throughput::Elements(samples.len() as u64));
+    group.bench_function("bench_j0_savitzky_golay_31", |b| {
+        b.iter(|| {
+            let mut size = bondgraph::FaultSize::new(&template, j0, &[4.6e-3, 4.2e-3], 2000)
+                .expect("valid settings");
+            for &(t, s) in &samples {
+                size.push(t, black_box(&s));
+            }
+            black_box(size.estimate())
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, residuals, generator, fault_size);
 criterion_main!(benches);

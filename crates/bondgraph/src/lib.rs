@@ -4,7 +4,8 @@
 //! names candidate components from the fault signature matrix and the [`Episode`] that ranks
 //! them over the alarms since the first; the [`Reference`] that turns
 //! an ARR realised by integration into its residual; the [`RootFinder`] that solves, sample
-//! by sample, a law an ARR reads the other way where it has no closed-form inverse.
+//! by sample, a law an ARR reads the other way where it has no closed-form inverse; and, once
+//! a class alarms, the [`FaultSize`] that estimates how far one of its parameters has moved.
 //!
 //! Derivatives of measured signals are what an ARR reads and what a bench does not measure:
 //! [`SavitzkyGolay`] fits a polynomial to a sliding window (any order below the polynomial's
@@ -24,6 +25,7 @@ mod reference;
 mod replay;
 mod root;
 mod signature;
+mod size;
 mod threshold;
 mod window;
 
@@ -37,6 +39,7 @@ pub use reference::Reference;
 pub use replay::Replay;
 pub use root::RootFinder;
 pub use signature::Signature;
+pub use size::{Change, ChangeEstimator, FaultSize, Parametrised, Size, SizeError};
 pub use threshold::Threshold;
 
 /// Compiles a bond-graph model at build time into its residual code (see the crate

@@ -36,6 +36,20 @@ impl Params {
         k3: 0.0,
         b: 0.0,
     };
+    /// The fields' names, in order.
+    pub const NAMES: [&'static str; 4] = ["m", "k1", "k3", "b"];
+    /// The fields from an array in the order of [`Params::NAMES`].
+    #[must_use]
+    #[allow(non_snake_case)]
+    pub fn from_array(a: [f64; 4]) -> Self {
+        let [m, k1, k3, b] = a;
+        Params { m, k1, k3, b }
+    }
+    /// The fields as an array in the order of [`Params::NAMES`].
+    #[must_use]
+    pub fn to_array(&self) -> [f64; 4] {
+        [self.m, self.k1, self.k3, self.b]
+    }
 }
 /// What the residuals read: the inputs and measured signals, their time derivatives
 /// (`NAME_d1`, `NAME_d2`…) and integrals from the start of the record (`NAME_int`).
@@ -323,6 +337,38 @@ impl<B: ::bondgraph::Bank<CHANNELS>> ResidualGenerator<B> {
         r[0] = self.references[0].push(r[0]);
         self.last = s;
         Some(r)
+    }
+}
+/// What [`bondgraph::FaultSize`] runs, at the parameter values it linearises
+/// around, to size a fault once a class alarms.
+#[allow(dead_code, unreachable_pub, clippy::all)]
+impl<B: ::bondgraph::Bank<CHANNELS> + Clone> ::bondgraph::Parametrised
+for ResidualGenerator<B> {
+    fn parameter_count(&self) -> usize {
+        Params::NAMES.len()
+    }
+    fn parameter(&self, k: usize) -> f64 {
+        self.params.to_array()[k]
+    }
+    fn set_parameter(&mut self, k: usize, value: f64) {
+        let mut a = self.params.to_array();
+        a[k] = value;
+        self.params = Params::from_array(a);
+    }
+    fn residual_count(&self) -> usize {
+        RESIDUAL_COUNT
+    }
+    fn push_raw(&mut self, t: f64, raw: &[f64], residuals: &mut [f64]) -> bool {
+        let Ok(raw) = <[f64; 2]>::try_from(raw) else {
+            return false;
+        };
+        match self.push(t, raw) {
+            Some(r) => {
+                residuals[..RESIDUAL_COUNT].copy_from_slice(&r);
+                true
+            }
+            None => false,
+        }
     }
 }
 #[allow(dead_code, unreachable_pub, clippy::all)]
