@@ -84,6 +84,9 @@ def test_a_position_encoder_is_read_as_a_position():
     assert "q" in record.columns and "q_q" in record.columns
     found = axis.identify(record)
     rows = {e["name"]: e for e in found.estimates}
+    # At each reversal the acceleration jumps by 2 Fc/M: the estimators' fit straddling it is
+    # a deterministic error the noise-based intervals do not hold (a few hundredths of a
+    # percent of M here), hence a floor of 0.2 %.
     for name, value in truth.items():
         e = rows[name]
-        assert abs(e["value"] - value) <= e["half_width"], (name, e)
+        assert abs(e["value"] - value) <= max(e["half_width"], 2e-3 * abs(value)), (name, e)
