@@ -271,6 +271,7 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
         "faulty.csv",
         2,
     );
+    let written = dir.join("residuals.csv").display().to_string();
     let out = bgc(&[
         "residuals",
         model,
@@ -278,7 +279,7 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
         "--calibrate",
         &healthy,
         "-o",
-        "/dev/null",
+        &written,
     ]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let said = stderr(&out);
@@ -297,5 +298,27 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
         .and_then(|s| s.trim().parse().ok())
         .unwrap_or_else(|| panic!("{first}"));
     assert!((ratio - 2.0).abs() < 0.1, "{first}");
+    // The CSV's size columns: empty until the span after the first alarm has been seen, then
+    // the friction's estimate.
+    let text = std::fs::read_to_string(&written).expect("the residuals");
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    assert_eq!(
+        header[header.len() - 3..],
+        ["sized", "size", "size_half_width"]
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let sized: Vec<&Vec<&str>> = rows.iter().filter(|r| !r[r.len() - 3].is_empty()).collect();
+    let from: f64 = sized.first().expect("sized rows")[0].parse().expect("time");
+    assert!((35.0..36.0).contains(&from), "sized from {from} s");
+    assert!(rows
+        .iter()
+        .all(|r| r[0].parse::<f64>().expect("time") >= from || r[r.len() - 3].is_empty()));
+    for r in sized {
+        let n = r.len();
+        assert_eq!(r[n - 3], "fe");
+        let value: f64 = r[n - 2].parse().expect("size");
+        assert!((value / 0.2 - 1.0).abs() < 0.05, "{r:?}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

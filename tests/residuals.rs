@@ -491,10 +491,10 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     let (arr1, arr2, rows) = alarms(&text);
     assert_eq!(arr1, 0);
     assert!(arr2 > rows * 9 / 10, "{arr2} of {rows}");
-    // The last three columns: candidates (with exoneration), suspects, the episode's.
+    // Before the three size columns: candidates (with exoneration), suspects, the episode's.
     let named = text
         .lines()
-        .filter(|l| l.rsplit(',').nth(2) == Some("link w"))
+        .filter(|l| l.rsplit(',').nth(5) == Some("link w"))
         .count();
     assert_eq!(named, arr2);
     // Its plot: a panel per residual, titled with where it comes from, with a legend.
@@ -834,7 +834,8 @@ fn the_episode_narrows_the_candidates_to_the_dead_zone() {
                 let cells: Vec<&str> = line.split(',').collect();
                 let t: f64 = cells[0].parse().expect("time");
                 let n = cells.len();
-                (t > 10.5).then(|| (cells[n - 3].to_string(), cells[n - 1].to_string()))
+                // Candidates and the episode's, before the three size columns.
+                (t > 10.5).then(|| (cells[n - 6].to_string(), cells[n - 4].to_string()))
             })
             .collect();
         (rows, stderr(&out))

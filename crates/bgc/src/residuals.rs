@@ -369,13 +369,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let out = std::thread::scope(|scope| {
         let (send, receive) = std::sync::mpsc::sync_channel::<Chunk>(4);
         let rows = &rows;
-        let head = header(&c, &roots);
+        let sizes = !args.no_size;
+        let head = header(&c, &roots, sizes);
         let roots = &roots;
         let writer = scope.spawn(move || {
             let mut out = head;
             let mut named = Named::default();
             for chunk in receive {
-                chunk.write(&mut out, rows, &mut named, roots);
+                chunk.write(&mut out, rows, &mut named, roots, sizes);
             }
             (out, named)
         });
@@ -426,13 +427,13 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drop(send);
         writer.join().unwrap_or_default()
     });
-    let (out, named) = out;
+    let (mut out, named) = out;
     named.report(&rows, &c);
     if let Some((first, ranked)) = named.ranked(&rows, &c).filter(|_| !args.no_size) {
         // The estimates at an instant read half a window ahead: the samples from the first
         // alarm's plus that on hold the fault.
         let lookahead = (window.saturating_sub(1) / 2) as f64 * data.step;
-        size_fault(
+        let known = size_fault(
             &args,
             &c,
             &program,
@@ -441,6 +442,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             first + lookahead,
             &ranked,
         )?;
+        out = crate::size::fill(out, &known);
     }
     for (slot, (count, first)) in &unsolved {
         if let Some((_, name)) = roots.iter().find(|r| r.0 == *slot) {
@@ -464,7 +466,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
 }
 
 /// The fault's size from `first` (the first alarm's samples on), for each candidate of
-/// `ranked`; with `--sizes`, the best one's followed to the record's end.
+/// `ranked`; with `--sizes`, the best one's followed to the record's end. The stretches of
+/// the residual CSV's size columns.
 fn size_fault(
     args: &ResidualArgs,
     c: &Compiled,
@@ -473,7 +476,7 @@ fn size_fault(
     data: &Data,
     first: f64,
     ranked: &[String],
-) -> Result<(), Failure> {
+) -> Result<Vec<crate::size::Known>, Failure> {
     let sizing = crate::size::Sizing {
         c,
         program,
@@ -483,11 +486,15 @@ fn size_fault(
     let span = args.size_span;
     let sized = sizing.candidates(ranked, first, span);
     crate::size::note(c, &sized, params, first, span);
-    if let (Some(path), Some(best)) = (&args.sizes, sized.first()) {
-        let followed = sizing.follow(best, first, span);
+    let Some(best) = sized.first() else {
+        return Ok(Vec::new());
+    };
+    let mut followed = Vec::new();
+    if let Some(path) = &args.sizes {
+        followed = sizing.follow(best, first, span);
         crate::size::write_followed(path, &followed, params)?;
     }
-    Ok(())
+    Ok(crate::size::known(best, first, span, &followed))
 }
 
 /// A row's marks as the runtime's sparse signatures hold them.
@@ -586,7 +593,7 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
     Ok(levels)
 }
 
-fn header(c: &Compiled, roots: &[(usize, String)]) -> String {
+fn header(c: &Compiled, roots: &[(usize, String)], sizes: bool) -> String {
     let mut h = String::from("t");
     for a in &c.arrs {
         let _ = write!(h, ",{}", a.name);
@@ -600,6 +607,9 @@ fn header(c: &Compiled, roots: &[(usize, String)]) -> String {
     h.push_str(",candidates,suspects,episode");
     if !roots.is_empty() {
         h.push_str(",unsolved");
+    }
+    if sizes {
+        h.push_str(",sized,size,size_half_width");
     }
     h.push('\n');
     h
@@ -635,6 +645,7 @@ impl Chunk {
         rows: &[(&str, Vec<u32>)],
         named: &mut Named,
         roots: &[(usize, String)],
+        sizes: bool,
     ) {
         let n = self.residuals.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
@@ -664,6 +675,10 @@ impl Chunk {
                 if let Some((_, name)) = unsolved.and_then(|s| roots.iter().find(|r| r.0 == s)) {
                     out.push_str(name);
                 }
+            }
+            // Filled once the fault is sized (see `size::fill`).
+            if sizes {
+                out.push_str(",,,");
             }
             out.push('\n');
         }

@@ -251,3 +251,76 @@ pub(crate) fn write_followed(
     }
     io::write(Some(path), &out)
 }
+
+/// One stretch of the residual CSV's size columns: from `known` seconds on (the end of the
+/// span it was fitted over: no row shows an estimate before its samples were seen), the
+/// parameter sized, its value and its interval's half-width.
+pub(crate) struct Known {
+    pub(crate) known: f64,
+    pub(crate) parameter: String,
+    pub(crate) value: f64,
+    pub(crate) half_width: f64,
+}
+
+/// The size columns' stretches: the best candidate over its first span, then (with
+/// `--sizes`) each span it was followed over.
+pub(crate) fn known(
+    best: &Sized,
+    first: f64,
+    span: f64,
+    followed: &[(f64, f64, Sized)],
+) -> Vec<Known> {
+    let of = |known: f64, sized: &Sized| {
+        (sized.found.estimates.iter())
+            .find(|e| e.parameter == sized.parameter)
+            .map(|e| Known {
+                known,
+                parameter: e.name.clone(),
+                value: e.value,
+                half_width: e.half_width,
+            })
+    };
+    let mut out: Vec<Known> = of(first + span, best).into_iter().collect();
+    // The first followed span is the best candidate's own.
+    out.extend(followed.iter().skip(1).filter_map(|(_, to, s)| of(*to, s)));
+    out
+}
+
+/// `out`, the residual CSV whose rows end in three empty size cells, with those of the rows
+/// from each stretch's `known` on filled.
+pub(crate) fn fill(out: String, stretches: &[Known]) -> String {
+    let Some(first) = stretches.first() else {
+        return out;
+    };
+    let mut filled = String::with_capacity(out.len() + out.len() / 4);
+    let mut lines = out.split_inclusive('\n');
+    if let Some(header) = lines.next() {
+        filled.push_str(header);
+    }
+    let mut next = 0;
+    for line in lines {
+        let t: f64 = (line.split(',').next())
+            .and_then(|t| t.parse().ok())
+            .unwrap_or(f64::NEG_INFINITY);
+        while next < stretches.len() && stretches[next].known <= t {
+            next += 1;
+        }
+        let body = line.trim_end_matches('\n').strip_suffix(",,,");
+        match (body, next.checked_sub(1).map(|k| &stretches[k])) {
+            (Some(body), Some(k)) if t >= first.known => {
+                filled.push_str(body);
+                filled.push(',');
+                filled.push_str(&k.parameter);
+                filled.push(',');
+                io::push_number(&mut filled, k.value);
+                filled.push(',');
+                if k.half_width.is_finite() {
+                    io::push_number(&mut filled, k.half_width);
+                }
+                filled.push('\n');
+            }
+            _ => filled.push_str(line),
+        }
+    }
+    filled
+}

@@ -6,6 +6,7 @@
 //! bondgraph::bond_graph!("models/backlash_bench.bg"); // relative to CARGO_MANIFEST_DIR
 //! bondgraph::bond_graph!("models/dc_motor.bg", residuals = best); // as `--residuals best`
 //! bondgraph::bond_graph!("models/dc_motor.bg", realise = direct); // as `--realise direct`
+//! bondgraph::bond_graph!("models/dc_motor.bg", params = "fitted.params"); // as `--params`
 //! bondgraph::bond_graph! {
 //!     model rc
 //!     param R1 = 2
@@ -18,7 +19,7 @@
 //! column, the line with the offending text marked and what was expected there; inline, at
 //! the offending token itself; and the help, when there is some.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use bondgraph_core::diagnostic::{Diagnostic, Diagnostics, LineIndex};
 use bondgraph_core::{compile, Options, Realise, ResidualSet};
@@ -45,6 +46,9 @@ struct Source {
     residuals: ResidualSet,
     /// How to realise them (`realise = lowest | direct` after a path).
     realise: Realise,
+    /// The parameter file whose values replace the model's (`params = "FILE"` after a
+    /// path), already applied to `text`.
+    params: Option<PathBuf>,
 }
 
 fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::TokenStream> {
@@ -86,7 +90,7 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     let items = bondgraph_codegen::rust::tokens(&c)
         .map_err(|why| fail(format!("{}: cannot write Rust: {why}", source.name)))?;
     // Cargo rebuilds the calling crate when a file it `include_bytes!`es changes.
-    let track = source.path.map(|p| {
+    let track = (source.path.iter().chain(&source.params)).map(|p| {
         let p = p.to_string_lossy().into_owned();
         quote!(
             const _: &[u8] = include_bytes!(#p);
@@ -95,7 +99,7 @@ fn expand(input: TokenStream) -> Result<proc_macro2::TokenStream, proc_macro2::T
     Ok(quote! {
         #[doc = concat!("Residual code for the bond-graph model `", stringify!(#module), "`, by bgc.")]
         pub mod #module {
-            #track
+            #(#track)*
             #items
         }
     })
@@ -184,10 +188,11 @@ fn read(input: TokenStream) -> Result<Source, String> {
     let tokens: Vec<TokenTree> = input.clone().into_iter().collect();
     if let [TokenTree::Literal(lit), rest @ ..] = tokens.as_slice() {
         if let Ok(path) = syn::parse_str::<syn::LitStr>(&lit.to_string()) {
-            let (residuals, realise) = settings(rest)?;
-            return from_file(&path.value()).map(|s| Source {
-                residuals,
-                realise,
+            let settings = settings(rest)?;
+            let source = from_file(&path.value())?;
+            return with_params(source, settings.params.as_deref()).map(|s| Source {
+                residuals: settings.residuals,
+                realise: settings.realise,
                 ..s
             });
         }
@@ -206,25 +211,45 @@ fn read(input: TokenStream) -> Result<Source, String> {
         tokens,
         residuals: ResidualSet::PerSensor,
         realise: Realise::Lowest,
+        params: None,
     })
 }
 
-/// What follows the path: nothing, or `, residuals = per_sensor | best | all`.
-fn settings(rest: &[TokenTree]) -> Result<(ResidualSet, Realise), String> {
+/// What may follow a model's path.
+struct Settings {
+    residuals: ResidualSet,
+    realise: Realise,
+    /// The parameter file's path as written (relative to the same directory as the model's).
+    params: Option<String>,
+}
+
+/// What follows the path: nothing, or `, residuals = per_sensor | best | all`,
+/// `, realise = lowest | direct`, `, params = "FILE"`.
+fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
     let text: Vec<String> = rest.iter().map(ToString::to_string).collect();
     let words: Vec<&str> = text.iter().map(String::as_str).collect();
-    let mut out = (ResidualSet::PerSensor, Realise::Lowest);
+    let mut out = Settings {
+        residuals: ResidualSet::PerSensor,
+        realise: Realise::Lowest,
+        params: None,
+    };
     let expected = || {
         format!(
-            "after the model's path, expected nothing or `, residuals = per_sensor | best | all` \
-             and `, realise = lowest | direct`, found `{}`",
+            "after the model's path, expected nothing or `, residuals = per_sensor | best | all`, \
+             `, realise = lowest | direct` and `, params = \"FILE\"`, found `{}`",
             words.join(" ")
         )
     };
     for setting in words.chunks(4) {
         match setting {
+            [",", "params", "=", file] => {
+                let file = syn::parse_str::<syn::LitStr>(file).map_err(|_| {
+                    format!("`params = {file}`: expected the parameter file's path in quotes")
+                })?;
+                out.params = Some(file.value());
+            }
             [",", "residuals", "=", set] => {
-                out.0 = match *set {
+                out.residuals = match *set {
                     "per_sensor" => ResidualSet::PerSensor,
                     "best" => ResidualSet::Best,
                     "all" => ResidualSet::All,
@@ -236,7 +261,7 @@ fn settings(rest: &[TokenTree]) -> Result<(ResidualSet, Realise), String> {
                 }
             }
             [",", "realise", "=", how] => {
-                out.1 = match *how {
+                out.realise = match *how {
                     "lowest" => Realise::Lowest,
                     "direct" => Realise::Direct,
                     other => {
@@ -253,15 +278,47 @@ fn settings(rest: &[TokenTree]) -> Result<(ResidualSet, Realise), String> {
     Ok(out)
 }
 
+/// `source` with the values of the parameter file at `relative` (resolved as the model's
+/// path is) in place of the model's: its lines and columns stay, so that a diagnostic points
+/// where it would in the model; a bad file is refused at its own line and column.
+fn with_params(source: Source, relative: Option<&str>) -> Result<Source, String> {
+    let Some(relative) = relative else {
+        return Ok(source);
+    };
+    let path = root().join(relative);
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        format!(
+            "cannot read the parameter file `{relative}` (looked for {}): {e}",
+            path.display()
+        )
+    })?;
+    let values =
+        bondgraph_core::ParameterValues::parse(&text).map_err(|e| format!("{relative}:{e}"))?;
+    let replaced = values
+        .apply(&source.text)
+        .map_err(|e| format!("{relative}:{e}"))?;
+    Ok(Source {
+        text: replaced,
+        params: Some(path),
+        ..source
+    })
+}
+
+/// The directory model and parameter paths are relative to.
+fn root() -> PathBuf {
+    PathBuf::from(
+        std::env::var(ROOT_OVERRIDE)
+            .or_else(|_| std::env::var("CARGO_MANIFEST_DIR"))
+            .unwrap_or_else(|_| ".".to_string()),
+    )
+}
+
 /// Overrides the directory model paths are relative to: trybuild compiles its cases in a
 /// crate of its own, whose `CARGO_MANIFEST_DIR` is not the one the paths were written for.
 const ROOT_OVERRIDE: &str = "BOND_GRAPH_ROOT";
 
 fn from_file(relative: &str) -> Result<Source, String> {
-    let root = std::env::var(ROOT_OVERRIDE)
-        .or_else(|_| std::env::var("CARGO_MANIFEST_DIR"))
-        .unwrap_or_else(|_| ".".to_string());
-    let path = Path::new(&root).join(relative);
+    let path = root().join(relative);
     let text = std::fs::read_to_string(&path).map_err(|e| {
         format!(
             "cannot read the model `{relative}` (looked for {}): {e}",
@@ -275,6 +332,7 @@ fn from_file(relative: &str) -> Result<Source, String> {
         tokens: Vec::new(),
         residuals: ResidualSet::PerSensor,
         realise: Realise::Lowest,
+        params: None,
     })
 }
 

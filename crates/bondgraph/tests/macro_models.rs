@@ -1,5 +1,6 @@
 //! `bond_graph!` on models that compile, as a user's crate uses it: from a file (relative to
-//! the crate's manifest directory), with `residuals = best` and `realise = direct`, and
+//! the crate's manifest directory), with `residuals = best`, `realise = direct` and a
+//! parameter file (`params = "FILE"`), and
 //! written inline with comments, units and descriptions. Warnings are errors: the generated
 //! code must build clean in a crate that denies them.
 
@@ -28,6 +29,21 @@ mod best {
         assert_eq!(dc_motor::RESIDUAL_COUNT, 4);
         // A current sensor fault leaves the residual derived without the current quiet.
         assert_eq!(dc_motor::candidates(&[true, true, false, true]), ["i"]);
+    }
+}
+
+mod fitted {
+    bondgraph::bond_graph!(
+        "../../models/dc_motor.bg",
+        params = "tests/fixtures/dc_motor_fitted.params"
+    );
+
+    #[test]
+    fn a_parameter_file_replaces_the_models_values() {
+        let p = dc_motor::Params::default();
+        assert_eq!((p.Re, p.fe), (0.36, 0.12));
+        // The others keep the model's.
+        assert_eq!((p.L, p.ke, p.Je), (0.5, 0.5, 0.8));
     }
 }
 
