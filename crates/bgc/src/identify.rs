@@ -226,6 +226,13 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
                     significant(e.start)
                 )
             }
+            Determined::No if ran_away(e) => format!(
+                "not determined: the fit drove it to {} of the model's {}, where no residual \
+                 depends on it; fix it (--fix {}) or fit records that excite it",
+                significant(e.value / e.start),
+                significant(e.start),
+                e.name
+            ),
             Determined::No => {
                 "not determined apart from others (see above): moved only along what the \
                  records determine"
@@ -237,6 +244,13 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         let _ = writeln!(out, "{} = {value}  # {note}", e.name);
     }
     out
+}
+
+/// Whether the fit drove a parameter by more than a factor of a million from its model
+/// value: its scaling then no longer moves any residual, and it is lost rather than
+/// determined in combination.
+fn ran_away(e: &bondgraph_interpreter::Estimate) -> bool {
+    e.start != 0.0 && (e.value / e.start).abs().ln().abs() > 1e6f64.ln()
 }
 
 /// A flag for an estimate outside the model's `+- x%` by more than its interval.

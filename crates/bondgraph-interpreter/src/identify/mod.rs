@@ -908,7 +908,11 @@ impl Problem<'_> {
                     .map(|(&k, &x)| (k, x / largest))
                     .filter(|(_, x)| x.abs() > 1e-3)
                     .collect();
-                let structural = self.structural(&scalings, values);
+                // Structural at the model's values as well as at the fit's: a fit that ran a
+                // parameter to nothing (1e-28 of its value) makes any scaling of it flat
+                // there, which says nothing of what the ARRs hold.
+                let structural =
+                    self.structural(&scalings, values) && self.structural(&scalings, self.start);
                 Combination {
                     scalings,
                     structural,
