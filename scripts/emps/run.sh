@@ -17,12 +17,11 @@ echo "offset = 0" > "$out/start.params"
     --params "$out/start.params" -o "$out/emps.params"
 cat "$out/emps.params"
 
-# The healthy record holds no `force_ctrl` column: there the controller's force is the force.
-sed '1s/force$/force_ctrl/' "$emps/emps_train.csv" > "$out/train_ctrl.csv"
 "$bgc" residuals "$model" "$emps/emps_pulses.csv" --column tau=force --params "$out/emps.params" \
     --calibrate "$emps/emps_train.csv" --integration-window 20 -o "$out/healthy.csv"
 "$bgc" residuals "$model" "$emps/emps_pulses.csv" --column tau=force_ctrl \
-    --params "$out/emps.params" --calibrate "$out/train_ctrl.csv" --integration-window 20 \
+    --params "$out/emps.params" --calibrate "$emps/emps_train.csv" --calibrate-column tau=force \
+    --integration-window 20 \
     --size-span 0.3 --sizes "$out/sizes.csv" -o "$out/pulses.csv"
 
 python3 - "$emps/emps_pulses.csv" "$out/healthy.csv" "$out/pulses.csv" <<'PY'

@@ -43,9 +43,19 @@ pub(crate) struct ResidualArgs {
     #[arg(long, value_name = "NAME", default_value = "t")]
     time: String,
     /// The record's column of a signal named otherwise in the model, as `SIGNAL=COLUMN`
-    /// (e.g. `y1=motor_speed`); repeat for more. Applies to `--calibrate`'s record too.
+    /// (e.g. `y1=motor_speed`); repeat for more. Applies to `--calibrate`'s record too,
+    /// unless `--calibrate-column` maps that signal there.
     #[arg(long = "column", value_name = "SIGNAL=COLUMN")]
     columns: Vec<String>,
+    /// `--calibrate`'s record's column of a signal, where it differs from the record's
+    /// (`--column`), as `SIGNAL=COLUMN`: a healthy record holds the measured force as
+    /// `force` where the record under test reads the controller's part, `force_ctrl`.
+    #[arg(
+        long = "calibrate-column",
+        value_name = "SIGNAL=COLUMN",
+        requires = "calibrate"
+    )]
+    calibrate_columns: Vec<String>,
     /// Samples in the estimators' window (odd) [default: with `--calibrate`, for fits the
     /// longest of 11, 21, 51, 101, 201 and 501 samples (at most a tenth of the healthy
     /// record) up to which no residual's RMS on the healthy record grows, for modulating
@@ -187,10 +197,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let layout = Layout::new(&names, &args.time, &args.columns)?;
     let data = Data::load(&args.data, &layout, shortest)?;
     let healthy = match &args.calibrate {
-        Some(path) => Some((
-            path.display().to_string(),
-            Data::load(path, &layout, shortest)?,
-        )),
+        Some(path) => {
+            let columns = calibration_columns(&args.columns, &args.calibrate_columns);
+            let layout = Layout::new(&names, &args.time, &columns)?;
+            Some((
+                path.display().to_string(),
+                Data::load(path, &layout, shortest)?,
+            ))
+        }
         None => None,
     };
     // Calibration fits the model to the healthy record first: thresholds set on a model
@@ -463,6 +477,18 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// The healthy record's column mapping: `--column`'s, with each signal `--calibrate-column`
+/// names mapped as it says.
+fn calibration_columns(columns: &[String], overrides: &[String]) -> Vec<String> {
+    let signal = |m: &String| m.split_once('=').map(|(s, _)| s.trim().to_string());
+    let replaced: Vec<Option<String>> = overrides.iter().map(signal).collect();
+    (columns.iter())
+        .filter(|m| signal(m).is_none_or(|s| !replaced.contains(&Some(s))))
+        .chain(overrides)
+        .cloned()
+        .collect()
 }
 
 /// The fault's size from `first` (the first alarm's samples on), for each candidate of
@@ -781,5 +807,21 @@ impl Named {
             };
             eprintln!("  {:>2}  {}: {why}", k + 1, r.names.join(" "));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::calibration_columns;
+
+    #[test]
+    fn the_healthy_record_maps_the_overridden_signals_only() {
+        let columns = ["tau=force_ctrl".to_string(), "y=speed".to_string()];
+        let overrides = ["tau=force".to_string()];
+        assert_eq!(
+            calibration_columns(&columns, &overrides),
+            ["y=speed", "tau=force"]
+        );
+        assert_eq!(calibration_columns(&columns, &[]), columns);
     }
 }
