@@ -3,7 +3,8 @@
 
 use bondgraph_core::ParameterValues;
 use bondgraph_interpreter::{
-    choose_free, identify as fit, Determined, Estimator, Fit, Integration, Record, Settings, Stop,
+    choose_free, identify as fit, Determined, Estimator, Fit, Integration, Origin, Record,
+    Settings, Span, Stop,
 };
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::PyValueError;
@@ -14,11 +15,26 @@ use crate::errors::{self, BgcError};
 use crate::model::Model;
 use crate::monitor::samples;
 
+/// The span a fault is sized over, `(from, to)` seconds, checked.
+fn span_of(span: Option<(f64, f64)>) -> PyResult<Option<Span>> {
+    match span {
+        None => Ok(None),
+        Some((from, to)) if from.is_finite() && to.is_finite() && from < to => Ok(Some(Span {
+            from,
+            to,
+            origin: Origin::Span,
+        })),
+        Some((from, to)) => Err(PyValueError::new_err(format!(
+            "span = ({from}, {to}): expected (from, to) seconds with from < to"
+        ))),
+    }
+}
+
 /// Fits the parameters of `model` to one healthy record (`columns` in the order of
 /// `model.signals()`, taken at `time`), as `bgc identify` does; a dict of the estimates,
 /// their intervals and the combinations the record does not determine.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, labels = None, window = 51, integration = 250, only = None, fix = None))]
+#[pyo3(signature = (model, time, columns, *, labels = None, window = 51, integration = 250, only = None, fix = None, span = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -30,6 +46,7 @@ pub(crate) fn identify<'py>(
     integration: usize,
     only: Option<Vec<String>>,
     fix: Option<Vec<String>>,
+    span: Option<(f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let c = &model.compiled;
     if c.residual_code_refused() || c.arrs.is_empty() {
@@ -57,7 +74,7 @@ pub(crate) fn identify<'py>(
         )
         .map_err(PyValueError::new_err)?,
         bounded: false,
-        span: None,
+        span: span_of(span)?,
     };
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let record = [Record { time, raw: data }];

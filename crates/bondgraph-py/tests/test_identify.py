@@ -90,3 +90,13 @@ def test_a_position_encoder_is_read_as_a_position():
     for name, value in truth.items():
         e = rows[name]
         assert abs(e["value"] - value) <= max(e["half_width"], 2e-3 * abs(value)), (name, e)
+
+
+def test_a_faults_size_over_a_span(motor):
+    """The friction doubled at 15 s, sized over 5 s after: as `bgc residuals` sizes it."""
+    faulty = motor.simulate(SCENARIO + "fault fe = 2*fe at 15\n")
+    found = motor.identify(faulty, only=["fe"], span=(16.0, 21.0))
+    e = {e["name"]: e for e in found.estimates}["fe"]
+    assert abs(e["value"] / 0.2 - 1.0) < 0.05, e
+    with pytest.raises(ValueError, match=r"from < to"):
+        motor.identify(faulty, only=["fe"], span=(21.0, 16.0))

@@ -22,7 +22,7 @@ import os
 import pathlib
 import re
 from dataclasses import dataclass
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -651,17 +651,24 @@ class Model:
         integration_window: int = 250,
         only: Optional[Sequence[str]] = None,
         fix: Optional[Sequence[str]] = None,
+        span: Optional[Tuple[float, float]] = None,
     ) -> Identification:
         """Fits the parameters to a healthy record (a dict of arrays, a pandas or Polars
         DataFrame), as ``bgc identify`` does (see docs/identification.md): least squares on
         the residuals as they are evaluated, each over the noise it carries; 95 % intervals;
         the combinations the record does not determine. `only` and `fix` choose what is
         fitted; `window` is the Savitzky–Golay window, `integration_window` the window the
-        integrated residuals are taken over."""
+        integrated residuals are taken over.
+
+        With `span=(from, to)` (seconds), only the residuals over that span are fitted, those
+        integrated from the start taken from its start, as ``bgc residuals`` sizes a fault:
+        ``model.identify(record, only=["fe"], span=(31.0, 36.0))`` after a first alarm at
+        31 s gives the friction's new value with its interval."""
         t, cols, labels = _columns(data, self.signals, time, columns)
         out = _native.identify(
             self._native, t, cols, labels=labels, window=window, integration=integration_window,
             only=list(only) if only else None, fix=list(fix) if fix else None,
+            span=tuple(span) if span is not None else None,
         )
         values = {e["name"]: e["value"] for e in out["estimates"]}
         return Identification(
