@@ -503,11 +503,13 @@ fn size_fault(
     first: f64,
     ranked: &[String],
 ) -> Result<Vec<crate::size::Known>, Failure> {
-    let sizing = crate::size::Sizing {
+    let sizing = bondgraph_interpreter::Sizing {
         c,
         program,
         params,
-        data,
+        time: &data.time,
+        columns: data.columns.iter().map(Vec::as_slice).collect(),
+        step: data.step,
     };
     let span = args.size_span;
     let sized = sizing.candidates(ranked, first, span);

@@ -1,148 +1,15 @@
-//! The size of a fault: once the residuals alarm, each parameter of each candidate
-//! component fitted alone over the samples since the first alarm, each component with the
-//! parameter whose change alone brings every residual closest to its noise, ranked by that;
-//! and, on request, the best one's parameter followed window after window over the rest of
-//! the record.
+//! The CLI's side of a fault's size: the note, the followed series' file and the residual
+//! CSV's size columns (the fits are `bondgraph_interpreter::Sizing`'s).
 
 use std::fmt::Write as _;
 use std::path::Path;
 
-use bondgraph_core::program::Program;
 use bondgraph_core::Compiled;
-use bondgraph_interpreter::{
-    identify, Determined, Estimator, Fit, Identification, Integration, Origin, Record, Settings,
-    Span,
-};
+use bondgraph_interpreter::{Determined, Identification, Sized};
 
 use crate::identify::significant;
 use crate::io;
-use crate::record::Data;
 use crate::report::{self, Failure};
-
-/// The Savitzky–Golay window the sizes are fitted with (as the model is by `--calibrate`).
-const WINDOW: usize = 51;
-
-/// One candidate's fit over a span.
-pub(crate) struct Sized {
-    /// The component.
-    pub(crate) component: String,
-    /// The parameter fitted, by its place in the model.
-    pub(crate) parameter: usize,
-    /// The fit.
-    pub(crate) found: Identification,
-}
-
-/// What the sizes are fitted on: the model, its (fitted) values and the record.
-pub(crate) struct Sizing<'a> {
-    pub(crate) c: &'a Compiled,
-    pub(crate) program: &'a Program,
-    pub(crate) params: &'a [f64],
-    pub(crate) data: &'a Data,
-}
-
-impl Sizing<'_> {
-    /// Each parameter of `component` fitted alone over `[from, to]` seconds, from `start`,
-    /// with the residuals integrated from the span's start and from the record's (see
-    /// [`Origin`]): the one parameter and origin that fit best. One parameter at a time,
-    /// because that is the question (which parameter moved, by how much) and because two
-    /// parameters of one law fitted together over a few seconds can trade off without
-    /// bound (a dead zone's width and its sigmoid's slope, once the twist is past it).
-    fn fit(&self, component: &str, start: &[f64], from: f64, to: f64) -> Option<Sized> {
-        let comp = self.c.components.values().find(|k| k.name == component)?;
-        (comp.parameters.iter())
-            .filter_map(|p| self.fit_parameter(component, p.index(), start, from, to))
-            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
-    }
-
-    /// `parameter` of `component` fitted alone over `[from, to]` seconds from `start`, from
-    /// whichever origin fits better.
-    fn fit_parameter(
-        &self,
-        component: &str,
-        parameter: usize,
-        start: &[f64],
-        from: f64,
-        to: f64,
-    ) -> Option<Sized> {
-        [Origin::Span, Origin::Record]
-            .into_iter()
-            .filter_map(|origin| {
-                self.fit_from(component, parameter, start, Span { from, to, origin })
-            })
-            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
-    }
-
-    fn fit_from(
-        &self,
-        component: &str,
-        parameter: usize,
-        start: &[f64],
-        span: Span,
-    ) -> Option<Sized> {
-        let to = span.to;
-        let settings = Settings {
-            fit: Fit {
-                step: self.data.step,
-                estimator: Estimator::SavitzkyGolay {
-                    window: WINDOW,
-                    degree: self.program.top_order().max(3),
-                },
-                // Integrated from the span's start: what a fault adds to a relation while it
-                // lasts accumulates over it, the noise only as its square root.
-                integration: vec![Integration::Start; self.c.arrs.len()],
-            },
-            free: vec![parameter],
-            bounded: false,
-            span: Some(span),
-        };
-        let end = (self.data.time.iter())
-            .position(|&t| t > to)
-            .map_or(self.data.time.len(), |k| {
-                (k + WINDOW).min(self.data.time.len())
-            });
-        let record = Record {
-            time: &self.data.time[..end],
-            raw: self.data.columns.iter().map(|c| &c[..end]).collect(),
-        };
-        let found = identify(self.c, self.program, start, &[record], &settings).ok()?;
-        Some(Sized {
-            component: component.to_string(),
-            parameter,
-            found,
-        })
-    }
-
-    /// Each candidate of `ranked` (component names, best first, as the episode ranks them)
-    /// that has parameters, fitted alone over `span` seconds from `first`, best fit first.
-    pub(crate) fn candidates(&self, ranked: &[String], first: f64, span: f64) -> Vec<Sized> {
-        let mut sized: Vec<Sized> = (ranked.iter())
-            .filter_map(|name| self.fit(name, self.params, first, first + span))
-            .collect();
-        sized.sort_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1));
-        sized
-    }
-
-    /// The parameter `best` sized, fitted over successive windows of `span` seconds from
-    /// `first` to the record's end, each from the fit of the one before: the same parameter
-    /// throughout, so that its trend is one series.
-    pub(crate) fn follow(&self, best: &Sized, first: f64, span: f64) -> Vec<(f64, f64, Sized)> {
-        let end = self.data.time.last().copied().unwrap_or(first);
-        let mut start = self.params.to_vec();
-        let mut out = Vec::new();
-        let mut from = first;
-        while from + span <= end + 1e-9 {
-            let fitted =
-                self.fit_parameter(&best.component, best.parameter, &start, from, from + span);
-            let Some(sized) = fitted else {
-                break;
-            };
-            start.clone_from(&sized.found.values);
-            out.push((from, from + span, sized));
-            from += span;
-        }
-        out
-    }
-}
 
 /// The note of the candidates' sizes.
 pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, span: f64) {

@@ -9,6 +9,7 @@ mod fold;
 mod generator;
 mod identify;
 mod linalg;
+mod size;
 mod step;
 
 pub use fit::{Estimator, Fit, Integration};
@@ -17,4 +18,5 @@ pub use identify::{
     choose_free, identify, Combination, Determined, Estimate, Identification, IdentifyError,
     Origin, Record, Settings, Span, Stop,
 };
+pub use size::{Sized, Sizing, SIZE_WINDOW};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};

@@ -6,7 +6,8 @@ use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    uniform_step, Estimates, Estimator, Fit, Generator, Integration, StepError, STEP_TOLERANCE,
+    uniform_step, Estimates, Estimator, Fit, Generator, Integration, Sized, Sizing, StepError,
+    STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -147,7 +148,7 @@ fn estimator(kind: &str, window: usize, degree: u32) -> PyResult<Estimator> {
 /// Runs the residual program of `model` over the samples `columns` (in the order of
 /// `model.signals()`) taken at `time`.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false))]
+#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false, size_span = Some(5.0)))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn residuals<'py>(
     py: Python<'py>,
@@ -162,8 +163,14 @@ pub(crate) fn residuals<'py>(
     integration: &str,
     debounce: u32,
     adaptive: bool,
+    size_span: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let c = &model.compiled;
+    if size_span.is_some_and(|s| !(s.is_finite() && s > 0.0)) {
+        return Err(PyValueError::new_err(
+            "size_span must be a positive number of seconds, or None",
+        ));
+    }
     if c.residual_code_refused() || c.arrs.is_empty() {
         return Err(BgcError::new_err(format!(
             "{}: no ARRs to evaluate (see the diagnostics)",
@@ -243,11 +250,77 @@ pub(crate) fn residuals<'py>(
         .collect();
     let slots: Vec<usize> = roots.iter().map(|r| r.0).collect();
     let pass = py.detach(|| run(generator, time, &data, &settings, &rows, &slots));
+    let sizing = Sizing {
+        c,
+        program: &program,
+        params: &params,
+        time,
+        columns: data.clone(),
+        step,
+    };
+    let lookahead = (window.saturating_sub(1) / 2) as f64 * step;
+    let sized = match size_span {
+        Some(span) => py.detach(|| sizes(&sizing, &pass, c.arrs.len(), lookahead, span)),
+        None => Vec::new(),
+    };
     let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
+    out.set_item("sizes", size_dicts(py, c, &params, &sized)?)?;
     out.set_item("has_threshold", has)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
+}
+
+/// The fault's size, as `bgc residuals` estimates it: once some residual alarms, each
+/// candidate of the episode (as it stands at the record's end) with each of its parameters
+/// fitted alone over `span` seconds from the first alarm's samples on, best fit first.
+fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) -> Vec<Sized> {
+    let first = (pass.alarms.chunks(m.max(1)).zip(&pass.at)).find(|(on, _)| on.iter().any(|&a| a));
+    let Some((_, &first)) = first else {
+        return Vec::new();
+    };
+    let ranked: Vec<String> = (pass.labels.episodes.last())
+        .map(|e| {
+            e.split(' ')
+                .filter(|c| !c.is_empty())
+                .map(str::to_string)
+                .collect()
+        })
+        .unwrap_or_default();
+    let first = first + lookahead;
+    sizing.candidates(&ranked, first, span)
+}
+
+/// The sizes as Python dicts: component, parameter, value, half-width, the ratio to the
+/// model's value, the span and the fit's cost (residuals over their noise, mean square).
+fn size_dicts<'py>(
+    py: Python<'py>,
+    c: &bondgraph_core::Compiled,
+    model: &[f64],
+    sized: &[Sized],
+) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    (sized.iter())
+        .filter_map(|s| {
+            let e = s
+                .found
+                .estimates
+                .iter()
+                .find(|e| e.parameter == s.parameter)?;
+            Some((s, e))
+        })
+        .map(|(s, e)| {
+            let d = PyDict::new(py);
+            d.set_item("component", &s.component)?;
+            d.set_item("parameter", names.get(s.parameter).copied().unwrap_or(""))?;
+            d.set_item("value", e.value)?;
+            d.set_item("half_width", e.half_width)?;
+            let reference = model.get(s.parameter).copied().unwrap_or(0.0);
+            d.set_item("model", reference)?;
+            d.set_item("cost", s.found.cost.1)?;
+            Ok(d)
+        })
+        .collect()
 }
 
 /// One pass over the samples.

@@ -247,6 +247,10 @@ class Residuals:
         self._episodes: List[str] = out["episodes"]
         self._unsolved: np.ndarray = out["unsolved"]
         self._roots: List[str] = out["roots"]
+        #: The fault's size once some residual alarms: per candidate component, the parameter
+        #: whose change alone best explains the residuals over the span after the first alarm
+        #: (dicts: component, parameter, value, half_width, model, cost), best fit first.
+        self.sizes: List[Dict[str, Any]] = list(out.get("sizes", []))
 
     def __len__(self) -> int:
         return len(self.time)
@@ -562,6 +566,7 @@ class Model:
         integration: Union[int, str] = 250,
         debounce: int = 1,
         adaptive: bool = False,
+        size_span: Optional[float] = 5.0,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -580,6 +585,10 @@ class Model:
         Estimation: `window` samples (odd; default 11 for ``"savitzky-golay"``, 101 for
         ``"modulating"``) of polynomial `degree` (default 3 or the highest derivative read);
         integrated residuals over the last `integration` samples, or ``"start"``.
+
+        Size: once some residual alarms, each candidate of the episode has each of its
+        parameters fitted alone over `size_span` seconds from the first alarm's samples on
+        (``None``: not sized), as ``bgc residuals`` does: `Residuals.sizes`, best fit first.
         """
         # The bounds are derived for the relations as written: the CLI switches too.
         native = (self._as_written() if adaptive else self)._native
@@ -605,7 +614,8 @@ class Model:
                 raise ValueError("false_alarm_rate must be in [0, 1) and margin non-negative")
             t, cols, labels = _columns(calibrate, self.signals, time, columns)
             healthy = _native.residuals(
-                native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False, **options
+                native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False,
+                size_span=None, **options
             )
             values = np.abs(healthy["residuals"])
             for k in range(len(arr_names)):
@@ -618,7 +628,8 @@ class Model:
             levels = [0.0 if level is None else level for level in levels]
         t, cols, labels = _columns(data, self.signals, time, columns)
         out = _native.residuals(
-            native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive, **options
+            native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive,
+            size_span=size_span, **options
         )
         return Residuals(arr_names, out)
 

@@ -40,6 +40,7 @@ def residuals(
     integration: str = "250",
     debounce: int = 1,
     adaptive: bool = False,
+    size_span: Optional[float] = 5.0,
 ) -> Dict[str, Any]: ...
 def identify(
     model: Model,

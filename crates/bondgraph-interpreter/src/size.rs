@@ -1,0 +1,145 @@
+//! The size of a fault: once the residuals alarm, each parameter of each candidate
+//! component fitted alone over the samples since the first alarm, each component with the
+//! parameter whose change alone brings every residual closest to its noise, ranked by that;
+//! and, on request, the best one's parameter followed window after window over the rest of
+//! the record.
+
+use bondgraph_core::program::Program;
+use bondgraph_core::Compiled;
+
+use crate::fit::{Estimator, Fit, Integration};
+use crate::identify::{identify, Identification, Origin, Record, Settings, Span};
+
+/// The Savitzky–Golay window the sizes are fitted with (as the model is by `--calibrate`).
+pub const SIZE_WINDOW: usize = 51;
+const WINDOW: usize = SIZE_WINDOW;
+
+/// One candidate's fit over a span.
+pub struct Sized {
+    /// The component.
+    pub component: String,
+    /// The parameter fitted, by its place in the model.
+    pub parameter: usize,
+    /// The fit.
+    pub found: Identification,
+}
+
+/// What the sizes are fitted on: the model, its (fitted) values and the record (its time
+/// stamps, uniform at `step`, and each raw signal of the program, in its order).
+pub struct Sizing<'a> {
+    /// The model.
+    pub c: &'a Compiled,
+    /// Its residual program.
+    pub program: &'a Program,
+    /// The parameter values the sizes start from (the model's, or those fitted to a
+    /// healthy record).
+    pub params: &'a [f64],
+    /// The record's time stamps.
+    pub time: &'a [f64],
+    /// The record's raw signals, in the program's order.
+    pub columns: Vec<&'a [f64]>,
+    /// The record's step.
+    pub step: f64,
+}
+
+impl Sizing<'_> {
+    /// Each parameter of `component` fitted alone over `[from, to]` seconds, from `start`,
+    /// with the residuals integrated from the span's start and from the record's (see
+    /// [`Origin`]): the one parameter and origin that fit best. One parameter at a time,
+    /// because that is the question (which parameter moved, by how much) and because two
+    /// parameters of one law fitted together over a few seconds can trade off without
+    /// bound (a dead zone's width and its sigmoid's slope, once the twist is past it).
+    fn fit(&self, component: &str, start: &[f64], from: f64, to: f64) -> Option<Sized> {
+        let comp = self.c.components.values().find(|k| k.name == component)?;
+        (comp.parameters.iter())
+            .filter_map(|p| self.fit_parameter(component, p.index(), start, from, to))
+            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
+    }
+
+    /// `parameter` of `component` fitted alone over `[from, to]` seconds from `start`, from
+    /// whichever origin fits better.
+    fn fit_parameter(
+        &self,
+        component: &str,
+        parameter: usize,
+        start: &[f64],
+        from: f64,
+        to: f64,
+    ) -> Option<Sized> {
+        [Origin::Span, Origin::Record]
+            .into_iter()
+            .filter_map(|origin| {
+                self.fit_from(component, parameter, start, Span { from, to, origin })
+            })
+            .min_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1))
+    }
+
+    fn fit_from(
+        &self,
+        component: &str,
+        parameter: usize,
+        start: &[f64],
+        span: Span,
+    ) -> Option<Sized> {
+        let to = span.to;
+        let settings = Settings {
+            fit: Fit {
+                step: self.step,
+                estimator: Estimator::SavitzkyGolay {
+                    window: WINDOW,
+                    degree: self.program.top_order().max(3),
+                },
+                // Integrated from the span's start: what a fault adds to a relation while it
+                // lasts accumulates over it, the noise only as its square root.
+                integration: vec![Integration::Start; self.c.arrs.len()],
+            },
+            free: vec![parameter],
+            bounded: false,
+            span: Some(span),
+        };
+        let end = (self.time.iter())
+            .position(|&t| t > to)
+            .map_or(self.time.len(), |k| (k + WINDOW).min(self.time.len()));
+        let record = Record {
+            time: &self.time[..end],
+            raw: self.columns.iter().map(|c| &c[..end]).collect(),
+        };
+        let found = identify(self.c, self.program, start, &[record], &settings).ok()?;
+        Some(Sized {
+            component: component.to_string(),
+            parameter,
+            found,
+        })
+    }
+
+    /// Each candidate of `ranked` (component names, best first, as the episode ranks them)
+    /// that has parameters, fitted alone over `span` seconds from `first`, best fit first.
+    pub fn candidates(&self, ranked: &[String], first: f64, span: f64) -> Vec<Sized> {
+        let mut sized: Vec<Sized> = (ranked.iter())
+            .filter_map(|name| self.fit(name, self.params, first, first + span))
+            .collect();
+        sized.sort_by(|a, b| a.found.cost.1.total_cmp(&b.found.cost.1));
+        sized
+    }
+
+    /// The parameter `best` sized, fitted over successive windows of `span` seconds from
+    /// `first` to the record's end, each from the fit of the one before: the same parameter
+    /// throughout, so that its trend is one series.
+    pub fn follow(&self, best: &Sized, first: f64, span: f64) -> Vec<(f64, f64, Sized)> {
+        let end = self.time.last().copied().unwrap_or(first);
+        let mut start = self.params.to_vec();
+        let mut out = Vec::new();
+        let mut from = first;
+        while from + span <= end + 1e-9 {
+            let fitted =
+                self.fit_parameter(&best.component, best.parameter, &start, from, from + span);
+            let Some(sized) = fitted else {
+                break;
+            };
+            start.clone_from(&sized.found.values);
+            out.push((from, from + span, sized));
+            from += span;
+        }
+        out
+    }
+}
