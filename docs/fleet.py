@@ -78,7 +78,8 @@ def machine_residuals(record: pd.DataFrame, text: str, thresholds: Dict[str, flo
     """One machine's residuals, alarms and candidates, its samples taken in time order."""
     model = compiled(text)
     record = record.sort_values("t")
-    run = model.residuals(record, thresholds=thresholds)
+    # The frame is what the fleet keeps: no fault sizes (they cost a fit per candidate).
+    run = model.residuals(record, thresholds=thresholds, size_span=None)
     out = run.to_pandas()
     out.insert(0, "machine", record["machine"].iloc[0])
     return out
