@@ -222,6 +222,10 @@ const DIFFERENCE: f64 = 1e-6;
 /// Most Levenberg–Marquardt iterations per round.
 const ITERATIONS: usize = 60;
 
+/// How far from its model value, as a factor, a fit may drive a parameter before the
+/// combinations it takes part in are no longer called structural.
+const RUNAWAY: f64 = 1e6;
+
 /// Fresh draws of the signals' noise the intervals' second estimate rests on.
 const REPLICATES: usize = 20;
 
@@ -908,11 +912,15 @@ impl Problem<'_> {
                     .map(|(&k, &x)| (k, x / largest))
                     .filter(|(_, x)| x.abs() > 1e-3)
                     .collect();
-                // Structural at the model's values as well as at the fit's: a fit that ran a
-                // parameter to nothing (1e-28 of its value) makes any scaling of it flat
-                // there, which says nothing of what the ARRs hold.
-                let structural =
-                    self.structural(&scalings, values) && self.structural(&scalings, self.start);
+                // A fit that ran a parameter to nothing (1e-28 of its value) makes any
+                // scaling of it flat there, which says nothing of what the ARRs hold. (The
+                // check cannot be made at the model's values instead: a sum `R1 + R2` is flat
+                // along exponents that depend on where it is taken.)
+                let ran_away = scalings.iter().any(|&(k, _)| {
+                    self.start[k] != 0.0
+                        && (values[k] / self.start[k]).abs().ln().abs() > RUNAWAY.ln()
+                });
+                let structural = !ran_away && self.structural(&scalings, values);
                 Combination {
                     scalings,
                     structural,
