@@ -266,7 +266,7 @@ impl<G: Parametrised> FaultSize<G> {
             probe,
             estimator: ChangeEstimator::new(noise, memory)?,
             relinearise: 0.05,
-            settling: crate::Reference::DEFAULT_WINDOW,
+            settling: crate::reference::Reference::DEFAULT_WINDOW,
             skip: 0,
             held: Size {
                 value: point,
@@ -289,7 +289,7 @@ impl<G: Parametrised> FaultSize<G> {
 
     /// After the point moves, the residuals are left out for `samples` samples: those of
     /// an ARR realised by integration are a change over the generator's integration window
-    /// (by default [`Reference::DEFAULT_WINDOW`](crate::Reference::DEFAULT_WINDOW), the
+    /// (by default `Reference::DEFAULT_WINDOW`, the
     /// default here), which holds values computed at the old point until it has passed.
     #[must_use]
     pub fn with_settling(mut self, samples: usize) -> FaultSize<G> {
