@@ -17,9 +17,10 @@ pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, spa
         return;
     }
     let mut text = format!(
-        "the fault's size: each candidate with parameters fitted alone over {span} s from {first} \
+        "the fault's size: each candidate with parameters fitted alone over {span} s from {} \
          s (the first alarm's samples on), best fit first (residuals over their noise, mean \
-         square: 1 is the noise):"
+         square: 1 is the noise):",
+        significant(first)
     );
     for (k, s) in sized.iter().enumerate() {
         let _ = write!(
