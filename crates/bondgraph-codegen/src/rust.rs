@@ -664,7 +664,7 @@ fn params(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
         .map(|p| number(p.uncertainty.unwrap_or(0.0), refused).0)
         .collect();
     let strings: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
-    let k = count(strings.len());
+    let by_place = by_place("Params", &strings);
     quote! {
         /// The model's parameters; [`Default`] gives the values the model declares.
         #[allow(non_snake_case)]
@@ -684,22 +684,35 @@ fn params(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
             /// model), as a half-width in its unit; 0 for those it states exactly.
             pub const UNCERTAINTY: Params = Params { #(#names: #uncertainties,)* };
 
-            /// The fields' names, in order.
-            pub const NAMES: [&'static str; #k] = [#(#strings),*];
+            #by_place
+        }
+    }
+}
 
-            /// The fields from an array in the order of [`Params::NAMES`].
-            #[must_use]
-            #[allow(non_snake_case)]
-            pub fn from_array(a: [f64; #k]) -> Self {
-                let [#(#names),*] = a;
-                Params { #(#names),* }
-            }
+/// The items of a struct of `f64` fields named `fields` that read and write it by place:
+/// `NAMES`, `from_array` and `to_array`.
+fn by_place(ty: &str, fields: &[&str]) -> TokenStream {
+    let names: Vec<Ident> = fields.iter().map(|f| ident(f)).collect();
+    let k = count(fields.len());
+    let ty_ident = Ident::new(ty, proc_macro2::Span::call_site());
+    let from = format!(" The fields from an array in the order of [`{ty}::NAMES`].");
+    let to = format!(" The fields as an array in the order of [`{ty}::NAMES`].");
+    quote! {
+        /// The fields' names, in order.
+        pub const NAMES: [&'static str; #k] = [#(#fields),*];
 
-            /// The fields as an array in the order of [`Params::NAMES`].
-            #[must_use]
-            pub fn to_array(&self) -> [f64; #k] {
-                [#(self.#names),*]
-            }
+        #[doc = #from]
+        #[must_use]
+        #[allow(non_snake_case)]
+        pub fn from_array(a: [f64; #k]) -> Self {
+            let [#(#names),*] = a;
+            #ty_ident { #(#names),* }
+        }
+
+        #[doc = #to]
+        #[must_use]
+        pub fn to_array(&self) -> [f64; #k] {
+            [#(self.#names),*]
         }
     }
 }
@@ -708,7 +721,7 @@ fn signals(fields: &[Field]) -> TokenStream {
     let names: Vec<Ident> = fields.iter().map(|f| ident(&f.name)).collect();
     let strings: Vec<&str> = fields.iter().map(|f| f.name.as_str()).collect();
     let docs: Vec<String> = fields.iter().map(|f| format!(" {}", f.doc)).collect();
-    let k = count(fields.len());
+    let by_place = by_place("Signals", &strings);
     quote! {
         /// What the residuals read: the inputs and measured signals, their time derivatives
         /// (`NAME_d1`, `NAME_d2`…) and integrals from the start of the record (`NAME_int`).
@@ -719,22 +732,7 @@ fn signals(fields: &[Field]) -> TokenStream {
         }
 
         impl Signals {
-            /// The fields' names, in order.
-            pub const NAMES: [&'static str; #k] = [#(#strings),*];
-
-            /// The fields from an array in the order of [`Signals::NAMES`].
-            #[must_use]
-            #[allow(non_snake_case)]
-            pub fn from_array(a: [f64; #k]) -> Self {
-                let [#(#names),*] = a;
-                Signals { #(#names),* }
-            }
-
-            /// The fields as an array in the order of [`Signals::NAMES`].
-            #[must_use]
-            pub fn to_array(&self) -> [f64; #k] {
-                [#(self.#names),*]
-            }
+            #by_place
         }
     }
 }
