@@ -68,15 +68,20 @@ fn residuals(c: &mut Criterion) {
     group.finish();
 }
 
-fn generator(c: &mut Criterion) {
-    let p = bench::Params::default();
-    let h = 1e-3;
-    let samples: Vec<(f64, [f64; 3])> = (0..10_000)
+/// Ten thousand raw samples `[U0, y1, y2]`, `h` seconds apart.
+fn raw_samples(h: f64) -> Vec<(f64, [f64; 3])> {
+    (0..10_000)
         .map(|k| {
             let t = k as f64 * h;
             (t, [t.sin(), (1.3 * t).cos(), (0.7 * t).sin()])
         })
-        .collect();
+        .collect()
+}
+
+fn generator(c: &mut Criterion) {
+    let p = bench::Params::default();
+    let h = 1e-3;
+    let samples = raw_samples(h);
     let mut group = c.benchmark_group("residual_generator");
     group.throughput(Throughput::Elements(samples.len() as u64));
     for window in [11usize, 31] {
@@ -117,12 +122,7 @@ fn generator(c: &mut Criterion) {
 /// sized (two copies of the generator and the recursive least squares), per sample.
 fn fault_size(c: &mut Criterion) {
     let h = 1e-3;
-    let samples: Vec<(f64, [f64; 3])> = (0..10_000)
-        .map(|k| {
-            let t = k as f64 * h;
-            (t, [t.sin(), (1.3 * t).cos(), (0.7 * t).sin()])
-        })
-        .collect();
+    let samples = raw_samples(h);
     let template = lowest::ResidualGenerator::savitzky_golay(lowest::Params::default(), h, 31, 3)
         .expect("valid estimator");
     let j0 = (lowest::Params::NAMES.iter().position(|n| *n == "j0")).expect("the dead zone");
