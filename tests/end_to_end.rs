@@ -103,6 +103,11 @@ fn excitation(file: &str) -> Excitation {
         // fraction of the wall's own share, through the second derivative of the hot
         // temperature: only a fivefold change of a film shows.
         "heat_exchanger.bg" => (10.0, 1.0, 5.0),
+        // Doubled, the chain's first damper moves ARR2 to 1.4 times the largest healthy value
+        // of 20 other seeds' 3-s records, and the inductance ARR1 to 1.5 times that of 40:
+        // only thresholds that false-alarm on one record in seven see them. Tripled, 2.3 and
+        // 2.8 times.
+        "four_mass_chain.bg" | "rlc_series.bg" => (1.0, 1.0, 3.0),
         _ => (1.0, 1.0, 2.0),
     };
     Excitation {

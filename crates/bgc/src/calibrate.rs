@@ -10,6 +10,7 @@ use bondgraph_interpreter::{
 };
 
 use crate::record::Data;
+use crate::replicas::{self, Replicas};
 use crate::report::{self, Failure};
 
 /// The healthy samples the model is fitted on: a few minutes at the rates benches sample at
@@ -178,7 +179,14 @@ pub(crate) fn most_sensitive(
     for &estimator in candidates {
         let nominal = residuals(build(estimator, params)?, healthy);
         let none = vec![None; nominal.len()];
-        let levels = thresholds(build(estimator, params)?, healthy, &none, 0.0, margin);
+        let levels = thresholds(
+            &|| build(estimator, params),
+            healthy,
+            &none,
+            0.0,
+            margin,
+            None,
+        )?;
         let mut moves = Vec::new();
         for k in (0..params.len()).filter(|&k| params[k] != 0.0) {
             let mut moved = params.to_vec();
@@ -398,28 +406,34 @@ pub(crate) fn longest_integration(
 /// and estimation error, added to the bound from parameter uncertainty: a healthy record taken
 /// at the nominal parameters shows what the noise does, and nothing of what the uncertainty
 /// may do.
+///
+/// With no false alarm allowed (`rate` 0) the threshold is also a statement about the next
+/// record: at least the level a record of the same length crosses with probability
+/// [`Walk::CROSSING`], from what the healthy record's noise, drawn again, does to the residuals
+/// (see [`crate::replicas`]) where the record has noise to read, else from the walk's or the
+/// record's own excursions.
 pub(crate) fn thresholds(
-    generator: Generator,
+    build: &dyn Fn() -> Result<Generator, Failure>,
     healthy: &Data,
     walks: &[Option<Walk>],
     rate: f64,
     margin: f64,
-) -> Vec<f64> {
-    let mut series = residuals(generator, healthy);
-    for (r, walk) in series.iter_mut().zip(walks) {
-        for (k, v) in r.iter_mut().enumerate() {
-            *v /= walk.map_or(1.0, |w| w.deviation(k));
-        }
-    }
+    replicas: Option<&Replicas<'_>>,
+) -> Result<Vec<f64>, Failure> {
+    let series = normalised(residuals(build()?, healthy), walks);
     let length = healthy.time.len();
-    (series.into_iter().zip(walks))
-        .map(|(s, walk)| {
+    let replicated = match replicas.filter(|_| rate == 0.0) {
+        Some(replicas) => replica_levels(build, replicas, walks)?,
+        None => vec![None; walks.len()],
+    };
+    Ok((series.into_iter().zip(walks).zip(replicated))
+        .map(|((s, walk), replicated)| {
             // A residual that is not a number somewhere (singular at rest) says nothing
             // there: the quantile is that of the samples where it is one.
-            let stated = match walk {
+            let stated = replicated.unwrap_or_else(|| match walk {
                 Some(walk) if walk.rate > 0.0 => walk.crossing_level(length),
                 _ => rice_level(&s, length),
-            };
+            });
             let mut s: Vec<f64> = s
                 .into_iter()
                 .filter(|v| v.is_finite())
@@ -437,7 +451,45 @@ pub(crate) fn thresholds(
                 seen
             }
         })
-        .collect()
+        .collect())
+}
+
+/// Each residual's series over its walk's deviation, where it follows one.
+fn normalised(mut series: Vec<Vec<f64>>, walks: &[Option<Walk>]) -> Vec<Vec<f64>> {
+    for (r, walk) in series.iter_mut().zip(walks) {
+        if let Some(w) = walk {
+            for (k, v) in r.iter_mut().enumerate() {
+                *v /= w.deviation(k);
+            }
+        }
+    }
+    series
+}
+
+/// Each residual's level (normalised as [`thresholds`] does) that the healthy record's noise,
+/// drawn again, makes it exceed with probability [`Walk::CROSSING`]: the maxima of
+/// [`replicas::COUNT`] draws, as a Gumbel law. What the model's error adds along the
+/// trajectory is the healthy record's own, which the threshold is at least.
+fn replica_levels(
+    build: &dyn Fn() -> Result<Generator, Failure>,
+    replicas: &Replicas<'_>,
+    walks: &[Option<Walk>],
+) -> Result<Vec<Option<f64>>, Failure> {
+    let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
+    for index in 0..replicas::COUNT {
+        let up = residuals(build()?, &replicas.perturbed(index, 1.0));
+        let down = residuals(build()?, &replicas.perturbed(index, -1.0));
+        let noise = (up.iter().zip(&down))
+            .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())
+            .collect();
+        for (m, s) in maxima.iter_mut().zip(normalised(noise, walks)) {
+            let finite = s.iter().filter(|v| v.is_finite());
+            m.push(finite.fold(0.0, |a, v| a.max(v.abs())));
+        }
+    }
+    Ok((maxima.iter())
+        .map(|m| replicas::gumbel_level(m, Walk::CROSSING))
+        .collect())
 }
 
 /// The level that a stationary Gaussian residual with the healthy series `s`'s spectrum

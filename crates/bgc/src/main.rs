@@ -19,6 +19,7 @@ mod options;
 mod parquet_record;
 mod plot;
 mod record;
+mod replicas;
 mod report;
 mod residuals;
 mod sensors;

@@ -17,6 +17,7 @@ use crate::calibrate::{self, Walk};
 use crate::io;
 use crate::options::ResidualChoice;
 use crate::record::{Data, Layout};
+use crate::replicas::Replicas;
 use crate::report::{self, Failure};
 
 /// `--estimator`.
@@ -325,13 +326,18 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                 said.join(", ")
             ));
         }
+        let replicas = Replicas::new(healthy);
+        if replicas.noisy() && args.false_alarm_rate == 0.0 {
+            note_replicas(name, &names, &replicas);
+        }
         let calibrated = calibrate::thresholds(
-            build(window, &integration)?,
+            &|| build(window, &integration),
             healthy,
             &walks,
             args.false_alarm_rate,
             args.margin,
-        );
+            replicas.noisy().then_some(&replicas),
+        )?;
         for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
             // A level the user gave is a level, not a multiple of the walk's deviation.
             if level.is_some() {
@@ -477,6 +483,23 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// Says what the thresholds stand on: the noise read on each signal of the healthy record, and
+/// the replicas drawn with it.
+fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>) {
+    let read: Vec<String> = (signals.iter().zip(replicas.deviations()))
+        .map(|(s, d)| format!("{s} {d:.2e}"))
+        .collect();
+    report::note(format!(
+        "{name}: thresholds that a healthy record of its length crosses with probability {} \
+         (at least its own largest |r| times 1 + --margin): what its noise does to the \
+         residuals, drawn {} times (fresh white noise of the deviation read on each signal, \
+         {}, added and taken away) and the maxima taken as a Gumbel law",
+        calibrate::Walk::CROSSING,
+        crate::replicas::COUNT,
+        read.join(", ")
+    ));
 }
 
 /// The healthy record's column mapping: `--column`'s, with each signal `--calibrate-column`

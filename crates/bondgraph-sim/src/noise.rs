@@ -17,7 +17,7 @@ fn uniform(z: u64) -> f64 {
 }
 
 /// A standard normal number for `signal`'s `sample`-th value under `seed` (Box–Muller).
-pub(crate) fn gaussian(seed: u64, signal: u64, sample: u64) -> f64 {
+pub fn gaussian(seed: u64, signal: u64, sample: u64) -> f64 {
     let key = mix(mix(seed ^ mix(signal)) ^ sample);
     let (u1, u2) = (uniform(mix(key)), uniform(mix(key ^ 0xD6E8_FEB8_6659_FD93)));
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()

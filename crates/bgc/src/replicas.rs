@@ -1,0 +1,134 @@
+//! What a healthy record's noise does to the residuals, drawn again: a threshold is a
+//! statement about the next record, and one record's maximum is one draw of an extreme value,
+//! with its noise's slow parts (an integral's start, a twist integrated from two encoders)
+//! drawn once. Each signal's noise is read from the record, and fresh noise of that deviation
+//! is added to it and taken away: half the difference of the two residuals is what such noise
+//! does, to first order exactly and to second order too (the even terms cancel), around the
+//! plant's actual trajectory. (A smoother cannot take the record's own noise out first: what it
+//! leaves is the noise in the signals' band, which is what the residuals see.)
+
+use crate::record::Data;
+
+/// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
+/// records, from which the level a record crosses with a stated probability is extrapolated.
+pub(crate) const COUNT: usize = 64;
+
+/// Where the replicas' noise comes from: distinct from any scenario's seeds, so that a
+/// record `bgc simulate` wrote with noise is not replicated with its own numbers.
+const SEED: u64 = 0x6263_6361_6c69_6272;
+
+/// One column's white-noise deviation, from its third differences: white noise gives them
+/// `20 σ²` (1 + 9 + 9 + 1), a signal smooth at the sampling rate next to nothing. The median
+/// of their magnitudes (over 0.6745 deviations) leaves out jumps and spikes; a column with no
+/// noise (an input as commanded) gets 0.
+pub(crate) fn deviation(x: &[f64]) -> f64 {
+    let mut d: Vec<f64> = (x.windows(4))
+        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
+        .filter(|v| v.is_finite())
+        .collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    let mid = d.len() / 2;
+    let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
+    *median / 0.6745 / 20f64.sqrt()
+}
+
+/// The healthy record and the deviation of each of its columns' noise.
+pub(crate) struct Replicas<'a> {
+    record: &'a Data,
+    deviations: Vec<f64>,
+}
+
+impl<'a> Replicas<'a> {
+    /// The record with its columns' noise read.
+    pub(crate) fn new(record: &'a Data) -> Replicas<'a> {
+        let deviations = record.columns.iter().map(|x| deviation(x)).collect();
+        Replicas { record, deviations }
+    }
+
+    /// Whether any column is noisy: a record with none has nothing to replicate.
+    pub(crate) fn noisy(&self) -> bool {
+        self.deviations.iter().any(|&s| s > 0.0)
+    }
+
+    /// Each column's noise deviation, as the note gives them.
+    pub(crate) fn deviations(&self) -> &[f64] {
+        &self.deviations
+    }
+
+    /// The record with the `index`-th draw of fresh noise added (`sign` 1) or taken away
+    /// (`sign` −1).
+    pub(crate) fn perturbed(&self, index: usize, sign: f64) -> Data {
+        let columns = (self.record.columns.iter().zip(&self.deviations).enumerate())
+            .map(|(c, (x, sigma))| {
+                let stream = (index as u64) << 32 | c as u64;
+                (x.iter().enumerate())
+                    .map(|(k, v)| {
+                        v + sign * sigma * bondgraph_sim::gaussian(SEED, stream, k as u64)
+                    })
+                    .collect()
+            })
+            .collect();
+        self.record.with_columns(columns)
+    }
+}
+
+/// The level that the largest of a record's values (normalised) exceeds with probability `p`,
+/// from the maxima of `maxima.len()` draws as a Gumbel law (the law of the largest of many
+/// weakly dependent values whose tails fall off no slower than exponentially). Its location
+/// and scale come from the maxima's first two L-moments (`β = λ₂ / ln 2`, `μ = λ₁ − γ β`),
+/// which a single large draw moves less than it moves the variance; each is then taken a
+/// standard error (about `β / √n` for both) on the safe side, as a few dozen maxima tell
+/// them only so well. `None` for fewer than 8 maxima.
+pub(crate) fn gumbel_level(maxima: &[f64], p: f64) -> Option<f64> {
+    let n = maxima.len();
+    if n < 8 || maxima.iter().any(|m| !m.is_finite()) {
+        return None;
+    }
+    let mut sorted = maxima.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let l1 = sorted.iter().sum::<f64>() / n as f64;
+    let b1 = (sorted.iter().enumerate())
+        .map(|(i, x)| i as f64 / (n - 1) as f64 * x)
+        .sum::<f64>()
+        / n as f64;
+    let l2 = 2.0 * b1 - l1;
+    let error = 1.0 / (n as f64).sqrt();
+    let beta = l2 / std::f64::consts::LN_2 * (1.0 + error);
+    let location = l1 - 0.577_215_664_901_532_9 * beta + beta * error;
+    Some(location - beta * (-(-p).ln_1p()).ln())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_white_noise_deviation_is_read_through_a_signal_and_its_jumps() {
+        let n = 100_000;
+        let x: Vec<f64> = (0..n)
+            .map(|k| {
+                let t = k as f64 * 1e-3;
+                let square = if (t / 5.0) as u64 % 2 == 0 { 5.0 } else { 15.0 };
+                square + (0.5 * t).sin() + 0.01 * bondgraph_sim::gaussian(3, 0, k as u64)
+            })
+            .collect();
+        let sigma = deviation(&x);
+        assert!((sigma / 0.01 - 1.0).abs() < 0.03, "{sigma}");
+        let clean: Vec<f64> = (0..n).map(|k| (k as f64 * 1e-3).sin()).collect();
+        assert!(deviation(&clean) < 1e-9);
+    }
+
+    #[test]
+    fn the_gumbel_level_is_that_of_a_gumbel_law() {
+        // Maxima of a standard Gumbel law at evenly spread probabilities: the level for
+        // p = 1e-3 is −ln(−ln(1 − p)) ≈ 6.907, raised by the standard errors.
+        let maxima: Vec<f64> = (1..=400)
+            .map(|i| -(-(i as f64 / 401.0).ln()).ln())
+            .collect();
+        let level = gumbel_level(&maxima, 1e-3).unwrap();
+        assert!(level > 6.9 && level < 7.4, "{level}");
+        assert_eq!(gumbel_level(&maxima[..5], 1e-3), None);
+    }
+}
