@@ -1023,3 +1023,139 @@ fn parquet_and_csv_records_give_byte_identical_residuals() {
         stderr(&bad)
     );
 }
+
+/// A calibration kept: `--save-calibration` writes what `--calibrate` chose, and
+/// `--calibration` reading it back gives the same residuals, thresholds and alarms, byte for
+/// byte, without the healthy record. It is refused for another model (the same text with a
+/// line added), for other residuals, with a healthy record beside it, and where a line is
+/// wrong (naming the line).
+#[test]
+fn a_kept_calibration_decides_as_the_calibration_did_and_only_for_its_model() {
+    let (dir, record, healthy) = dead_zone_records("kept-calibration");
+    let kept = dir.join("bench.cal").display().to_string();
+    let calibrated = bgc(&[
+        "residuals",
+        BENCH,
+        &record,
+        "--calibrate",
+        &healthy,
+        "--save-calibration",
+        &kept,
+    ]);
+    assert_eq!(code(&calibrated), 0, "{}", stderr(&calibrated));
+    let read = bgc(&["residuals", BENCH, &record, "--calibration", &kept]);
+    assert_eq!(code(&read), 0, "{}", stderr(&read));
+    assert!(
+        stdout(&read) == stdout(&calibrated),
+        "the kept calibration decides otherwise"
+    );
+    assert!(
+        stderr(&read).contains("the calibration made on"),
+        "{}",
+        stderr(&read)
+    );
+
+    let other = dir.join("other.bg");
+    let text = std::fs::read_to_string(root().join(BENCH)).expect("model");
+    std::fs::write(&other, text + "\n# another model\n").expect("write");
+    let out = bgc(&[
+        "residuals",
+        &other.display().to_string(),
+        &record,
+        "--calibration",
+        &kept,
+    ]);
+    assert_eq!(code(&out), 1, "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("made for another model"),
+        "{}",
+        stderr(&out)
+    );
+
+    let out = bgc(&[
+        "residuals",
+        BENCH,
+        &record,
+        "--calibration",
+        &kept,
+        "--residuals",
+        "all",
+    ]);
+    assert_eq!(code(&out), 1, "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("made with --residuals per-sensor"),
+        "{}",
+        stderr(&out)
+    );
+
+    let out = bgc(&[
+        "residuals",
+        BENCH,
+        &record,
+        "--calibration",
+        &kept,
+        "--calibrate",
+        &healthy,
+    ]);
+    assert_eq!(code(&out), 2, "{}", stderr(&out));
+
+    let broken = dir.join("broken.cal");
+    let text = std::fs::read_to_string(&kept).expect("kept");
+    assert!(text.contains("\nestimator savitzky-golay "), "{text}");
+    std::fs::write(
+        &broken,
+        text.replace("estimator savitzky-golay", "estimator golay"),
+    )
+    .expect("write");
+    let out = bgc(&[
+        "residuals",
+        BENCH,
+        &record,
+        "--calibration",
+        &broken.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 1, "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("line 7: `estimator golay"),
+        "{}",
+        stderr(&out)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `--from`: the record and the healthy one are read from that time on (the residuals start
+/// there, a start-up is neither calibrated on nor alarmed on), and a time that leaves too few
+/// rows is refused with the count.
+#[test]
+fn from_leaves_the_start_up_out_of_both_records() {
+    let (dir, record, healthy) = dead_zone_records("from");
+    let out = bgc(&[
+        "residuals",
+        BENCH,
+        &record,
+        "--calibrate",
+        &healthy,
+        "--from",
+        "2",
+        "--no-size",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    let first: f64 = (text.lines().nth(1))
+        .and_then(|l| l.split(',').next())
+        .and_then(|t| t.parse().ok())
+        .expect("a first row");
+    assert!(
+        (2.0..2.2).contains(&first),
+        "the residuals start at {first}"
+    );
+    let named = (text.lines().skip(1))
+        .filter(|l| l.split(',').next().and_then(|t| t.parse::<f64>().ok()) > Some(10.5))
+        .filter(|l| l.contains(",link w,"))
+        .count();
+    assert!(named > 1000, "samples naming the dead zone: {named}");
+    let out = bgc(&["residuals", BENCH, &record, "--from", "1e9"]);
+    assert_eq!(code(&out), 1, "{}", stderr(&out));
+    assert!(stderr(&out).contains("0 rows from"), "{}", stderr(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}

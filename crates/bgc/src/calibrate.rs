@@ -253,7 +253,7 @@ fn describe(e: Estimator) -> String {
 /// estimates of `F` carry, the walk what integrating `A`'s noise adds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Walk {
-    floor: f64,
+    pub(crate) floor: f64,
     pub(crate) rate: f64,
 }
 

@@ -9,6 +9,7 @@
 
 mod args;
 mod calibrate;
+mod calibration;
 mod causality;
 mod check;
 mod completions;

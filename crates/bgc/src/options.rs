@@ -76,6 +76,17 @@ impl ResidualChoice {
     pub(crate) fn realise(&self) -> Realise {
         self.realise.realise()
     }
+
+    /// `--residuals` and `--realise` as their values are spelled on the command line.
+    pub(crate) fn spelled(&self) -> (String, String) {
+        let spell = |v: Option<clap::builder::PossibleValue>| {
+            v.map_or_else(String::new, |v| v.get_name().to_string())
+        };
+        (
+            spell(self.residuals.to_possible_value()),
+            spell(self.realise.to_possible_value()),
+        )
+    }
 }
 
 #[derive(clap::Args, Debug)]

@@ -114,6 +114,15 @@ impl Data {
         })
     }
 
+    /// The record without its first `rows` rows.
+    pub(crate) fn skip(self, rows: usize) -> Data {
+        Data {
+            time: self.time[rows..].to_vec(),
+            columns: self.columns.iter().map(|c| c[rows..].to_vec()).collect(),
+            ..self
+        }
+    }
+
     /// The same time stamps with other columns (a replica's).
     pub(crate) fn with_columns(&self, columns: Vec<Vec<f64>>) -> Data {
         Data {

@@ -9,11 +9,12 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use bondgraph::{Episode, Signature, Threshold};
-use bondgraph_core::program::Stability;
+use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{Estimator, Fit, Generator, Integration, STEP_TOLERANCE};
 
 use crate::calibrate::{self, Walk};
+use crate::calibration::{self, Calibration, Decision, Estimate};
 use crate::io;
 use crate::options::ResidualChoice;
 use crate::record::{Data, Layout};
@@ -96,6 +97,24 @@ pub(crate) struct ResidualArgs {
     /// times 1 + `--margin`.
     #[arg(long, value_name = "HEALTHY")]
     calibrate: Option<PathBuf>,
+    /// Also write what `--calibrate` chose (the parameters as fitted, the estimator, each
+    /// residual's integration and threshold) to FILE, for `--calibration`.
+    #[arg(long, value_name = "FILE", requires = "calibrate")]
+    save_calibration: Option<PathBuf>,
+    /// Decide as a kept calibration says (a file `--save-calibration` wrote for this model),
+    /// without recalibrating: its parameters, estimator, integrations and thresholds.
+    /// `--threshold` still sets a residual's level.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with_all = ["calibrate", "window", "estimator", "integration_window", "degree", "adaptive", "params"]
+    )]
+    calibration: Option<PathBuf>,
+    /// Read the record (and `--calibrate`'s) from this time on, in seconds of its own time
+    /// column: a start-up the model does not hold through (a relation dividing by a speed
+    /// at rest) is then neither calibrated on nor alarmed on, and the residuals start there.
+    #[arg(long, value_name = "SECONDS")]
+    from: Option<f64>,
     /// The share of healthy samples allowed above a calibrated threshold.
     #[arg(long, value_name = "P", default_value_t = 0.0)]
     false_alarm_rate: f64,
@@ -197,160 +216,50 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
     let layout = Layout::new(&names, &args.time, &args.columns)?;
     let data = Data::load(&args.data, &layout, shortest)?;
+    let data = from(data, &data_name, args.from, shortest)?;
     let healthy = match &args.calibrate {
         Some(path) => {
             let columns = calibration_columns(&args.columns, &args.calibrate_columns);
             let layout = Layout::new(&names, &args.time, &columns)?;
-            Some((
-                path.display().to_string(),
-                Data::load(path, &layout, shortest)?,
-            ))
+            let name = path.display().to_string();
+            let healthy = Data::load(path, &layout, shortest)?;
+            Some((name.clone(), from(healthy, &name, args.from, shortest)?))
         }
         None => None,
     };
-    // Calibration fits the model to the healthy record first: thresholds set on a model
-    // that is not the plant's measure the model's error, not the noise.
-    let params = match &healthy {
-        Some((name, record)) if !args.keep_model => {
-            calibrate::fit_model(&c, &program, &params, record, name)?
+    let chosen = match (&args.calibration, &healthy) {
+        (Some(path), _) => kept(&args, &c, path, &data)?,
+        (None, Some((name, record))) => {
+            calibrated(&args, &c, &program, params, &data, (name, record))?
         }
-        _ => params,
+        (None, None) => Chosen::from_options(&args, &c, &program, params)?,
     };
-    let degree = args.degree.unwrap_or(program.top_order().max(3));
-    let mut levels = thresholds(&c, &args.thresholds)?;
-    let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
+    if let (Some(path), Some((name, record))) = (&args.save_calibration, &healthy) {
+        let text = chosen.kept(&args, &c, name, record)?.write();
+        io::write(Some(path.as_path()), &text)?;
+    }
+    let Chosen {
+        params,
+        estimator,
+        window,
+        integration,
+        walks,
+        levels,
+    } = chosen;
+    let generator = |integration: &[Integration]| {
         let fit = Fit {
             step: data.step,
             estimator,
             integration: integration.to_vec(),
         };
-        Generator::new(&c, &program, params, &fit).map_err(report::usage)
+        Generator::new(&c, &program, &params, &fit).map_err(report::usage)
     };
-    // The kind of estimator, which `--calibrate` may choose with its window.
-    let kind = std::cell::Cell::new(args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay));
-    let estimator = |kind: EstimatorArg, window| match kind {
-        EstimatorArg::SavitzkyGolay => Estimator::SavitzkyGolay { window, degree },
-        EstimatorArg::Modulating => Estimator::Modulating { window },
-    };
-    let build = |window: usize, integration: &[Integration]| {
-        generator(estimator(kind.get(), window), integration, &params)
-    };
-    let mut window = args.window.unwrap_or(match kind.get() {
-        EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
-        EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
-    });
-    let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
-    // Where a residual taken from the start has its threshold grow with its noise's walk.
-    let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
-    if let Some((name, healthy)) = &healthy {
-        if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
-            return Err(report::refused(format!(
-                "{name}: its step ({} s) is not the record's ({} s)",
-                io::seconds(healthy.step),
-                io::seconds(data.step)
-            )));
-        }
-        if !(0.0..1.0).contains(&args.false_alarm_rate) || !(0.0..=f64::MAX).contains(&args.margin)
-        {
-            return Err(report::usage(
-                "--false-alarm-rate must be in [0, 1) and --margin non-negative",
-            ));
-        }
-        if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
-            window = calibrate::longest_steady_window(&|w| build(w, &integration), healthy)?;
-            report::note(format!(
-                "{name}: estimates over {window} samples, the longest window up to which \
-                 no residual grows there"
-            ));
-        }
-        // Residuals linear in the signals hold on modulating functions' estimates at any
-        // window: those compete with the fits.
-        if args.window.is_none() && program.linear() {
-            let fits = std::iter::once(estimator(EstimatorArg::SavitzkyGolay, window));
-            let modulating = (calibrate::modulating_windows(healthy, program.top_order()))
-                .map(|w| estimator(EstimatorArg::Modulating, w));
-            let candidates: Vec<Estimator> = match args.estimator {
-                None => fits.chain(modulating).collect(),
-                Some(EstimatorArg::Modulating) => modulating.collect(),
-                Some(EstimatorArg::SavitzkyGolay) => Vec::new(),
-            };
-            if !candidates.is_empty() {
-                let (best, said) = calibrate::most_sensitive(
-                    &|e, p| generator(e, &integration, p),
-                    healthy,
-                    &candidates,
-                    &params,
-                    args.margin,
-                )?;
-                report::note(format!(
-                    "{name}: every residual is linear in the signals: estimates with what \
-                     a fault of a fifth of a parameter moves most, in thresholds, for the \
-                     parameter that moves least ({said})"
-                ));
-                let chosen;
-                (chosen, window) = match best {
-                    Estimator::SavitzkyGolay { window, .. } => {
-                        (EstimatorArg::SavitzkyGolay, window)
-                    }
-                    Estimator::Modulating { window } => (EstimatorArg::Modulating, window),
-                };
-                kind.set(chosen);
-            }
-        }
-        let which: Vec<bool> = (c.arrs.iter())
-            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
-            .collect();
-        if args.integration_window.is_none() && which.contains(&true) {
-            let chosen = calibrate::longest_integration(
-                &|i| build(window, &vec![i; which.len()]),
-                healthy,
-                &which,
-                window,
-            )?;
-            (integration, walks) = chosen.into_iter().unzip();
-            let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
-                .filter(|(_, &i)| i)
-                .map(|((a, i), _)| match i {
-                    Integration::Window(n) => format!("{} over {n}", a.name),
-                    Integration::Start => format!(
-                        "{} from the start (its threshold grows as its noise's random walk)",
-                        a.name
-                    ),
-                })
-                .collect();
-            report::note(format!(
-                "{name}: integrated residuals taken where their length is largest against \
-                 their noise (of {} samples, or from the start where its noise is white plus a \
-                 random walk): {}",
-                calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
-                said.join(", ")
-            ));
-        }
-        let replicas = Replicas::new(healthy);
-        if replicas.noisy() && args.false_alarm_rate == 0.0 {
-            note_replicas(name, &names, &replicas);
-        }
-        let calibrated = calibrate::thresholds(
-            &|| build(window, &integration),
-            healthy,
-            &walks,
-            args.false_alarm_rate,
-            args.margin,
-            replicas.noisy().then_some(&replicas),
-        )?;
-        for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
-            // A level the user gave is a level, not a multiple of the walk's deviation.
-            if level.is_some() {
-                *walk = None;
-            }
-            level.get_or_insert(calibrated);
-        }
-    }
     if data.time.len() < window {
         return Err(report::refused(format!("{data_name}: {} rows: the estimator's window of {window} samples needs at least {window}",
             data.time.len())));
     }
-    let mut generator = build(window, &integration)?;
+    let mut generator = generator(&integration)?;
+    let mut levels = levels;
     if args.adaptive {
         // Every residual with a bound gets a threshold: its margin defaults to 0.
         for (level, arr) in levels.iter_mut().zip(&c.arrs) {
@@ -483,6 +392,368 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// The record from `--from` on (all of it without), with at least `window` rows left.
+fn from(data: Data, name: &str, from: Option<f64>, window: usize) -> Result<Data, Failure> {
+    let Some(t) = from else {
+        return Ok(data);
+    };
+    if !t.is_finite() {
+        return Err(report::usage(format!(
+            "--from {t}: expected a time in seconds"
+        )));
+    }
+    let first = data.time.partition_point(|&s| s < t);
+    let left = data.time.len() - first;
+    if left < window {
+        return Err(report::refused(format!(
+            "{name}: {left} rows from {} s on (--from): the estimator's window of {window} \
+             samples needs at least {window}",
+            io::seconds(t)
+        )));
+    }
+    Ok(data.skip(first))
+}
+
+/// What the residuals are evaluated and decided with: chosen by `--calibrate`, kept in a
+/// `--calibration` file, or given by the options.
+struct Chosen {
+    /// The model's parameter values (fitted, where calibration fits them).
+    params: Vec<f64>,
+    /// The signals' estimator.
+    estimator: Estimator,
+    /// Its window, in samples.
+    window: usize,
+    /// Each residual's integration (for those not integrated, unused).
+    integration: Vec<Integration>,
+    /// Each residual's noise walk, where its threshold grows with it.
+    walks: Vec<Option<Walk>>,
+    /// Each residual's threshold (in its walk's deviations where it has one).
+    levels: Vec<Option<f64>>,
+}
+
+impl Chosen {
+    /// What the options give, with no healthy record: the model's values, the default
+    /// estimator and integration, the thresholds given.
+    fn from_options(
+        args: &ResidualArgs,
+        c: &Compiled,
+        program: &Program,
+        params: Vec<f64>,
+    ) -> Result<Chosen, Failure> {
+        let kind = args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay);
+        let window = args.window.unwrap_or(match kind {
+            EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
+            EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
+        });
+        Ok(Chosen {
+            params,
+            estimator: estimator(kind, window, degree(args, program)),
+            window,
+            integration: vec![args.integration_window.unwrap_or_default(); c.arrs.len()],
+            walks: vec![None; c.arrs.len()],
+            levels: thresholds(c, &args.thresholds)?,
+        })
+    }
+
+    /// The calibration file's contents for this choice.
+    fn kept(
+        &self,
+        args: &ResidualArgs,
+        c: &Compiled,
+        name: &str,
+        healthy: &Data,
+    ) -> Result<Calibration, Failure> {
+        let (text, model) = model_text(args)?;
+        let integrated =
+            (c.arrs.iter()).map(|a| matches!(a.realisation, Realisation::Integrated(_)));
+        Ok(Calibration {
+            model,
+            hash: calibration::fnv1a(&text),
+            residuals: args.choice.spelled(),
+            healthy: (name.to_string(), healthy.time.len(), healthy.step),
+            crossing: Walk::CROSSING,
+            estimate: match self.estimator {
+                Estimator::SavitzkyGolay { window, degree } => Estimate::Fits { window, degree },
+                Estimator::Modulating { window } => Estimate::Modulating { window },
+            },
+            params: (c.parameters.values().map(|p| p.name.clone()))
+                .zip(self.params.iter().copied())
+                .collect(),
+            decisions: (c.arrs.iter().zip(integrated).enumerate())
+                .map(|(k, (a, integrated))| Decision {
+                    name: a.name.clone(),
+                    integration: integrated.then_some(self.integration[k]),
+                    threshold: self.levels[k],
+                    walk: self.walks[k],
+                })
+                .collect(),
+        })
+    }
+}
+
+/// The model's text and its name as given.
+fn model_text(args: &ResidualArgs) -> Result<(Vec<u8>, String), Failure> {
+    let (_, text) = io::read(&args.model)?;
+    Ok((text, args.model.display().to_string()))
+}
+
+/// The degree of the Savitzky–Golay fits: `--degree`, or 3, or the highest derivative read.
+fn degree(args: &ResidualArgs, program: &Program) -> u32 {
+    args.degree.unwrap_or(program.top_order().max(3))
+}
+
+/// An estimator of `kind` over `window` samples.
+fn estimator(kind: EstimatorArg, window: usize, degree: u32) -> Estimator {
+    match kind {
+        EstimatorArg::SavitzkyGolay => Estimator::SavitzkyGolay { window, degree },
+        EstimatorArg::Modulating => Estimator::Modulating { window },
+    }
+}
+
+/// What a `--calibration` file keeps, checked against the model, the options and the record:
+/// a calibration is for the model it was made on, its residuals and its step.
+fn kept(
+    args: &ResidualArgs,
+    c: &Compiled,
+    path: &std::path::Path,
+    data: &Data,
+) -> Result<Chosen, Failure> {
+    let name = path.display().to_string();
+    let (_, bytes) = io::read(path)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| report::refused(format!("{name}: not text (UTF-8)")))?;
+    let kept = Calibration::parse(&text).map_err(|e| report::refused(format!("{name}: {e}")))?;
+    let (model, model_name) = model_text(args)?;
+    if calibration::fnv1a(&model) != kept.hash {
+        return Err(report::refused(format!(
+            "{name}: made for another model ({} as it was then): {model_name}'s text differs; \
+             calibrate again with --calibrate HEALTHY --save-calibration {name}",
+            kept.model
+        )));
+    }
+    if kept.residuals != args.choice.spelled() {
+        return Err(report::refused(format!(
+            "{name}: made with --residuals {} --realise {}, not {} {}",
+            kept.residuals.0,
+            kept.residuals.1,
+            args.choice.spelled().0,
+            args.choice.spelled().1
+        )));
+    }
+    let step = kept.healthy.2;
+    if (step - data.step).abs() > STEP_TOLERANCE * data.step {
+        return Err(report::refused(format!(
+            "{name}: made on a record of step {} s, not the record's {} s",
+            io::seconds(step),
+            io::seconds(data.step)
+        )));
+    }
+    let params = kept_values(&name, c, &kept)?;
+    let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let read: Vec<&str> = kept.decisions.iter().map(|d| d.name.as_str()).collect();
+    if names != read {
+        return Err(report::refused(format!(
+            "{name}: its residuals are {}, the model's {}",
+            read.join(", "),
+            names.join(", ")
+        )));
+    }
+    let (estimator, window) = match kept.estimate {
+        Estimate::Fits { window, degree } => (Estimator::SavitzkyGolay { window, degree }, window),
+        Estimate::Modulating { window } => (Estimator::Modulating { window }, window),
+    };
+    // A threshold given on the command line is a level, and wins over the kept one.
+    let given = thresholds(c, &args.thresholds)?;
+    let mut walks: Vec<Option<Walk>> = kept.decisions.iter().map(|d| d.walk).collect();
+    let levels = (given.iter().zip(&kept.decisions).zip(&mut walks))
+        .map(|((g, d), walk)| match g {
+            Some(level) => {
+                *walk = None;
+                Some(*level)
+            }
+            None => d.threshold,
+        })
+        .collect();
+    report::note(format!(
+        "{name}: the calibration made on {} ({} rows) for {}: thresholds a healthy record of \
+         that length crosses with probability {}",
+        kept.healthy.0, kept.healthy.1, kept.model, kept.crossing
+    ));
+    Ok(Chosen {
+        params,
+        estimator,
+        window,
+        integration: (kept.decisions.iter())
+            .map(|d| d.integration.unwrap_or_default())
+            .collect(),
+        walks,
+        levels,
+    })
+}
+
+/// The kept parameter values, in the model's order: each of the model's, and no other.
+fn kept_values(name: &str, c: &Compiled, kept: &Calibration) -> Result<Vec<f64>, Failure> {
+    let model: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let read: Vec<&str> = kept.params.iter().map(|(n, _)| n.as_str()).collect();
+    if model != read {
+        return Err(report::refused(format!(
+            "{name}: its parameters are {}, the model's {}",
+            read.join(", "),
+            model.join(", ")
+        )));
+    }
+    Ok(kept.params.iter().map(|(_, v)| *v).collect())
+}
+
+/// `--calibrate`: the model fitted to the healthy record, then the estimator, each
+/// residual's integration and each threshold chosen on it.
+fn calibrated(
+    args: &ResidualArgs,
+    c: &Compiled,
+    program: &Program,
+    params: Vec<f64>,
+    data: &Data,
+    (name, healthy): (&str, &Data),
+) -> Result<Chosen, Failure> {
+    // Calibration fits the model to the healthy record first: thresholds set on a model
+    // that is not the plant's measure the model's error, not the noise.
+    let params = match args.keep_model {
+        false => calibrate::fit_model(c, program, &params, healthy, name)?,
+        true => params,
+    };
+    let degree = degree(args, program);
+    let mut levels = thresholds(c, &args.thresholds)?;
+    let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
+        let fit = Fit {
+            step: data.step,
+            estimator,
+            integration: integration.to_vec(),
+        };
+        Generator::new(c, program, params, &fit).map_err(report::usage)
+    };
+    // The kind of estimator, which `--calibrate` may choose with its window.
+    let kind = std::cell::Cell::new(args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay));
+    let estimator = |kind: EstimatorArg, window| estimator(kind, window, degree);
+    let build = |window: usize, integration: &[Integration]| {
+        generator(estimator(kind.get(), window), integration, &params)
+    };
+    let mut window = args.window.unwrap_or(match kind.get() {
+        EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
+        EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
+    });
+    let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
+    // Where a residual taken from the start has its threshold grow with its noise's walk.
+    let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
+    if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
+        return Err(report::refused(format!(
+            "{name}: its step ({} s) is not the record's ({} s)",
+            io::seconds(healthy.step),
+            io::seconds(data.step)
+        )));
+    }
+    if !(0.0..1.0).contains(&args.false_alarm_rate) || !(0.0..=f64::MAX).contains(&args.margin) {
+        return Err(report::usage(
+            "--false-alarm-rate must be in [0, 1) and --margin non-negative",
+        ));
+    }
+    if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
+        window = calibrate::longest_steady_window(&|w| build(w, &integration), healthy)?;
+        report::note(format!(
+            "{name}: estimates over {window} samples, the longest window up to which \
+             no residual grows there"
+        ));
+    }
+    // Residuals linear in the signals hold on modulating functions' estimates at any
+    // window: those compete with the fits.
+    if args.window.is_none() && program.linear() {
+        let fits = std::iter::once(estimator(EstimatorArg::SavitzkyGolay, window));
+        let modulating = (calibrate::modulating_windows(healthy, program.top_order()))
+            .map(|w| estimator(EstimatorArg::Modulating, w));
+        let candidates: Vec<Estimator> = match args.estimator {
+            None => fits.chain(modulating).collect(),
+            Some(EstimatorArg::Modulating) => modulating.collect(),
+            Some(EstimatorArg::SavitzkyGolay) => Vec::new(),
+        };
+        if !candidates.is_empty() {
+            let (best, said) = calibrate::most_sensitive(
+                &|e, p| generator(e, &integration, p),
+                healthy,
+                &candidates,
+                &params,
+                args.margin,
+            )?;
+            report::note(format!(
+                "{name}: every residual is linear in the signals: estimates with what \
+                 a fault of a fifth of a parameter moves most, in thresholds, for the \
+                 parameter that moves least ({said})"
+            ));
+            let chosen;
+            (chosen, window) = match best {
+                Estimator::SavitzkyGolay { window, .. } => (EstimatorArg::SavitzkyGolay, window),
+                Estimator::Modulating { window } => (EstimatorArg::Modulating, window),
+            };
+            kind.set(chosen);
+        }
+    }
+    let which: Vec<bool> = (c.arrs.iter())
+        .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+        .collect();
+    if args.integration_window.is_none() && which.contains(&true) {
+        let chosen = calibrate::longest_integration(
+            &|i| build(window, &vec![i; which.len()]),
+            healthy,
+            &which,
+            window,
+        )?;
+        (integration, walks) = chosen.into_iter().unzip();
+        let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
+            .filter(|(_, &i)| i)
+            .map(|((a, i), _)| match i {
+                Integration::Window(n) => format!("{} over {n}", a.name),
+                Integration::Start => format!(
+                    "{} from the start (its threshold grows as its noise's random walk)",
+                    a.name
+                ),
+            })
+            .collect();
+        report::note(format!(
+            "{name}: integrated residuals taken where their length is largest against \
+             their noise (of {} samples, or from the start where its noise is white plus a \
+             random walk): {}",
+            calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
+            said.join(", ")
+        ));
+    }
+    let replicas = Replicas::new(healthy);
+    if replicas.noisy() && args.false_alarm_rate == 0.0 {
+        let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
+        note_replicas(name, &names, &replicas);
+    }
+    let calibrated = calibrate::thresholds(
+        &|| build(window, &integration),
+        healthy,
+        &walks,
+        args.false_alarm_rate,
+        args.margin,
+        replicas.noisy().then_some(&replicas),
+    )?;
+    for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
+        // A level the user gave is a level, not a multiple of the walk's deviation.
+        if level.is_some() {
+            *walk = None;
+        }
+        level.get_or_insert(calibrated);
+    }
+    Ok(Chosen {
+        params,
+        estimator: estimator(kind.get(), window),
+        window,
+        integration,
+        walks,
+        levels,
+    })
 }
 
 /// Says what the thresholds stand on: the noise read on each signal of the healthy record, and

@@ -1,0 +1,402 @@
+//! A calibration kept: what `bgc residuals --calibrate` chose (the parameters as fitted, the
+//! estimator, each residual's integration, threshold and noise walk), written to a file that
+//! `--calibration` reads back, so that monitoring runs without recalibrating and decides as
+//! the calibration did. The file names the model it is for by a hash of its text and is
+//! refused for another.
+//!
+//! The format is text, a line per item, `#` for comments:
+//!
+//! ```text
+//! bgc-calibration 1
+//! model "models/backlash_bench.bg" fnv1a64 5f0c6e2a9d1b3c47
+//! residuals per-sensor lowest
+//! healthy "healthy.csv" rows 200001 step 0.001
+//! crossing 0.001
+//! estimator savitzky-golay 201 3
+//! param ke 0.5082694886183107
+//! arr ARR1 start 7.1e-3 walk 1.2e-6 3.4e-11
+//! arr ARR2 250 1.5e-2
+//! ```
+//!
+//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE]`: the integration is `start`, a window in
+//! samples, or `-` for a residual not integrated; the threshold is `-` for none, and for a
+//! residual with a walk it is in the walk's deviations.
+
+use bondgraph_interpreter::Integration;
+
+use crate::calibrate::Walk;
+
+/// The format's version, the file's first line.
+const HEADER: &str = "bgc-calibration 1";
+
+/// The estimator a calibration chose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Estimate {
+    /// Savitzky–Golay fits over `window` samples, of `degree`.
+    Fits { window: usize, degree: u32 },
+    /// Modulating functions over `window` samples.
+    Modulating { window: usize },
+}
+
+/// One residual's part of a calibration.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Decision {
+    /// The ARR's name.
+    pub(crate) name: String,
+    /// Its integration, where it is integrated.
+    pub(crate) integration: Option<Integration>,
+    /// Its threshold (in its walk's deviations where it has one), where it has one.
+    pub(crate) threshold: Option<f64>,
+    /// Its noise's walk, where it is integrated from the start.
+    pub(crate) walk: Option<Walk>,
+}
+
+/// What monitoring runs with, as `--calibrate` chose it.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Calibration {
+    /// The model's file name, as given when calibrating (for the reader).
+    pub(crate) model: String,
+    /// The FNV-1a hash of the model's text.
+    pub(crate) hash: u64,
+    /// `--residuals` and `--realise`, as their values are spelled.
+    pub(crate) residuals: (String, String),
+    /// The healthy record's name, rows and step.
+    pub(crate) healthy: (String, usize, f64),
+    /// The probability a healthy record of the healthy one's length crosses a threshold.
+    pub(crate) crossing: f64,
+    /// The estimator.
+    pub(crate) estimate: Estimate,
+    /// Each parameter's value, in the model's order.
+    pub(crate) params: Vec<(String, f64)>,
+    /// Each residual's integration and threshold, in the model's order.
+    pub(crate) decisions: Vec<Decision>,
+}
+
+/// The 64-bit FNV-1a hash of `bytes`: enough to tell one model's text from another's
+/// (not a defence against forgery, which a calibration file does not need).
+pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// A number as the file holds it: the shortest text that reads back to the same value.
+fn number(x: f64) -> String {
+    let mut buffer = ryu::Buffer::new();
+    buffer.format(x).to_string()
+}
+
+/// A name quoted, with `"` and `\` escaped.
+fn quoted(s: &str) -> String {
+    format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
+}
+
+impl Calibration {
+    /// The file's text.
+    pub(crate) fn write(&self) -> String {
+        let mut out = format!(
+            "{HEADER}\n# Written by `bgc residuals --calibrate`; read by `--calibration`.\n"
+        );
+        out += &format!("model {} fnv1a64 {:016x}\n", quoted(&self.model), self.hash);
+        out += &format!("residuals {} {}\n", self.residuals.0, self.residuals.1);
+        let (name, rows, step) = &self.healthy;
+        out += &format!(
+            "healthy {} rows {rows} step {}\n",
+            quoted(name),
+            number(*step)
+        );
+        out += &format!("crossing {}\n", number(self.crossing));
+        out += &match self.estimate {
+            Estimate::Fits { window, degree } => {
+                format!("estimator savitzky-golay {window} {degree}\n")
+            }
+            Estimate::Modulating { window } => format!("estimator modulating {window}\n"),
+        };
+        for (name, value) in &self.params {
+            out += &format!("param {name} {}\n", number(*value));
+        }
+        for d in &self.decisions {
+            let integration = match d.integration {
+                None => "-".to_string(),
+                Some(Integration::Start) => "start".to_string(),
+                Some(Integration::Window(n)) => n.to_string(),
+            };
+            let threshold = d.threshold.map_or("-".to_string(), number);
+            out += &format!("arr {} {integration} {threshold}", d.name);
+            if let Some(w) = d.walk {
+                out += &format!(" walk {} {}", number(w.floor), number(w.rate));
+            }
+            out += "\n";
+        }
+        out
+    }
+
+    /// Reads a calibration file's text; an error names the line and what it expected.
+    pub(crate) fn parse(text: &str) -> Result<Calibration, String> {
+        let mut lines = (text.lines().enumerate())
+            .map(|(k, l)| (k + 1, l.trim()))
+            .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
+        match lines.next() {
+            Some((_, HEADER)) => {}
+            Some((k, l)) => {
+                return Err(format!(
+                    "line {k}: `{l}`: expected `{HEADER}` (a file `bgc residuals --calibrate \
+                     ... --save-calibration` wrote)"
+                ))
+            }
+            None => return Err(format!("empty: expected `{HEADER}`")),
+        }
+        let mut parts = Parts::default();
+        for (k, line) in lines {
+            parts
+                .line(line)
+                .map_err(|e| format!("line {k}: `{line}`: {e}"))?;
+        }
+        parts.finish()
+    }
+}
+
+/// A calibration's lines as read so far.
+#[derive(Default)]
+struct Parts {
+    model: Option<(String, u64)>,
+    residuals: Option<(String, String)>,
+    healthy: Option<(String, usize, f64)>,
+    crossing: Option<f64>,
+    estimate: Option<Estimate>,
+    params: Vec<(String, f64)>,
+    decisions: Vec<Decision>,
+}
+
+impl Parts {
+    /// Reads one line.
+    fn line(&mut self, line: &str) -> Result<(), String> {
+        let words = words(line)?;
+        let words: Vec<&str> = words.iter().map(String::as_str).collect();
+        match words.as_slice() {
+            ["model", name, "fnv1a64", hash] => {
+                let hash = u64::from_str_radix(hash, 16)
+                    .map_err(|_| format!("`{hash}`: expected 16 hexadecimal digits"))?;
+                self.model = Some((name.to_string(), hash));
+            }
+            ["residuals", set, how] => self.residuals = Some((set.to_string(), how.to_string())),
+            ["healthy", name, "rows", rows, "step", step] => {
+                let rows = rows
+                    .parse()
+                    .map_err(|_| format!("`{rows}`: expected a count of rows"))?;
+                self.healthy = Some((name.to_string(), rows, positive(step)?));
+            }
+            ["crossing", p] => self.crossing = Some(positive(p)?),
+            ["estimator", "savitzky-golay", window, degree] => {
+                self.estimate = Some(Estimate::Fits {
+                    window: count(window)?,
+                    degree: degree
+                        .parse()
+                        .map_err(|_| format!("`{degree}`: expected a polynomial degree"))?,
+                });
+            }
+            ["estimator", "modulating", window] => {
+                self.estimate = Some(Estimate::Modulating {
+                    window: count(window)?,
+                });
+            }
+            ["param", name, value] => self.params.push((name.to_string(), finite(value)?)),
+            ["arr", name, integration, threshold, rest @ ..] => {
+                let integration = match *integration {
+                    "-" => None,
+                    "start" => Some(Integration::Start),
+                    n => Some(Integration::Window(count(n)?)),
+                };
+                let threshold = match *threshold {
+                    "-" => None,
+                    t => Some(non_negative(t)?),
+                };
+                let walk = match rest {
+                    [] => None,
+                    ["walk", floor, rate] => Some(Walk {
+                        floor: non_negative(floor)?,
+                        rate: non_negative(rate)?,
+                    }),
+                    _ => {
+                        return Err(
+                            "expected nothing after the threshold but `walk FLOOR RATE`".into()
+                        )
+                    }
+                };
+                self.decisions.push(Decision {
+                    name: name.to_string(),
+                    integration,
+                    threshold,
+                    walk,
+                });
+            }
+            _ => {
+                return Err(
+                    "expected `model`, `residuals`, `healthy`, `crossing`, `estimator`, \
+                            `param` or `arr` with their fields"
+                        .into(),
+                )
+            }
+        }
+        Ok(())
+    }
+
+    /// The calibration, where no line is missing.
+    fn finish(self) -> Result<Calibration, String> {
+        let missing = |what: &str| format!("no `{what}` line");
+        let (model, hash) = self.model.ok_or_else(|| missing("model"))?;
+        Ok(Calibration {
+            model,
+            hash,
+            residuals: self.residuals.ok_or_else(|| missing("residuals"))?,
+            healthy: self.healthy.ok_or_else(|| missing("healthy"))?,
+            crossing: self.crossing.ok_or_else(|| missing("crossing"))?,
+            estimate: self.estimate.ok_or_else(|| missing("estimator"))?,
+            params: self.params,
+            decisions: self.decisions,
+        })
+    }
+}
+
+/// A line's words: quoted names (with `\"` and `\\`) or runs without spaces.
+fn words(line: &str) -> Result<Vec<String>, String> {
+    let mut out = Vec::new();
+    let mut chars = line.chars().peekable();
+    while let Some(&c) = chars.peek() {
+        if c.is_whitespace() {
+            chars.next();
+        } else if c == '"' {
+            chars.next();
+            let mut word = String::new();
+            loop {
+                match chars.next() {
+                    Some('"') => break,
+                    Some('\\') => match chars.next() {
+                        Some(e @ ('"' | '\\')) => word.push(e),
+                        _ => return Err("expected `\\\"` or `\\\\` after `\\`".into()),
+                    },
+                    Some(c) => word.push(c),
+                    None => return Err("a quoted name is not closed".into()),
+                }
+            }
+            out.push(word);
+        } else {
+            let mut word = String::new();
+            while let Some(&c) = chars.peek() {
+                if c.is_whitespace() {
+                    break;
+                }
+                word.push(c);
+                chars.next();
+            }
+            out.push(word);
+        }
+    }
+    Ok(out)
+}
+
+/// A finite number.
+fn finite(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x.is_finite() => Ok(x),
+        _ => Err(format!("`{s}`: expected a finite number")),
+    }
+}
+
+/// A number at least 0.
+fn non_negative(s: &str) -> Result<f64, String> {
+    finite(s)
+        .ok()
+        .filter(|x| *x >= 0.0)
+        .ok_or_else(|| format!("`{s}`: expected a number at least 0"))
+}
+
+/// A number above 0.
+fn positive(s: &str) -> Result<f64, String> {
+    finite(s)
+        .ok()
+        .filter(|x| *x > 0.0)
+        .ok_or_else(|| format!("`{s}`: expected a number above 0"))
+}
+
+/// A count of samples, at least 1.
+fn count(s: &str) -> Result<usize, String> {
+    s.parse::<usize>()
+        .ok()
+        .filter(|n| *n > 0)
+        .ok_or_else(|| format!("`{s}`: expected a count of samples"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> Calibration {
+        Calibration {
+            model: "models/a \"b\".bg".into(),
+            hash: fnv1a(b"R r = 1"),
+            residuals: ("per-sensor".into(), "lowest".into()),
+            healthy: ("h.csv".into(), 2001, 1e-3),
+            crossing: 1e-3,
+            estimate: Estimate::Fits {
+                window: 201,
+                degree: 3,
+            },
+            params: vec![("ke".into(), 0.508_269_488_618_310_7), ("N".into(), 5.0)],
+            decisions: vec![
+                Decision {
+                    name: "ARR1".into(),
+                    integration: Some(Integration::Start),
+                    threshold: Some(6.59),
+                    walk: Some(Walk {
+                        floor: 1.2e-6,
+                        rate: 3.4e-11,
+                    }),
+                },
+                Decision {
+                    name: "ARR2".into(),
+                    integration: None,
+                    threshold: None,
+                    walk: None,
+                },
+                Decision {
+                    name: "ARR3".into(),
+                    integration: Some(Integration::Window(250)),
+                    threshold: Some(0.015),
+                    walk: None,
+                },
+            ],
+        }
+    }
+
+    #[test]
+    fn a_calibration_reads_back_as_written() {
+        let c = sample();
+        let text = c.write();
+        assert_eq!(Calibration::parse(&text), Ok(c));
+    }
+
+    #[test]
+    fn a_bad_line_is_refused_with_its_number_and_what_was_expected() {
+        let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
+        let e = Calibration::parse(&text).unwrap_err();
+        assert!(e.starts_with("line 12: `arr ARR3 0 0.015`"), "{e}");
+        assert!(e.contains("expected a count of samples"), "{e}");
+        let e = Calibration::parse("model x").unwrap_err();
+        assert!(e.contains("expected `bgc-calibration 1`"), "{e}");
+        let text = sample().write().replace("crossing 0.001\n", "");
+        assert_eq!(Calibration::parse(&text), Err("no `crossing` line".into()));
+        let text = sample().write().replace("param N 5.0", "param N inf");
+        assert!(Calibration::parse(&text)
+            .unwrap_err()
+            .contains("a finite number"));
+    }
+
+    #[test]
+    fn the_hash_tells_texts_apart() {
+        assert_ne!(fnv1a(b"param K = 1"), fnv1a(b"param K = 2"));
+        // The reference values of FNV-1a 64.
+        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+    }
+}
