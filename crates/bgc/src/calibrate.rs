@@ -6,7 +6,7 @@ use bondgraph::Reference;
 use bondgraph_core::program::Program;
 use bondgraph_core::Compiled;
 use bondgraph_interpreter::{
-    identify, Determined, Estimator, Fit, Generator, Integration, Record, Settings,
+    identify, Determined, Estimator, Fit, Generator, Integration, Record, Settings, Walk,
 };
 
 use crate::record::Data;
@@ -248,108 +248,6 @@ fn describe(e: Estimator) -> String {
     }
 }
 
-/// The noise of a residual integrated from the start, as white noise plus a random walk: its
-/// mean square at `k` samples from the start is `floor + rate * k`. The white part is what the
-/// estimates of `F` carry, the walk what integrating `A`'s noise adds.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Walk {
-    pub(crate) floor: f64,
-    pub(crate) rate: f64,
-}
-
-impl Walk {
-    /// Stretches of the longer lag a healthy record must hold: the lags are a hundredth and a
-    /// twenty-fifth of the record, where a walk and a drift differ, unless the estimators'
-    /// correlation makes them longer.
-    const STRETCHES: usize = 25;
-    /// How much more than a random walk's (the ratio of the lags) the mean square change may
-    /// grow between the two lags: a steady drift's grows as the ratio squared.
-    const SLACK: f64 = 1.5;
-
-    /// The walk a residual integrated from the start follows on a healthy record, estimated
-    /// from its mean square change over two lags, both past the estimators' correlation
-    /// (`window` samples). `None` where the record is too short to tell, or where the residual
-    /// drifts (a model error integrated): a threshold from one record would then not hold on
-    /// another.
-    pub(crate) fn fit(r: &[f64], window: usize) -> Option<Walk> {
-        let short = (2 * window.max(1)).max(r.len() / (4 * Self::STRETCHES));
-        let long = 4 * short;
-        if r.len() < Self::STRETCHES * long {
-            return None;
-        }
-        let (a, b) = (mean_square_change(r, short), mean_square_change(r, long));
-        let lags = (long / short) as f64;
-        // A NaN (a residual that is not a number somewhere) is no walk either.
-        let walks = b.partial_cmp(&(Self::SLACK * lags * a));
-        if !matches!(
-            walks,
-            Some(std::cmp::Ordering::Less | std::cmp::Ordering::Equal)
-        ) {
-            return None;
-        }
-        let rate = ((b - a) / (long - short) as f64).max(0.0);
-        let floor = (a - rate * short as f64).max(0.0);
-        (floor + rate > 0.0).then_some(Walk { floor, rate })
-    }
-
-    /// The probability a healthy residual may cross its threshold anywhere on a record of
-    /// [`Walk::HORIZON`] times the healthy record's length.
-    pub(crate) const CROSSING: f64 = 1e-3;
-    /// The length of the records the crossing probability is stated for, in healthy
-    /// records.
-    pub(crate) const HORIZON: f64 = 1.0;
-
-    /// The threshold, in deviations, that a residual following this walk crosses anywhere
-    /// on a record of [`Walk::HORIZON`] times `length` samples with probability
-    /// [`Walk::CROSSING`]: the maximum over one record is an extreme value that says little
-    /// of the next (on the bench drawn 3 % off, the maxima over other seeds' records came
-    /// to 1.1 to 1.34 times the calibration record's). The normalised walk `W(k)/√k` is, in
-    /// `ln k`, a stationary Ornstein–Uhlenbeck process of correlation `e^{−|Δ|/2}`, whose
-    /// maximum over a span `S` of `ln k` exceeds `c` on either side with probability about
-    /// `S c φ(c)` (Pickands). The walk's rate is itself estimated from 25 stretches, with a
-    /// relative error of about `√(2/25)`: the deviation is taken two such errors above it.
-    pub(crate) fn crossing_level(&self, length: usize) -> f64 {
-        let first = if self.rate > 0.0 {
-            (self.floor / self.rate).max(1.0)
-        } else {
-            return 0.0;
-        };
-        let last = (Self::HORIZON * length as f64).max(first * std::f64::consts::E);
-        let span = (last / first).ln();
-        let density = |c: f64| (-0.5 * c * c).exp() / (2.0 * std::f64::consts::PI).sqrt();
-        // S c φ(c) decreases past c = 1: bisection for the level.
-        let (mut lo, mut hi) = (1.0f64, 40.0f64);
-        for _ in 0..100 {
-            let c = 0.5 * (lo + hi);
-            if span * c * density(c) > Self::CROSSING {
-                lo = c;
-            } else {
-                hi = c;
-            }
-        }
-        let uncertain = 1.0 + 2.0 * (2.0 / Self::STRETCHES as f64).sqrt();
-        hi * uncertain.sqrt()
-    }
-
-    /// The noise's deviation at `k` samples from the start.
-    pub(crate) fn deviation(&self, k: usize) -> f64 {
-        (self.floor + self.rate * k as f64)
-            .sqrt()
-            .max(f64::MIN_POSITIVE)
-    }
-}
-
-/// The mean of `(r[k + lag] - r[k])²` over a series.
-fn mean_square_change(r: &[f64], lag: usize) -> f64 {
-    let n = r.len().saturating_sub(lag);
-    let sum: f64 = r
-        .iter()
-        .zip(&r[lag.min(r.len())..])
-        .map(|(a, b)| (b - a) * (b - a))
-        .sum();
-    sum / n.max(1) as f64
-}
-
 /// Each integrated residual's integration: a window of [`INTEGRATIONS`] (at most a twentieth
 /// of the healthy record) or from the start, whichever has the largest ratio of its length to
 /// the residual's noise on it; and for those taken from the start, their noise's [`Walk`].
@@ -564,60 +462,4 @@ fn residuals(mut generator: Generator, record: &Data) -> Vec<Vec<f64>> {
         }
     });
     series
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A reproducible standard normal sequence (Box–Muller over a linear congruential
-    /// generator): the tests must not depend on a crate's random numbers.
-    fn normal(n: usize, seed: u64) -> Vec<f64> {
-        let mut state = seed;
-        let mut uniform = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        (0..n)
-            .map(|_| {
-                let (u, v) = (uniform(), uniform());
-                (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-            })
-            .collect()
-    }
-
-    #[test]
-    fn a_walk_is_told_from_white_noise_and_a_drift_is_refused() {
-        let n = 200_000;
-        let white = normal(n, 1);
-        let steps = normal(n, 2);
-        let walk: Vec<f64> = (steps.iter())
-            .scan(0.0, |s, x| {
-                *s += 0.01 * x;
-                Some(*s)
-            })
-            .zip(&white)
-            .map(|(w, x)| w + x)
-            .collect();
-        let fitted = Walk::fit(&walk, 10).expect("a walk");
-        // floor = 2 σ² = 2, rate = 1e-4 per sample.
-        assert!((fitted.floor - 2.0).abs() < 0.2, "{fitted:?}");
-        assert!((fitted.rate / 1e-4 - 1.0).abs() < 0.3, "{fitted:?}");
-        let pure = Walk::fit(&white, 10).expect("white noise");
-        assert!(
-            pure.rate < 1e-5 && (pure.floor - 2.0).abs() < 0.2,
-            "{pure:?}"
-        );
-        let drift: Vec<f64> = (0..n)
-            .map(|k| 1e-3 * k as f64)
-            .zip(&white)
-            .map(|(d, x)| d + x)
-            .collect();
-        assert_eq!(Walk::fit(&drift, 10), None);
-        // Lags past a 201-sample estimator's correlation leave 3,000 samples too few stretches.
-        assert!(Walk::fit(&walk[..3000], 10).is_some());
-        assert_eq!(Walk::fit(&walk[..3000], 201), None, "too short to tell");
-    }
 }

@@ -9,7 +9,6 @@
 
 mod args;
 mod calibrate;
-mod calibration;
 mod causality;
 mod check;
 mod completions;

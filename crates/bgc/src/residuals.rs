@@ -11,10 +11,11 @@ use std::path::PathBuf;
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
-use bondgraph_interpreter::{Estimator, Fit, Generator, Integration, STEP_TOLERANCE};
+use bondgraph_interpreter::{
+    fnv1a, Calibration, Decision, Estimator, Fit, Generator, Integration, Walk, STEP_TOLERANCE,
+};
 
-use crate::calibrate::{self, Walk};
-use crate::calibration::{self, Calibration, Decision, Estimate};
+use crate::calibrate;
 use crate::io;
 use crate::options::ResidualChoice;
 use crate::record::{Data, Layout};
@@ -470,14 +471,11 @@ impl Chosen {
             (c.arrs.iter()).map(|a| matches!(a.realisation, Realisation::Integrated(_)));
         Ok(Calibration {
             model,
-            hash: calibration::fnv1a(&text),
+            hash: fnv1a(&text),
             residuals: args.choice.spelled(),
             healthy: (name.to_string(), healthy.time.len(), healthy.step),
             crossing: Walk::CROSSING,
-            estimate: match self.estimator {
-                Estimator::SavitzkyGolay { window, degree } => Estimate::Fits { window, degree },
-                Estimator::Modulating { window } => Estimate::Modulating { window },
-            },
+            estimator: self.estimator,
             params: (c.parameters.values().map(|p| p.name.clone()))
                 .zip(self.params.iter().copied())
                 .collect(),
@@ -493,9 +491,12 @@ impl Chosen {
     }
 }
 
-/// The model's text and its name as given.
+/// The model's text as compiled (without a byte-order mark), which a calibration's hash is
+/// of, and its name as given.
 fn model_text(args: &ResidualArgs) -> Result<(Vec<u8>, String), Failure> {
-    let (_, text) = io::read(&args.model)?;
+    let (_, bytes) = io::read(&args.model)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let text = bondgraph_core::without_bom(&text).as_bytes().to_vec();
     Ok((text, args.model.display().to_string()))
 }
 
@@ -526,7 +527,7 @@ fn kept(
         .map_err(|_| report::refused(format!("{name}: not text (UTF-8)")))?;
     let kept = Calibration::parse(&text).map_err(|e| report::refused(format!("{name}: {e}")))?;
     let (model, model_name) = model_text(args)?;
-    if calibration::fnv1a(&model) != kept.hash {
+    if fnv1a(&model) != kept.hash {
         return Err(report::refused(format!(
             "{name}: made for another model ({} as it was then): {model_name}'s text differs; \
              calibrate again with --calibrate HEALTHY --save-calibration {name}",
@@ -560,9 +561,9 @@ fn kept(
             names.join(", ")
         )));
     }
-    let (estimator, window) = match kept.estimate {
-        Estimate::Fits { window, degree } => (Estimator::SavitzkyGolay { window, degree }, window),
-        Estimate::Modulating { window } => (Estimator::Modulating { window }, window),
+    let estimator = kept.estimator;
+    let window = match estimator {
+        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
     };
     // A threshold given on the command line is a level, and wins over the kept one.
     let given = thresholds(c, &args.thresholds)?;
@@ -767,7 +768,7 @@ fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>) {
          (at least its own largest |r| times 1 + --margin): what its noise does to the \
          residuals, drawn {} times (fresh white noise of the deviation read on each signal, \
          {}, added and taken away) and the maxima taken as a Gumbel law",
-        calibrate::Walk::CROSSING,
+        Walk::CROSSING,
         crate::replicas::COUNT,
         read.join(", ")
     ));

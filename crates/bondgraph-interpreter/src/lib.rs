@@ -3,6 +3,7 @@
 //! integrators and copy of the model, in the same order, so the two agree to rounding.
 //! `bgc residuals` and the tests run models through it without compiling Rust.
 
+mod calibration;
 mod copy;
 mod fit;
 mod fold;
@@ -11,7 +12,9 @@ mod identify;
 mod linalg;
 mod size;
 mod step;
+mod walk;
 
+pub use calibration::{fnv1a, Calibration, Decision};
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
 pub use identify::{
@@ -20,3 +23,4 @@ pub use identify::{
 };
 pub use size::{Sized, Sizing, SIZE_WINDOW};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
+pub use walk::Walk;

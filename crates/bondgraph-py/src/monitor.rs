@@ -6,8 +6,8 @@ use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    uniform_step, Estimates, Estimator, Fit, Generator, Integration, Sized, Sizing, StepError,
-    STEP_TOLERANCE,
+    fnv1a, uniform_step, Calibration, Estimates, Estimator, Fit, Generator, Integration, Sized,
+    Sizing, StepError, Walk, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -20,8 +20,10 @@ use crate::model::Model;
 /// How the estimates are made.
 struct Settings {
     estimator: Estimator,
-    integration: Integration,
+    integration: Vec<Integration>,
     thresholds: Vec<Option<f64>>,
+    /// Per residual, the walk its threshold grows with (a kept calibration's).
+    walks: Vec<Option<Walk>>,
     debounce: u32,
     adaptive: bool,
 }
@@ -148,7 +150,7 @@ fn estimator(kind: &str, window: usize, degree: u32) -> PyResult<Estimator> {
 /// Runs the residual program of `model` over the samples `columns` (in the order of
 /// `model.signals()`) taken at `time`.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false, size_span = Some(5.0)))]
+#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false, size_span = Some(5.0), calibration = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn residuals<'py>(
     py: Python<'py>,
@@ -164,6 +166,7 @@ pub(crate) fn residuals<'py>(
     debounce: u32,
     adaptive: bool,
     size_span: Option<f64>,
+    calibration: Option<(String, String, (String, String))>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let c = &model.compiled;
     if size_span.is_some_and(|s| !(s.is_finite() && s > 0.0)) {
@@ -204,31 +207,46 @@ pub(crate) fn residuals<'py>(
         }
     }
     let kind = estimator;
-    let window = window.unwrap_or(if kind == "modulating" { 101 } else { 11 });
+    let degree = degree.unwrap_or(program.top_order().max(3));
+    let mut settings = Settings {
+        estimator: self::estimator(
+            kind,
+            window.unwrap_or(if kind == "modulating" { 101 } else { 11 }),
+            degree,
+        )?,
+        integration: vec![
+            integration
+                .parse()
+                .map_err(|e: String| PyValueError::new_err(format!(
+                    "integration: {e}"
+                )))?;
+            c.arrs.len()
+        ],
+        thresholds,
+        walks: vec![None; c.arrs.len()],
+        debounce,
+        adaptive,
+    };
+    let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    if let Some((text, name, choice)) = &calibration {
+        params = kept(&model, text, name, choice, step, &mut settings)?;
+    }
+    let window = match settings.estimator {
+        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
+    };
     if time.len() < window {
         return Err(errors::data(format!(
             "{} samples: the estimator's window of {window} needs at least {window}",
             time.len()
         )));
     }
-    let degree = degree.unwrap_or(program.top_order().max(3));
-    let settings = Settings {
-        estimator: self::estimator(kind, window, degree)?,
-        integration: integration
-            .parse()
-            .map_err(|e: String| PyValueError::new_err(format!("integration: {e}")))?,
-        thresholds,
-        debounce,
-        adaptive,
-    };
     if settings.debounce == 0 {
         return Err(PyValueError::new_err("debounce must be at least 1"));
     }
-    let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let fit = Fit {
         step,
         estimator: settings.estimator,
-        integration: vec![settings.integration; c.arrs.len()],
+        integration: settings.integration.clone(),
     };
     let generator = Generator::new(c, &program, &params, &fit)
         .map_err(|e| PyValueError::new_err(e.to_string()))?;
@@ -269,6 +287,64 @@ pub(crate) fn residuals<'py>(
     out.set_item("has_threshold", has)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
+}
+
+/// Applies a kept calibration (the text of a file `bgc residuals --calibrate ...
+/// --save-calibration` wrote, named `name`) to `settings`, as `bgc residuals --calibration`
+/// does: its estimator, integrations, walks and thresholds (a threshold given here wins);
+/// with its parameter values. Refused for another model's text, other residuals
+/// (`choice`), another step or a wrong line.
+fn kept(
+    model: &Model,
+    text: &str,
+    name: &str,
+    choice: &(String, String),
+    step: f64,
+    settings: &mut Settings,
+) -> PyResult<Vec<f64>> {
+    let c = &model.compiled;
+    let refused = |what: String| errors::data(format!("{name}: {what}"));
+    let kept = Calibration::parse(text).map_err(refused)?;
+    if fnv1a(model.text.as_bytes()) != kept.hash {
+        return Err(refused(format!(
+            "made for another model ({} as it was then): {}'s text differs",
+            kept.model, model.file
+        )));
+    }
+    if &kept.residuals != choice {
+        return Err(refused(format!(
+            "made with residuals={:?}, realise={:?}, not {:?}, {:?}",
+            kept.residuals.0, kept.residuals.1, choice.0, choice.1
+        )));
+    }
+    let made = kept.healthy.2;
+    if (made - step).abs() > STEP_TOLERANCE * step {
+        return Err(refused(format!(
+            "made on a record of step {made} s, not the record's {step} s"
+        )));
+    }
+    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let read: Vec<&str> = kept.params.iter().map(|(n, _)| n.as_str()).collect();
+    let arrs: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let decided: Vec<&str> = kept.decisions.iter().map(|d| d.name.as_str()).collect();
+    if names != read || arrs != decided {
+        return Err(refused(format!(
+            "its parameters and residuals ({}; {}) are not the model's ({}; {})",
+            read.join(", "),
+            decided.join(", "),
+            names.join(", "),
+            arrs.join(", ")
+        )));
+    }
+    settings.estimator = kept.estimator;
+    for (k, d) in kept.decisions.iter().enumerate() {
+        settings.integration[k] = d.integration.unwrap_or_default();
+        if settings.thresholds[k].is_none() {
+            settings.thresholds[k] = d.threshold;
+            settings.walks[k] = d.walk;
+        }
+    }
+    Ok(kept.params.iter().map(|(_, v)| *v).collect())
 }
 
 /// The fault's size, as `bgc residuals` estimates it: once some residual alarms, each
@@ -343,7 +419,7 @@ impl Pass {
     /// outputs never move once reserved.
     fn reserved(n: usize, settings: &Settings) -> Pass {
         let m = settings.thresholds.len();
-        let levels = if settings.adaptive {
+        let levels = if settings.adaptive || settings.walks.iter().any(Option::is_some) {
             Levels::Moving(Vec::with_capacity(n * m))
         } else {
             Levels::Fixed(
@@ -412,6 +488,8 @@ impl Watch<'_> {
     /// a residual at a time over the block, then what each estimate's alarms point to.
     fn block(&mut self, pass: &mut Pass, e: &Estimates<'_>) {
         let (len, m) = (e.len(), self.on.len());
+        // The first estimate's index in the record, which a walk's deviation grows with.
+        let first = pass.at.len();
         pass.at.extend_from_slice(e.at());
         let base = pass.residuals.len();
         pass.residuals.resize(base + len * m, 0.0);
@@ -419,11 +497,14 @@ impl Watch<'_> {
         if let Levels::Moving(levels) = &mut pass.levels {
             levels.resize(base + len * m, 0.0);
         }
-        let each = self.alarms.iter_mut().zip(&self.settings.thresholds);
-        for (k, (alarm, level)) in each.enumerate() {
+        let each = (self.alarms.iter_mut())
+            .zip(&self.settings.thresholds)
+            .zip(&self.settings.walks);
+        for (k, ((alarm, level), walk)) in each.enumerate() {
             for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
                 let at = base + j * m + k;
-                let now = level.map(|l| l + b);
+                let grown = walk.map_or(1.0, |w| w.deviation(first + j));
+                let now = level.map(|l| l * grown + b);
                 pass.residuals[at] = r;
                 if let Levels::Moving(levels) = &mut pass.levels {
                     levels[at] = now.unwrap_or(0.0);

@@ -233,3 +233,44 @@ def test_a_bad_value_is_named_by_the_datas_column(bench, record):
     broken.loc[3, "time"] = np.nan
     with pytest.raises(bgc.DataError, match=r"row 3, column `time`: NaN is not a finite number"):
         bench.residuals(broken, time="time", columns={"y1": "motor_speed"})
+
+
+def test_a_kept_calibration_decides_in_python_as_in_the_cli(bench, tmp_path):
+    """The file ``--save-calibration`` writes, read by Python: the same residuals, thresholds
+    and alarms as ``bgc residuals --calibration`` on the same record; refused for another
+    model's text and beside ``calibrate``."""
+    healthy, faulty, kept = tmp_path / "healthy.csv", tmp_path / "faulty.csv", tmp_path / "bench.cal"
+    bgc_cli("simulate", str(BENCH), str(SCENARIO), "--seed", "7", "--duration", "9.5", "-o", str(healthy))
+    bgc_cli("simulate", str(BENCH), str(SCENARIO), "-o", str(faulty))
+    bgc_cli(
+        "residuals", str(BENCH), str(healthy), "--calibrate", str(healthy),
+        "--save-calibration", str(kept), "-o", str(tmp_path / "h.csv"),
+    )
+    header, rows = read_csv(bgc_cli("residuals", str(BENCH), str(faulty), "--calibration", str(kept)))
+    data = {name: np.array(column) for name, column in zip(*_columns_of(faulty))}
+    run = bench.residuals(data, calibration=kept)
+    assert len(rows) == len(run)
+    column = {name: k for k, name in enumerate(header)}
+    for k, row in enumerate(rows):
+        for j, name in enumerate(run.names):
+            assert float(row[column[name]]) == pytest.approx(run.values[k, j], rel=1e-12, abs=1e-15)
+            level = float(row[column[f"threshold_{name}"]])
+            assert level == pytest.approx(run.thresholds[k, j], rel=1e-12), (k, name)
+    alarms = np.array([[r[column[f"alarm_{n}"]] == "1" for n in run.names] for r in rows])
+    assert (alarms == run.alarms).all()
+    assert [r[column["episode"]] for r in rows] == list(run.episode)
+    assert run.alarms.any(), "the dead zone raises alarms"
+
+    other = bgc.compile(BENCH.read_text() + "\n# another model\n")
+    with pytest.raises(bgc.DataError, match="made for another model"):
+        other.residuals(data, calibration=kept)
+    with pytest.raises(ValueError, match="calibration decides"):
+        bench.residuals(data, calibration=kept, calibrate=data)
+
+
+def _columns_of(path):
+    """A CSV's header and its columns as floats."""
+    with open(path) as f:
+        rows = list(csv.reader(f))
+    header = rows[0]
+    return header, [[float(r[k]) for r in rows[1:]] for k in range(len(header))]

@@ -567,6 +567,7 @@ class Model:
         debounce: int = 1,
         adaptive: bool = False,
         size_span: Optional[float] = 5.0,
+        calibration: Any = None,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -585,6 +586,13 @@ class Model:
         Estimation: `window` samples (odd; default 11 for ``"savitzky-golay"``, 101 for
         ``"modulating"``) of polynomial `degree` (default 3 or the highest derivative read);
         integrated residuals over the last `integration` samples, or ``"start"``.
+
+        Kept calibration: `calibration`, the path of a file ``bgc residuals MODEL RECORD
+        --calibrate HEALTHY --save-calibration FILE`` wrote for this model, decides as the CLI
+        does with ``--calibration FILE``: its parameters, estimator, integrations and thresholds
+        (a level in `thresholds` still wins); refused (`DataError`) for another model's text,
+        other residuals or another step, and with `calibrate`, `window`, `degree` or
+        `adaptive`.
 
         Size: once some residual alarms, each candidate of the episode has each of its
         parameters fitted alone over `size_span` seconds from the first alarm's samples on
@@ -609,6 +617,15 @@ class Model:
             integration=str(integration),
             debounce=debounce,
         )
+        kept = None
+        if calibration is not None:
+            if calibrate is not None or window is not None or degree is not None or adaptive:
+                raise ValueError(
+                    "calibration decides the estimator, the integrations and the thresholds: "
+                    "not with calibrate, window, degree or adaptive"
+                )
+            with open(calibration, encoding="utf-8") as f:
+                kept = (f.read(), str(calibration), tuple(self._options))
         if calibrate is not None:
             if not (0.0 <= false_alarm_rate < 1.0) or not (margin >= 0.0):
                 raise ValueError("false_alarm_rate must be in [0, 1) and margin non-negative")
@@ -629,7 +646,7 @@ class Model:
         t, cols, labels = _columns(data, self.signals, time, columns)
         out = _native.residuals(
             native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive,
-            size_span=size_span, **options
+            size_span=size_span, calibration=kept, **options
         )
         return Residuals(arr_names, out)
 

@@ -22,59 +22,49 @@
 //! samples, or `-` for a residual not integrated; the threshold is `-` for none, and for a
 //! residual with a walk it is in the walk's deviations.
 
-use bondgraph_interpreter::Integration;
-
-use crate::calibrate::Walk;
+use crate::fit::{Estimator, Integration};
+use crate::walk::Walk;
 
 /// The format's version, the file's first line.
 const HEADER: &str = "bgc-calibration 1";
 
-/// The estimator a calibration chose.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum Estimate {
-    /// Savitzky–Golay fits over `window` samples, of `degree`.
-    Fits { window: usize, degree: u32 },
-    /// Modulating functions over `window` samples.
-    Modulating { window: usize },
-}
-
 /// One residual's part of a calibration.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Decision {
+pub struct Decision {
     /// The ARR's name.
-    pub(crate) name: String,
+    pub name: String,
     /// Its integration, where it is integrated.
-    pub(crate) integration: Option<Integration>,
+    pub integration: Option<Integration>,
     /// Its threshold (in its walk's deviations where it has one), where it has one.
-    pub(crate) threshold: Option<f64>,
+    pub threshold: Option<f64>,
     /// Its noise's walk, where it is integrated from the start.
-    pub(crate) walk: Option<Walk>,
+    pub walk: Option<Walk>,
 }
 
 /// What monitoring runs with, as `--calibrate` chose it.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) struct Calibration {
+pub struct Calibration {
     /// The model's file name, as given when calibrating (for the reader).
-    pub(crate) model: String,
+    pub model: String,
     /// The FNV-1a hash of the model's text.
-    pub(crate) hash: u64,
+    pub hash: u64,
     /// `--residuals` and `--realise`, as their values are spelled.
-    pub(crate) residuals: (String, String),
+    pub residuals: (String, String),
     /// The healthy record's name, rows and step.
-    pub(crate) healthy: (String, usize, f64),
+    pub healthy: (String, usize, f64),
     /// The probability a healthy record of the healthy one's length crosses a threshold.
-    pub(crate) crossing: f64,
-    /// The estimator.
-    pub(crate) estimate: Estimate,
+    pub crossing: f64,
+    /// The signals' estimator.
+    pub estimator: Estimator,
     /// Each parameter's value, in the model's order.
-    pub(crate) params: Vec<(String, f64)>,
+    pub params: Vec<(String, f64)>,
     /// Each residual's integration and threshold, in the model's order.
-    pub(crate) decisions: Vec<Decision>,
+    pub decisions: Vec<Decision>,
 }
 
 /// The 64-bit FNV-1a hash of `bytes`: enough to tell one model's text from another's
 /// (not a defence against forgery, which a calibration file does not need).
-pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
+pub fn fnv1a(bytes: &[u8]) -> u64 {
     bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
         (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
     })
@@ -82,8 +72,8 @@ pub(crate) fn fnv1a(bytes: &[u8]) -> u64 {
 
 /// A number as the file holds it: the shortest text that reads back to the same value.
 fn number(x: f64) -> String {
-    let mut buffer = ryu::Buffer::new();
-    buffer.format(x).to_string()
+    // Rust prints a float as the shortest text that reads back to it.
+    format!("{x:?}")
 }
 
 /// A name quoted, with `"` and `\` escaped.
@@ -93,7 +83,7 @@ fn quoted(s: &str) -> String {
 
 impl Calibration {
     /// The file's text.
-    pub(crate) fn write(&self) -> String {
+    pub fn write(&self) -> String {
         let mut out = format!(
             "{HEADER}\n# Written by `bgc residuals --calibrate`; read by `--calibration`.\n"
         );
@@ -106,11 +96,11 @@ impl Calibration {
             number(*step)
         );
         out += &format!("crossing {}\n", number(self.crossing));
-        out += &match self.estimate {
-            Estimate::Fits { window, degree } => {
+        out += &match self.estimator {
+            Estimator::SavitzkyGolay { window, degree } => {
                 format!("estimator savitzky-golay {window} {degree}\n")
             }
-            Estimate::Modulating { window } => format!("estimator modulating {window}\n"),
+            Estimator::Modulating { window } => format!("estimator modulating {window}\n"),
         };
         for (name, value) in &self.params {
             out += &format!("param {name} {}\n", number(*value));
@@ -132,7 +122,7 @@ impl Calibration {
     }
 
     /// Reads a calibration file's text; an error names the line and what it expected.
-    pub(crate) fn parse(text: &str) -> Result<Calibration, String> {
+    pub fn parse(text: &str) -> Result<Calibration, String> {
         let mut lines = (text.lines().enumerate())
             .map(|(k, l)| (k + 1, l.trim()))
             .filter(|(_, l)| !l.is_empty() && !l.starts_with('#'));
@@ -163,7 +153,7 @@ struct Parts {
     residuals: Option<(String, String)>,
     healthy: Option<(String, usize, f64)>,
     crossing: Option<f64>,
-    estimate: Option<Estimate>,
+    estimator: Option<Estimator>,
     params: Vec<(String, f64)>,
     decisions: Vec<Decision>,
 }
@@ -188,7 +178,7 @@ impl Parts {
             }
             ["crossing", p] => self.crossing = Some(positive(p)?),
             ["estimator", "savitzky-golay", window, degree] => {
-                self.estimate = Some(Estimate::Fits {
+                self.estimator = Some(Estimator::SavitzkyGolay {
                     window: count(window)?,
                     degree: degree
                         .parse()
@@ -196,7 +186,7 @@ impl Parts {
                 });
             }
             ["estimator", "modulating", window] => {
-                self.estimate = Some(Estimate::Modulating {
+                self.estimator = Some(Estimator::Modulating {
                     window: count(window)?,
                 });
             }
@@ -251,7 +241,7 @@ impl Parts {
             residuals: self.residuals.ok_or_else(|| missing("residuals"))?,
             healthy: self.healthy.ok_or_else(|| missing("healthy"))?,
             crossing: self.crossing.ok_or_else(|| missing("crossing"))?,
-            estimate: self.estimate.ok_or_else(|| missing("estimator"))?,
+            estimator: self.estimator.ok_or_else(|| missing("estimator"))?,
             params: self.params,
             decisions: self.decisions,
         })
@@ -338,7 +328,7 @@ mod tests {
             residuals: ("per-sensor".into(), "lowest".into()),
             healthy: ("h.csv".into(), 2001, 1e-3),
             crossing: 1e-3,
-            estimate: Estimate::Fits {
+            estimator: Estimator::SavitzkyGolay {
                 window: 201,
                 degree: 3,
             },
