@@ -609,7 +609,8 @@ fn kept_values(name: &str, c: &Compiled, kept: &Calibration) -> Result<Vec<f64>,
 }
 
 /// `--calibrate`: the model fitted to the healthy record, then the estimator, each
-/// residual's integration and each threshold chosen on it.
+/// residual's integration and each threshold chosen on it, in that order (each choice is
+/// made under the ones before it).
 fn calibrated(
     args: &ResidualArgs,
     c: &Compiled,
@@ -618,35 +619,6 @@ fn calibrated(
     data: &Data,
     (name, healthy): (&str, &Data),
 ) -> Result<Chosen, Failure> {
-    // Calibration fits the model to the healthy record first: thresholds set on a model
-    // that is not the plant's measure the model's error, not the noise.
-    let params = match args.keep_model {
-        false => calibrate::fit_model(c, program, &params, healthy, name)?,
-        true => params,
-    };
-    let degree = degree(args, program);
-    let mut levels = thresholds(c, &args.thresholds)?;
-    let generator = |estimator: Estimator, integration: &[Integration], params: &[f64]| {
-        let fit = Fit {
-            step: data.step,
-            estimator,
-            integration: integration.to_vec(),
-        };
-        Generator::new(c, program, params, &fit).map_err(report::usage)
-    };
-    // The kind of estimator, which `--calibrate` may choose with its window.
-    let kind = std::cell::Cell::new(args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay));
-    let estimator = |kind: EstimatorArg, window| estimator(kind, window, degree);
-    let build = |window: usize, integration: &[Integration]| {
-        generator(estimator(kind.get(), window), integration, &params)
-    };
-    let mut window = args.window.unwrap_or(match kind.get() {
-        EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
-        EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
-    });
-    let mut integration = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
-    // Where a residual taken from the start has its threshold grow with its noise's walk.
-    let mut walks: Vec<Option<Walk>> = vec![None; c.arrs.len()];
     if (healthy.step - data.step).abs() > STEP_TOLERANCE * data.step {
         return Err(report::refused(format!(
             "{name}: its step ({} s) is not the record's ({} s)",
@@ -659,56 +631,158 @@ fn calibrated(
             "--false-alarm-rate must be in [0, 1) and --margin non-negative",
         ));
     }
-    if args.window.is_none() && kind.get() == EstimatorArg::SavitzkyGolay {
-        window = calibrate::longest_steady_window(&|w| build(w, &integration), healthy)?;
-        report::note(format!(
-            "{name}: estimates over {window} samples, the longest window up to which \
-             no residual grows there"
-        ));
+    // Calibration fits the model to the healthy record first: thresholds set on a model
+    // that is not the plant's measure the model's error, not the noise.
+    let params = match args.keep_model {
+        false => calibrate::fit_model(c, program, &params, healthy, name)?,
+        true => params,
+    };
+    let on = Calibrating {
+        args,
+        c,
+        program,
+        name,
+        healthy,
+        step: data.step,
+        degree: degree(args, program),
+        params,
+    };
+    let default = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
+    let estimator = on.estimator(&default)?;
+    let (integration, walks) = on.integrations(estimator)?;
+    let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
+    Ok(Chosen {
+        estimator,
+        window: window_of(estimator),
+        integration,
+        walks,
+        levels,
+        params: on.params,
+    })
+}
+
+/// An estimator's window, in samples.
+fn window_of(estimator: Estimator) -> usize {
+    match estimator {
+        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
     }
-    // Residuals linear in the signals hold on modulating functions' estimates at any
-    // window: those compete with the fits.
-    if args.window.is_none() && program.linear() {
-        let fits = std::iter::once(estimator(EstimatorArg::SavitzkyGolay, window));
-        let modulating = (calibrate::modulating_windows(healthy, program.top_order()))
-            .map(|w| estimator(EstimatorArg::Modulating, w));
+}
+
+/// Each residual's threshold and the walk it grows with, where it has them.
+type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
+
+/// What `--calibrate` chooses with: the options, the model as fitted, the healthy record.
+struct Calibrating<'a> {
+    args: &'a ResidualArgs,
+    c: &'a Compiled,
+    program: &'a Program,
+    name: &'a str,
+    healthy: &'a Data,
+    /// The record's step, which the estimators are made for (the healthy record's is within
+    /// the tolerance of it).
+    step: f64,
+    degree: u32,
+    params: Vec<f64>,
+}
+
+impl Calibrating<'_> {
+    /// A generator of the residuals with these choices.
+    fn generator(
+        &self,
+        estimator: Estimator,
+        integration: &[Integration],
+        params: &[f64],
+    ) -> Result<Generator, Failure> {
+        let fit = Fit {
+            step: self.step,
+            estimator,
+            integration: integration.to_vec(),
+        };
+        Generator::new(self.c, self.program, params, &fit).map_err(report::usage)
+    }
+
+    /// The estimator: `--estimator` and `--window` where given; for fits, the longest steady
+    /// window; where every residual is linear in the signals, the fits or modulating
+    /// functions under whose thresholds a fault of a fifth of a parameter shows most.
+    fn estimator(&self, integration: &[Integration]) -> Result<Estimator, Failure> {
+        let (args, name) = (self.args, self.name);
+        let kind = args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay);
+        let of = |kind, window| estimator(kind, window, self.degree);
+        if let Some(window) = args.window {
+            return Ok(of(kind, window));
+        }
+        let mut window = match kind {
+            EstimatorArg::SavitzkyGolay => {
+                let build = |w| self.generator(of(kind, w), integration, &self.params);
+                let window = calibrate::longest_steady_window(&build, self.healthy)?;
+                report::note(format!(
+                    "{name}: estimates over {window} samples, the longest window up to which \
+                     no residual grows there"
+                ));
+                window
+            }
+            EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
+        };
+        if !self.program.linear() {
+            return Ok(of(kind, window));
+        }
+        // Residuals linear in the signals hold on modulating functions' estimates at any
+        // window: those compete with the fits.
+        let fits = std::iter::once(of(EstimatorArg::SavitzkyGolay, window));
+        let modulating = (calibrate::modulating_windows(self.healthy, self.program.top_order()))
+            .map(|w| of(EstimatorArg::Modulating, w));
         let candidates: Vec<Estimator> = match args.estimator {
             None => fits.chain(modulating).collect(),
             Some(EstimatorArg::Modulating) => modulating.collect(),
             Some(EstimatorArg::SavitzkyGolay) => Vec::new(),
         };
-        if !candidates.is_empty() {
-            let (best, said) = calibrate::most_sensitive(
-                &|e, p| generator(e, &integration, p),
-                healthy,
-                &candidates,
-                &params,
-                args.margin,
-            )?;
-            report::note(format!(
-                "{name}: every residual is linear in the signals: estimates with what \
-                 a fault of a fifth of a parameter moves most, in thresholds, for the \
-                 parameter that moves least ({said})"
-            ));
-            let chosen;
-            (chosen, window) = match best {
-                Estimator::SavitzkyGolay { window, .. } => (EstimatorArg::SavitzkyGolay, window),
-                Estimator::Modulating { window } => (EstimatorArg::Modulating, window),
-            };
-            kind.set(chosen);
+        if candidates.is_empty() {
+            return Ok(of(kind, window));
         }
-    }
-    let which: Vec<bool> = (c.arrs.iter())
-        .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
-        .collect();
-    if args.integration_window.is_none() && which.contains(&true) {
-        let chosen = calibrate::longest_integration(
-            &|i| build(window, &vec![i; which.len()]),
-            healthy,
-            &which,
-            window,
+        let (best, said) = calibrate::most_sensitive(
+            &|e, p| self.generator(e, integration, p),
+            self.healthy,
+            &candidates,
+            &self.params,
+            args.margin,
         )?;
-        (integration, walks) = chosen.into_iter().unzip();
+        report::note(format!(
+            "{name}: every residual is linear in the signals: estimates with what a fault of \
+             a fifth of a parameter moves most, in thresholds, for the parameter that moves \
+             least ({said})"
+        ));
+        window = window_of(best);
+        Ok(match best {
+            Estimator::SavitzkyGolay { .. } => of(EstimatorArg::SavitzkyGolay, window),
+            Estimator::Modulating { .. } => of(EstimatorArg::Modulating, window),
+        })
+    }
+
+    /// Each residual's integration (`--integration-window`, or where its length is largest
+    /// against its noise), and the walk of those taken from the start.
+    fn integrations(
+        &self,
+        estimator: Estimator,
+    ) -> Result<(Vec<Integration>, Vec<Option<Walk>>), Failure> {
+        let (c, name) = (self.c, self.name);
+        let n = c.arrs.len();
+        let which: Vec<bool> = (c.arrs.iter())
+            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+            .collect();
+        if let Some(given) = self.args.integration_window {
+            return Ok((vec![given; n], vec![None; n]));
+        }
+        if !which.contains(&true) {
+            return Ok((vec![Integration::default(); n], vec![None; n]));
+        }
+        let chosen = calibrate::longest_integration(
+            &|i| self.generator(estimator, &vec![i; n], &self.params),
+            self.healthy,
+            &which,
+            window_of(estimator),
+        )?;
+        let (integration, walks): (Vec<Integration>, Vec<Option<Walk>>) =
+            chosen.into_iter().unzip();
         let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
             .filter(|(_, &i)| i)
             .map(|((a, i), _)| match i {
@@ -720,41 +794,49 @@ fn calibrated(
             })
             .collect();
         report::note(format!(
-            "{name}: integrated residuals taken where their length is largest against \
-             their noise (of {} samples, or from the start where its noise is white plus a \
-             random walk): {}",
+            "{name}: integrated residuals taken where their length is largest against their \
+             noise (of {} samples, or from the start where its noise is white plus a random \
+             walk): {}",
             calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
             said.join(", ")
         ));
+        Ok((integration, walks))
     }
-    let replicas = Replicas::new(healthy);
-    if replicas.noisy() && args.false_alarm_rate == 0.0 {
-        let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
-        note_replicas(name, &names, &replicas);
-    }
-    let calibrated = calibrate::thresholds(
-        &|| build(window, &integration),
-        healthy,
-        &walks,
-        args.false_alarm_rate,
-        args.margin,
-        replicas.noisy().then_some(&replicas),
-    )?;
-    for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
-        // A level the user gave is a level, not a multiple of the walk's deviation.
-        if level.is_some() {
-            *walk = None;
+
+    /// Each residual's threshold: `--threshold`'s level, else calibrated on the healthy
+    /// record (see [`calibrate::thresholds`]); a residual with a level given loses its walk.
+    fn thresholds(
+        &self,
+        estimator: Estimator,
+        integration: &[Integration],
+        mut walks: Vec<Option<Walk>>,
+    ) -> Result<Levels, Failure> {
+        let args = self.args;
+        let replicas = Replicas::new(self.healthy);
+        if replicas.noisy() && args.false_alarm_rate == 0.0 {
+            let names: Vec<String> = (self.program.raw.values())
+                .map(|r| r.name.clone())
+                .collect();
+            note_replicas(self.name, &names, &replicas);
         }
-        level.get_or_insert(calibrated);
+        let calibrated = calibrate::thresholds(
+            &|| self.generator(estimator, integration, &self.params),
+            self.healthy,
+            &walks,
+            args.false_alarm_rate,
+            args.margin,
+            replicas.noisy().then_some(&replicas),
+        )?;
+        let mut levels = thresholds(self.c, &args.thresholds)?;
+        for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
+            // A level the user gave is a level, not a multiple of the walk's deviation.
+            if level.is_some() {
+                *walk = None;
+            }
+            level.get_or_insert(calibrated);
+        }
+        Ok((levels, walks))
     }
-    Ok(Chosen {
-        params,
-        estimator: estimator(kind.get(), window),
-        window,
-        integration,
-        walks,
-        levels,
-    })
 }
 
 /// Says what the thresholds stand on: the noise read on each signal of the healthy record, and
