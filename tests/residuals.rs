@@ -1159,3 +1159,44 @@ fn from_leaves_the_start_up_out_of_both_records() {
     assert!(stderr(&out).contains("0 rows from"), "{}", stderr(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--false-alarm-rate 1/min`: the thresholds a healthy record as long as the calibration's
+/// (9.5 s) crosses with probability 9.5/60, lower than the default's 1e-3 per record; the
+/// note and the kept calibration say which probability.
+#[test]
+fn a_stated_rate_sets_the_crossing_probability_of_the_thresholds() {
+    let (dir, record, healthy) = dead_zone_records("stated-rate");
+    let kept = dir.join("rate.cal").display().to_string();
+    let level = |extra: &[&str]| -> (Vec<f64>, String) {
+        let mut args = vec![
+            "residuals",
+            BENCH,
+            &record,
+            "--calibrate",
+            &healthy,
+            "--no-size",
+        ];
+        args.extend(extra);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let text = stdout(&out);
+        let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+        let row: Vec<&str> = text.lines().nth(1).expect("a row").split(',').collect();
+        let levels = (header.iter().zip(&row))
+            .filter(|(h, _)| h.starts_with("threshold_"))
+            .map(|(_, v)| v.parse().expect("a level"))
+            .collect();
+        (levels, stderr(&out))
+    };
+    let (default, said) = level(&[]);
+    assert!(said.contains("crosses with probability 0.001"), "{said}");
+    let (stated, said) = level(&["--false-alarm-rate", "1/min", "--save-calibration", &kept]);
+    assert!(said.contains("crosses with probability 0.158"), "{said}");
+    assert!(
+        default.iter().zip(&stated).all(|(d, s)| s < d),
+        "{default:?} {stated:?}"
+    );
+    let file = std::fs::read_to_string(&kept).expect("kept");
+    assert!(file.contains("\ncrossing 0.158"), "{file}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -186,6 +186,7 @@ pub(crate) fn most_sensitive(
             0.0,
             margin,
             None,
+            Walk::CROSSING,
         )?;
         let mut moves = Vec::new();
         for k in (0..params.len()).filter(|&k| params[k] != 0.0) {
@@ -307,7 +308,7 @@ pub(crate) fn longest_integration(
 ///
 /// With no false alarm allowed (`rate` 0) the threshold is also a statement about the next
 /// record: at least the level a record of the same length crosses with probability
-/// [`Walk::CROSSING`], from what the healthy record's noise, drawn again, does to the residuals
+/// `crossing`, from what the healthy record's noise, drawn again, does to the residuals
 /// (see [`crate::replicas`]) where the record has noise to read, else from the walk's or the
 /// record's own excursions.
 pub(crate) fn thresholds(
@@ -317,11 +318,12 @@ pub(crate) fn thresholds(
     rate: f64,
     margin: f64,
     replicas: Option<&Replicas<'_>>,
+    crossing: f64,
 ) -> Result<Vec<f64>, Failure> {
     let series = normalised(residuals(build()?, healthy), walks);
     let length = healthy.time.len();
     let replicated = match replicas.filter(|_| rate == 0.0) {
-        Some(replicas) => replica_levels(build, replicas, walks)?,
+        Some(replicas) => replica_levels(build, replicas, walks, crossing)?,
         None => vec![None; walks.len()],
     };
     Ok((series.into_iter().zip(walks).zip(replicated))
@@ -329,8 +331,8 @@ pub(crate) fn thresholds(
             // A residual that is not a number somewhere (singular at rest) says nothing
             // there: the quantile is that of the samples where it is one.
             let stated = replicated.unwrap_or_else(|| match walk {
-                Some(walk) if walk.rate > 0.0 => walk.crossing_level(length),
-                _ => rice_level(&s, length),
+                Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
+                _ => rice_level(&s, length, crossing),
             });
             let mut s: Vec<f64> = s
                 .into_iter()
@@ -365,13 +367,14 @@ fn normalised(mut series: Vec<Vec<f64>>, walks: &[Option<Walk>]) -> Vec<Vec<f64>
 }
 
 /// Each residual's level (normalised as [`thresholds`] does) that the healthy record's noise,
-/// drawn again, makes it exceed with probability [`Walk::CROSSING`]: the maxima of
+/// drawn again, makes it exceed with probability `crossing`: the maxima of
 /// [`replicas::COUNT`] draws, as a Gumbel law. What the model's error adds along the
 /// trajectory is the healthy record's own, which the threshold is at least.
 fn replica_levels(
     build: &dyn Fn() -> Result<Generator, Failure>,
     replicas: &Replicas<'_>,
     walks: &[Option<Walk>],
+    crossing: f64,
 ) -> Result<Vec<Option<f64>>, Failure> {
     let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
     for index in 0..replicas::COUNT {
@@ -386,19 +389,19 @@ fn replica_levels(
         }
     }
     Ok((maxima.iter())
-        .map(|m| replicas::gumbel_level(m, Walk::CROSSING))
+        .map(|m| replicas::gumbel_level(m, crossing))
         .collect())
 }
 
 /// The level that a stationary Gaussian residual with the healthy series `s`'s spectrum
-/// crosses, on either side, with probability [`Walk::CROSSING`] over [`Walk::HORIZON`]
+/// crosses, on either side, with probability `crossing` over [`Walk::HORIZON`]
 /// times `length` samples: by Rice's formula its upcrossings of `c σ` come at
 /// `ν₀ e^{−c²/2}` per sample. `ν₀` is read from the series' own excursions past one
 /// deviation, each counted once from the mean (a slow residual with a little white noise on
 /// it chatters across its mean, not past a deviation). The largest value of one record is an
 /// extreme value, which says less of the next record than this does. 0 (no statement) where
 /// the record holds too few excursions to tell.
-fn rice_level(s: &[f64], length: usize) -> f64 {
+fn rice_level(s: &[f64], length: usize, crossing: f64) -> f64 {
     let finite: Vec<f64> = s.iter().copied().filter(|v| v.is_finite()).collect();
     if finite.len() < 3 {
         return 0.0;
@@ -416,8 +419,8 @@ fn rice_level(s: &[f64], length: usize) -> f64 {
     // Upcrossings of one deviation on either side, per sample, back to the mean level.
     let rate = excursions as f64 / (2.0 * finite.len() as f64) * 0.5f64.exp();
     let crossings = 2.0 * rate * Walk::HORIZON * length as f64;
-    let c = if crossings > Walk::CROSSING {
-        (2.0 * (crossings / Walk::CROSSING).ln()).sqrt()
+    let c = if crossings > crossing {
+        (2.0 * (crossings / crossing).ln()).sqrt()
     } else {
         0.0
     };

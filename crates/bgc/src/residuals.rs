@@ -116,9 +116,14 @@ pub(crate) struct ResidualArgs {
     /// at rest) is then neither calibrated on nor alarmed on, and the residuals start there.
     #[arg(long, value_name = "SECONDS")]
     from: Option<f64>,
-    /// The share of healthy samples allowed above a calibrated threshold.
-    #[arg(long, value_name = "P", default_value_t = 0.0)]
-    false_alarm_rate: f64,
+    /// The false alarms a calibrated threshold allows: a rate of healthy records crossing
+    /// it, per unit of time (`1/h`, `0.5/min`, `1e-3/s`, `1/d`), which sets each threshold at
+    /// the level a healthy record as long as the calibration's crosses with that record's
+    /// share of it; or a share P of the healthy samples above it (a bare number, the
+    /// (1 − P) quantile) [default: 0, the largest, and at least the level crossed with
+    /// probability 1e-3 per record of the healthy one's length].
+    #[arg(long, value_name = "RATE|P", default_value = "0")]
+    false_alarm_rate: FalseAlarms,
     /// With `--calibrate`, keep the model's parameter values: by default they are first
     /// fitted to the healthy record (as `bgc identify` fits them), and the thresholds are set
     /// on the fitted model.
@@ -246,6 +251,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         integration,
         walks,
         levels,
+        ..
     } = chosen;
     let generator = |integration: &[Integration]| {
         let fit = Fit {
@@ -417,6 +423,81 @@ fn from(data: Data, name: &str, from: Option<f64>, window: usize) -> Result<Data
     Ok(data.skip(first))
 }
 
+/// `--false-alarm-rate`: a rate of false alarms in time, or a share of healthy samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum FalseAlarms {
+    /// Healthy records crossing a threshold, per second.
+    PerSecond(f64),
+    /// The share of healthy samples above a threshold (the (1 − P) quantile).
+    Share(f64),
+}
+
+impl FalseAlarms {
+    /// The share of healthy samples above a threshold (0 for a rate in time).
+    fn share(self) -> f64 {
+        match self {
+            FalseAlarms::Share(p) => p,
+            FalseAlarms::PerSecond(_) => 0.0,
+        }
+    }
+
+    /// The probability a healthy record of `seconds` crosses a threshold: the rate's share
+    /// of it (at most a half: a higher one is no longer a rare event, and the extreme-value
+    /// laws the levels come from no longer hold), or [`Walk::CROSSING`] for a share.
+    fn crossing(self, seconds: f64) -> f64 {
+        match self {
+            FalseAlarms::PerSecond(r) => (r * seconds).clamp(f64::MIN_POSITIVE, 0.5),
+            FalseAlarms::Share(_) => Walk::CROSSING,
+        }
+    }
+}
+
+impl std::str::FromStr for FalseAlarms {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<FalseAlarms, String> {
+        let number = |n: &str| -> Result<f64, String> {
+            n.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| format!("`{n}`: expected a number at least 0"))
+        };
+        match s.split_once('/') {
+            None => {
+                let p = number(s)?;
+                if p >= 1.0 {
+                    return Err(format!(
+                        "`{s}`: a share of samples is below 1; a rate in time is written with \
+                         its unit (`1/h`)"
+                    ));
+                }
+                Ok(FalseAlarms::Share(p))
+            }
+            Some((n, unit)) => {
+                let seconds = match unit.trim() {
+                    "s" => 1.0,
+                    "min" => 60.0,
+                    "h" => 3600.0,
+                    "d" => 86_400.0,
+                    other => {
+                        return Err(format!(
+                            "`{other}`: expected a unit of time, `s`, `min`, `h` or `d`"
+                        ))
+                    }
+                };
+                let n = number(n)?;
+                if n == 0.0 {
+                    return Err(format!(
+                        "`{s}`: no false alarm at all is no threshold; state a rate above 0"
+                    ));
+                }
+                Ok(FalseAlarms::PerSecond(n / seconds))
+            }
+        }
+    }
+}
+
 /// What the residuals are evaluated and decided with: chosen by `--calibrate`, kept in a
 /// `--calibration` file, or given by the options.
 struct Chosen {
@@ -432,6 +513,8 @@ struct Chosen {
     walks: Vec<Option<Walk>>,
     /// Each residual's threshold (in its walk's deviations where it has one).
     levels: Vec<Option<f64>>,
+    /// The probability a healthy record as long as the calibration's crosses a threshold.
+    crossing: f64,
 }
 
 impl Chosen {
@@ -455,6 +538,7 @@ impl Chosen {
             integration: vec![args.integration_window.unwrap_or_default(); c.arrs.len()],
             walks: vec![None; c.arrs.len()],
             levels: thresholds(c, &args.thresholds)?,
+            crossing: Walk::CROSSING,
         })
     }
 
@@ -474,7 +558,7 @@ impl Chosen {
             hash: fnv1a(&text),
             residuals: args.choice.spelled(),
             healthy: (name.to_string(), healthy.time.len(), healthy.step),
-            crossing: Walk::CROSSING,
+            crossing: self.crossing,
             estimator: self.estimator,
             params: (c.parameters.values().map(|p| p.name.clone()))
                 .zip(self.params.iter().copied())
@@ -591,6 +675,7 @@ fn kept(
             .collect(),
         walks,
         levels,
+        crossing: kept.crossing,
     })
 }
 
@@ -626,10 +711,8 @@ fn calibrated(
             io::seconds(data.step)
         )));
     }
-    if !(0.0..1.0).contains(&args.false_alarm_rate) || !(0.0..=f64::MAX).contains(&args.margin) {
-        return Err(report::usage(
-            "--false-alarm-rate must be in [0, 1) and --margin non-negative",
-        ));
+    if !(0.0..=f64::MAX).contains(&args.margin) {
+        return Err(report::usage("--margin must be a non-negative number"));
     }
     // Calibration fits the model to the healthy record first: thresholds set on a model
     // that is not the plant's measure the model's error, not the noise.
@@ -646,6 +729,7 @@ fn calibrated(
         step: data.step,
         degree: degree(args, program),
         params,
+        crossing: (args.false_alarm_rate).crossing(healthy.time.len() as f64 * healthy.step),
     };
     let default = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
     let estimator = on.estimator(&default)?;
@@ -657,6 +741,7 @@ fn calibrated(
         integration,
         walks,
         levels,
+        crossing: on.crossing,
         params: on.params,
     })
 }
@@ -683,6 +768,8 @@ struct Calibrating<'a> {
     step: f64,
     degree: u32,
     params: Vec<f64>,
+    /// The probability a healthy record as long as this one crosses a threshold.
+    crossing: f64,
 }
 
 impl Calibrating<'_> {
@@ -813,19 +900,22 @@ impl Calibrating<'_> {
     ) -> Result<Levels, Failure> {
         let args = self.args;
         let replicas = Replicas::new(self.healthy);
-        if replicas.noisy() && args.false_alarm_rate == 0.0 {
+        let crossing = self.crossing;
+        let share = args.false_alarm_rate.share();
+        if replicas.noisy() && share == 0.0 {
             let names: Vec<String> = (self.program.raw.values())
                 .map(|r| r.name.clone())
                 .collect();
-            note_replicas(self.name, &names, &replicas);
+            note_replicas(self.name, &names, &replicas, crossing);
         }
         let calibrated = calibrate::thresholds(
             &|| self.generator(estimator, integration, &self.params),
             self.healthy,
             &walks,
-            args.false_alarm_rate,
+            share,
             args.margin,
             replicas.noisy().then_some(&replicas),
+            crossing,
         )?;
         let mut levels = thresholds(self.c, &args.thresholds)?;
         for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
@@ -841,7 +931,7 @@ impl Calibrating<'_> {
 
 /// Says what the thresholds stand on: the noise read on each signal of the healthy record, and
 /// the replicas drawn with it.
-fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>) {
+fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>, crossing: f64) {
     let read: Vec<String> = (signals.iter().zip(replicas.deviations()))
         .map(|(s, d)| format!("{s} {d:.2e}"))
         .collect();
@@ -850,7 +940,7 @@ fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>) {
          (at least its own largest |r| times 1 + --margin): what its noise does to the \
          residuals, drawn {} times (fresh white noise of the deviation read on each signal, \
          {}, added and taken away) and the maxima taken as a Gumbel law",
-        Walk::CROSSING,
+        crossing,
         crate::replicas::COUNT,
         read.join(", ")
     ));
@@ -1191,7 +1281,25 @@ impl Named {
 
 #[cfg(test)]
 mod tests {
-    use super::calibration_columns;
+    use super::{calibration_columns, FalseAlarms, Walk};
+
+    #[test]
+    fn a_false_alarm_rate_is_a_rate_in_time_or_a_share_of_samples() {
+        let read = |s: &str| s.parse::<FalseAlarms>();
+        assert_eq!(read("1/h"), Ok(FalseAlarms::PerSecond(1.0 / 3600.0)));
+        assert_eq!(read("0.5 / min"), Ok(FalseAlarms::PerSecond(0.5 / 60.0)));
+        assert_eq!(read("2/d"), Ok(FalseAlarms::PerSecond(2.0 / 86_400.0)));
+        assert_eq!(read("0.01"), Ok(FalseAlarms::Share(0.01)));
+        assert!(read("1/week").unwrap_err().contains("a unit of time"));
+        assert!(read("1.5").unwrap_err().contains("below 1"));
+        assert!(read("0/h").unwrap_err().contains("above 0"));
+        assert!(read("-1/h").unwrap_err().contains("at least 0"));
+        // One an hour over a 200-s healthy record: that record's share of an hour.
+        let hourly = FalseAlarms::PerSecond(1.0 / 3600.0).crossing(200.0);
+        assert!((hourly - 200.0 / 3600.0).abs() < 1e-15, "{hourly}");
+        assert_eq!(FalseAlarms::Share(0.0).crossing(200.0), Walk::CROSSING);
+        assert_eq!(FalseAlarms::PerSecond(1.0).crossing(200.0), 0.5);
+    }
 
     #[test]
     fn the_healthy_record_maps_the_overridden_signals_only() {

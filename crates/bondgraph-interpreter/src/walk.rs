@@ -49,22 +49,22 @@ impl Walk {
     }
 
     /// The probability a healthy residual may cross its threshold anywhere on a record of
-    /// [`Walk::HORIZON`] times the healthy record's length.
+    /// [`Walk::HORIZON`] times the healthy record's length, where the user states none.
     pub const CROSSING: f64 = 1e-3;
     /// The length of the records the crossing probability is stated for, in healthy
     /// records.
     pub const HORIZON: f64 = 1.0;
 
     /// The threshold, in deviations, that a residual following this walk crosses anywhere
-    /// on a record of [`Walk::HORIZON`] times `length` samples with probability
-    /// [`Walk::CROSSING`]: the maximum over one record is an extreme value that says little
+    /// on a record of [`Walk::HORIZON`] times `length` samples with probability `p`: the
+    /// maximum over one record is an extreme value that says little
     /// of the next (on the bench drawn 3 % off, the maxima over other seeds' records came
     /// to 1.1 to 1.34 times the calibration record's). The normalised walk `W(k)/√k` is, in
     /// `ln k`, a stationary Ornstein–Uhlenbeck process of correlation `e^{−|Δ|/2}`, whose
     /// maximum over a span `S` of `ln k` exceeds `c` on either side with probability about
     /// `S c φ(c)` (Pickands). The walk's rate is itself estimated from 25 stretches, with a
     /// relative error of about `√(2/25)`: the deviation is taken two such errors above it.
-    pub fn crossing_level(&self, length: usize) -> f64 {
+    pub fn crossing_level(&self, length: usize, p: f64) -> f64 {
         let first = if self.rate > 0.0 {
             (self.floor / self.rate).max(1.0)
         } else {
@@ -77,7 +77,7 @@ impl Walk {
         let (mut lo, mut hi) = (1.0f64, 40.0f64);
         for _ in 0..100 {
             let c = 0.5 * (lo + hi);
-            if span * c * density(c) > Self::CROSSING {
+            if span * c * density(c) > p {
                 lo = c;
             } else {
                 hi = c;
