@@ -8,7 +8,6 @@
 //! of them, `report` says everything they have to say on standard error.
 
 mod args;
-mod calibrate;
 mod causality;
 mod check;
 mod completions;
@@ -19,7 +18,6 @@ mod options;
 mod parquet_record;
 mod plot;
 mod record;
-mod replicas;
 mod report;
 mod residuals;
 mod sensors;

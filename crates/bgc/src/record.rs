@@ -123,17 +123,6 @@ impl Data {
         }
     }
 
-    /// The same time stamps with other columns (a replica's).
-    pub(crate) fn with_columns(&self, columns: Vec<Vec<f64>>) -> Data {
-        Data {
-            time: self.time.clone(),
-            step: self.step,
-            clock: self.clock,
-            clock_place: self.clock_place.clone(),
-            columns,
-        }
-    }
-
     /// What to tell the user of the record's time stamps, where they jitter: the step taken
     /// and how far the stamps stray from it.
     pub(crate) fn jitter_note(&self) -> Option<String> {

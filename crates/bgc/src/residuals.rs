@@ -12,14 +12,13 @@ use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
-    fnv1a, Calibration, Decision, Estimator, Fit, Generator, Integration, Walk, STEP_TOLERANCE,
+    calibrate, fnv1a, window_of, Calibration, Choices, Decision, Estimator, EstimatorKind,
+    FalseAlarms, Fit, Generator, Integration, Mismatch, Samples, Walk, STEP_TOLERANCE, WINDOWS,
 };
 
-use crate::calibrate;
 use crate::io;
 use crate::options::ResidualChoice;
 use crate::record::{Data, Layout};
-use crate::replicas::Replicas;
 use crate::report::{self, Failure};
 
 /// `--estimator`.
@@ -29,6 +28,16 @@ pub(crate) enum EstimatorArg {
     SavitzkyGolay,
     /// Integration by parts against one smooth window for every signal and order.
     Modulating,
+}
+
+impl EstimatorArg {
+    /// The interpreter's name for it.
+    fn kind(self) -> EstimatorKind {
+        match self {
+            EstimatorArg::SavitzkyGolay => EstimatorKind::SavitzkyGolay,
+            EstimatorArg::Modulating => EstimatorKind::Modulating,
+        }
+    }
 }
 
 /// What `bgc residuals` takes.
@@ -219,7 +228,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         _ => {}
     }
     let data_name = args.data.display().to_string();
-    let shortest = args.window.unwrap_or(calibrate::WINDOWS[0]);
+    let shortest = args.window.unwrap_or(WINDOWS[0]);
     let layout = Layout::new(&names, &args.time, &args.columns)?;
     let data = Data::load(&args.data, &layout, shortest)?;
     let data = from(data, &data_name, args.from, shortest)?;
@@ -423,81 +432,6 @@ fn from(data: Data, name: &str, from: Option<f64>, window: usize) -> Result<Data
     Ok(data.skip(first))
 }
 
-/// `--false-alarm-rate`: a rate of false alarms in time, or a share of healthy samples.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum FalseAlarms {
-    /// Healthy records crossing a threshold, per second.
-    PerSecond(f64),
-    /// The share of healthy samples above a threshold (the (1 − P) quantile).
-    Share(f64),
-}
-
-impl FalseAlarms {
-    /// The share of healthy samples above a threshold (0 for a rate in time).
-    fn share(self) -> f64 {
-        match self {
-            FalseAlarms::Share(p) => p,
-            FalseAlarms::PerSecond(_) => 0.0,
-        }
-    }
-
-    /// The probability a healthy record of `seconds` crosses a threshold: the rate's share
-    /// of it (at most a half: a higher one is no longer a rare event, and the extreme-value
-    /// laws the levels come from no longer hold), or [`Walk::CROSSING`] for a share.
-    fn crossing(self, seconds: f64) -> f64 {
-        match self {
-            FalseAlarms::PerSecond(r) => (r * seconds).clamp(f64::MIN_POSITIVE, 0.5),
-            FalseAlarms::Share(_) => Walk::CROSSING,
-        }
-    }
-}
-
-impl std::str::FromStr for FalseAlarms {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<FalseAlarms, String> {
-        let number = |n: &str| -> Result<f64, String> {
-            n.trim()
-                .parse::<f64>()
-                .ok()
-                .filter(|x| x.is_finite() && *x >= 0.0)
-                .ok_or_else(|| format!("`{n}`: expected a number at least 0"))
-        };
-        match s.split_once('/') {
-            None => {
-                let p = number(s)?;
-                if p >= 1.0 {
-                    return Err(format!(
-                        "`{s}`: a share of samples is below 1; a rate in time is written with \
-                         its unit (`1/h`)"
-                    ));
-                }
-                Ok(FalseAlarms::Share(p))
-            }
-            Some((n, unit)) => {
-                let seconds = match unit.trim() {
-                    "s" => 1.0,
-                    "min" => 60.0,
-                    "h" => 3600.0,
-                    "d" => 86_400.0,
-                    other => {
-                        return Err(format!(
-                            "`{other}`: expected a unit of time, `s`, `min`, `h` or `d`"
-                        ))
-                    }
-                };
-                let n = number(n)?;
-                if n == 0.0 {
-                    return Err(format!(
-                        "`{s}`: no false alarm at all is no threshold; state a rate above 0"
-                    ));
-                }
-                Ok(FalseAlarms::PerSecond(n / seconds))
-            }
-        }
-    }
-}
-
 /// What the residuals are evaluated and decided with: chosen by `--calibrate`, kept in a
 /// `--calibration` file, or given by the options.
 struct Chosen {
@@ -526,14 +460,11 @@ impl Chosen {
         program: &Program,
         params: Vec<f64>,
     ) -> Result<Chosen, Failure> {
-        let kind = args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay);
-        let window = args.window.unwrap_or(match kind {
-            EstimatorArg::SavitzkyGolay => calibrate::WINDOWS[0],
-            EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
-        });
+        let kind = args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay).kind();
+        let window = args.window.unwrap_or(kind.default_window());
         Ok(Chosen {
             params,
-            estimator: estimator(kind, window, degree(args, program)),
+            estimator: kind.over(window, degree(args, program)),
             window,
             integration: vec![args.integration_window.unwrap_or_default(); c.arrs.len()],
             walks: vec![None; c.arrs.len()],
@@ -589,14 +520,6 @@ fn degree(args: &ResidualArgs, program: &Program) -> u32 {
     args.degree.unwrap_or(program.top_order().max(3))
 }
 
-/// An estimator of `kind` over `window` samples.
-fn estimator(kind: EstimatorArg, window: usize, degree: u32) -> Estimator {
-    match kind {
-        EstimatorArg::SavitzkyGolay => Estimator::SavitzkyGolay { window, degree },
-        EstimatorArg::Modulating => Estimator::Modulating { window },
-    }
-}
-
 /// What a `--calibration` file keeps, checked against the model, the options and the record:
 /// a calibration is for the model it was made on, its residuals and its step.
 fn kept(
@@ -611,44 +534,22 @@ fn kept(
         .map_err(|_| report::refused(format!("{name}: not text (UTF-8)")))?;
     let kept = Calibration::parse(&text).map_err(|e| report::refused(format!("{name}: {e}")))?;
     let (model, model_name) = model_text(args)?;
-    if fnv1a(&model) != kept.hash {
-        return Err(report::refused(format!(
-            "{name}: made for another model ({} as it was then): {model_name}'s text differs; \
-             calibrate again with --calibrate HEALTHY --save-calibration {name}",
-            kept.model
-        )));
+    let params: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let arrs: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    let (choice, realise) = args.choice.spelled();
+    if let Err(e) = kept.applies(&model, (&choice, &realise), &params, &arrs, data.step) {
+        let hint = match e {
+            Mismatch::Model(_) => format!(
+                " ({model_name}); calibrate again with --calibrate HEALTHY --save-calibration \
+                 {name}"
+            ),
+            _ => String::new(),
+        };
+        return Err(report::refused(format!("{name}: {e}{hint}")));
     }
-    if kept.residuals != args.choice.spelled() {
-        return Err(report::refused(format!(
-            "{name}: made with --residuals {} --realise {}, not {} {}",
-            kept.residuals.0,
-            kept.residuals.1,
-            args.choice.spelled().0,
-            args.choice.spelled().1
-        )));
-    }
-    let step = kept.healthy.2;
-    if (step - data.step).abs() > STEP_TOLERANCE * data.step {
-        return Err(report::refused(format!(
-            "{name}: made on a record of step {} s, not the record's {} s",
-            io::seconds(step),
-            io::seconds(data.step)
-        )));
-    }
-    let params = kept_values(&name, c, &kept)?;
-    let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
-    let read: Vec<&str> = kept.decisions.iter().map(|d| d.name.as_str()).collect();
-    if names != read {
-        return Err(report::refused(format!(
-            "{name}: its residuals are {}, the model's {}",
-            read.join(", "),
-            names.join(", ")
-        )));
-    }
+    let params = kept.values();
     let estimator = kept.estimator;
-    let window = match estimator {
-        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
-    };
+    let window = window_of(estimator);
     // A threshold given on the command line is a level, and wins over the kept one.
     let given = thresholds(c, &args.thresholds)?;
     let mut walks: Vec<Option<Walk>> = kept.decisions.iter().map(|d| d.walk).collect();
@@ -679,23 +580,8 @@ fn kept(
     })
 }
 
-/// The kept parameter values, in the model's order: each of the model's, and no other.
-fn kept_values(name: &str, c: &Compiled, kept: &Calibration) -> Result<Vec<f64>, Failure> {
-    let model: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
-    let read: Vec<&str> = kept.params.iter().map(|(n, _)| n.as_str()).collect();
-    if model != read {
-        return Err(report::refused(format!(
-            "{name}: its parameters are {}, the model's {}",
-            read.join(", "),
-            model.join(", ")
-        )));
-    }
-    Ok(kept.params.iter().map(|(_, v)| *v).collect())
-}
-
-/// `--calibrate`: the model fitted to the healthy record, then the estimator, each
-/// residual's integration and each threshold chosen on it, in that order (each choice is
-/// made under the ones before it).
+/// `--calibrate`: the choices the interpreter's calibration makes on the healthy record
+/// (see `bondgraph_interpreter::calibrate`), said on standard error.
 fn calibrated(
     args: &ResidualArgs,
     c: &Compiled,
@@ -714,236 +600,36 @@ fn calibrated(
     if !(0.0..=f64::MAX).contains(&args.margin) {
         return Err(report::usage("--margin must be a non-negative number"));
     }
-    // Calibration fits the model to the healthy record first: thresholds set on a model
-    // that is not the plant's measure the model's error, not the noise.
-    let params = match args.keep_model {
-        false => calibrate::fit_model(c, program, &params, healthy, name)?,
-        true => params,
-    };
-    let on = Calibrating {
-        args,
-        c,
-        program,
-        name,
-        healthy,
-        step: data.step,
+    let choices = Choices {
+        estimator: args.estimator.map(EstimatorArg::kind),
+        window: args.window,
         degree: degree(args, program),
-        params,
+        integration: args.integration_window,
+        share: args.false_alarm_rate.share(),
         crossing: (args.false_alarm_rate).crossing(healthy.time.len() as f64 * healthy.step),
+        margin: args.margin,
+        keep_model: args.keep_model,
+        thresholds: thresholds(c, &args.thresholds)?,
     };
-    let default = vec![args.integration_window.unwrap_or_default(); c.arrs.len()];
-    let estimator = on.estimator(&default)?;
-    let (integration, walks) = on.integrations(estimator)?;
-    let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
+    let samples = Samples {
+        time: &healthy.time,
+        columns: healthy.columns.iter().map(Vec::as_slice).collect(),
+        step: healthy.step,
+    };
+    let chosen = calibrate(c, program, &params, &samples, data.step, &choices)
+        .map_err(|e| report::usage(e.to_string()))?;
+    for note in &chosen.notes {
+        report::note(format!("{name}: {note}"));
+    }
     Ok(Chosen {
-        estimator,
-        window: window_of(estimator),
-        integration,
-        walks,
-        levels,
-        crossing: on.crossing,
-        params: on.params,
+        estimator: chosen.estimator,
+        window: window_of(chosen.estimator),
+        integration: chosen.integration,
+        walks: chosen.walks,
+        levels: chosen.levels,
+        crossing: chosen.crossing,
+        params: chosen.params,
     })
-}
-
-/// An estimator's window, in samples.
-fn window_of(estimator: Estimator) -> usize {
-    match estimator {
-        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
-    }
-}
-
-/// Each residual's threshold and the walk it grows with, where it has them.
-type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
-
-/// What `--calibrate` chooses with: the options, the model as fitted, the healthy record.
-struct Calibrating<'a> {
-    args: &'a ResidualArgs,
-    c: &'a Compiled,
-    program: &'a Program,
-    name: &'a str,
-    healthy: &'a Data,
-    /// The record's step, which the estimators are made for (the healthy record's is within
-    /// the tolerance of it).
-    step: f64,
-    degree: u32,
-    params: Vec<f64>,
-    /// The probability a healthy record as long as this one crosses a threshold.
-    crossing: f64,
-}
-
-impl Calibrating<'_> {
-    /// A generator of the residuals with these choices.
-    fn generator(
-        &self,
-        estimator: Estimator,
-        integration: &[Integration],
-        params: &[f64],
-    ) -> Result<Generator, Failure> {
-        let fit = Fit {
-            step: self.step,
-            estimator,
-            integration: integration.to_vec(),
-        };
-        Generator::new(self.c, self.program, params, &fit).map_err(report::usage)
-    }
-
-    /// The estimator: `--estimator` and `--window` where given; for fits, the longest steady
-    /// window; where every residual is linear in the signals, the fits or modulating
-    /// functions under whose thresholds a fault of a fifth of a parameter shows most.
-    fn estimator(&self, integration: &[Integration]) -> Result<Estimator, Failure> {
-        let (args, name) = (self.args, self.name);
-        let kind = args.estimator.unwrap_or(EstimatorArg::SavitzkyGolay);
-        let of = |kind, window| estimator(kind, window, self.degree);
-        if let Some(window) = args.window {
-            return Ok(of(kind, window));
-        }
-        let mut window = match kind {
-            EstimatorArg::SavitzkyGolay => {
-                let build = |w| self.generator(of(kind, w), integration, &self.params);
-                let window = calibrate::longest_steady_window(&build, self.healthy)?;
-                report::note(format!(
-                    "{name}: estimates over {window} samples, the longest window up to which \
-                     no residual grows there"
-                ));
-                window
-            }
-            EstimatorArg::Modulating => calibrate::MODULATING_DEFAULT,
-        };
-        if !self.program.linear() {
-            return Ok(of(kind, window));
-        }
-        // Residuals linear in the signals hold on modulating functions' estimates at any
-        // window: those compete with the fits.
-        let fits = std::iter::once(of(EstimatorArg::SavitzkyGolay, window));
-        let modulating = (calibrate::modulating_windows(self.healthy, self.program.top_order()))
-            .map(|w| of(EstimatorArg::Modulating, w));
-        let candidates: Vec<Estimator> = match args.estimator {
-            None => fits.chain(modulating).collect(),
-            Some(EstimatorArg::Modulating) => modulating.collect(),
-            Some(EstimatorArg::SavitzkyGolay) => Vec::new(),
-        };
-        if candidates.is_empty() {
-            return Ok(of(kind, window));
-        }
-        let (best, said) = calibrate::most_sensitive(
-            &|e, p| self.generator(e, integration, p),
-            self.healthy,
-            &candidates,
-            &self.params,
-            args.margin,
-        )?;
-        report::note(format!(
-            "{name}: every residual is linear in the signals: estimates with what a fault of \
-             a fifth of a parameter moves most, in thresholds, for the parameter that moves \
-             least ({said})"
-        ));
-        window = window_of(best);
-        Ok(match best {
-            Estimator::SavitzkyGolay { .. } => of(EstimatorArg::SavitzkyGolay, window),
-            Estimator::Modulating { .. } => of(EstimatorArg::Modulating, window),
-        })
-    }
-
-    /// Each residual's integration (`--integration-window`, or where its length is largest
-    /// against its noise), and the walk of those taken from the start.
-    fn integrations(
-        &self,
-        estimator: Estimator,
-    ) -> Result<(Vec<Integration>, Vec<Option<Walk>>), Failure> {
-        let (c, name) = (self.c, self.name);
-        let n = c.arrs.len();
-        let which: Vec<bool> = (c.arrs.iter())
-            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
-            .collect();
-        if let Some(given) = self.args.integration_window {
-            return Ok((vec![given; n], vec![None; n]));
-        }
-        if !which.contains(&true) {
-            return Ok((vec![Integration::default(); n], vec![None; n]));
-        }
-        let chosen = calibrate::longest_integration(
-            &|i| self.generator(estimator, &vec![i; n], &self.params),
-            self.healthy,
-            &which,
-            window_of(estimator),
-        )?;
-        let (integration, walks): (Vec<Integration>, Vec<Option<Walk>>) =
-            chosen.into_iter().unzip();
-        let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
-            .filter(|(_, &i)| i)
-            .map(|((a, i), _)| match i {
-                Integration::Window(n) => format!("{} over {n}", a.name),
-                Integration::Start => format!(
-                    "{} from the start (its threshold grows as its noise's random walk)",
-                    a.name
-                ),
-            })
-            .collect();
-        report::note(format!(
-            "{name}: integrated residuals taken where their length is largest against their \
-             noise (of {} samples, or from the start where its noise is white plus a random \
-             walk): {}",
-            calibrate::INTEGRATIONS.map(|n| n.to_string()).join(", "),
-            said.join(", ")
-        ));
-        Ok((integration, walks))
-    }
-
-    /// Each residual's threshold: `--threshold`'s level, else calibrated on the healthy
-    /// record (see [`calibrate::thresholds`]); a residual with a level given loses its walk.
-    fn thresholds(
-        &self,
-        estimator: Estimator,
-        integration: &[Integration],
-        mut walks: Vec<Option<Walk>>,
-    ) -> Result<Levels, Failure> {
-        let args = self.args;
-        let replicas = Replicas::new(self.healthy);
-        let crossing = self.crossing;
-        let share = args.false_alarm_rate.share();
-        if replicas.noisy() && share == 0.0 {
-            let names: Vec<String> = (self.program.raw.values())
-                .map(|r| r.name.clone())
-                .collect();
-            note_replicas(self.name, &names, &replicas, crossing);
-        }
-        let calibrated = calibrate::thresholds(
-            &|| self.generator(estimator, integration, &self.params),
-            self.healthy,
-            &walks,
-            share,
-            args.margin,
-            replicas.noisy().then_some(&replicas),
-            crossing,
-        )?;
-        let mut levels = thresholds(self.c, &args.thresholds)?;
-        for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
-            // A level the user gave is a level, not a multiple of the walk's deviation.
-            if level.is_some() {
-                *walk = None;
-            }
-            level.get_or_insert(calibrated);
-        }
-        Ok((levels, walks))
-    }
-}
-
-/// Says what the thresholds stand on: the noise read on each signal of the healthy record, and
-/// the replicas drawn with it.
-fn note_replicas(name: &str, signals: &[String], replicas: &Replicas<'_>, crossing: f64) {
-    let read: Vec<String> = (signals.iter().zip(replicas.deviations()))
-        .map(|(s, d)| format!("{s} {d:.2e}"))
-        .collect();
-    report::note(format!(
-        "{name}: thresholds that a healthy record of its length crosses with probability {} \
-         (at least its own largest |r| times 1 + --margin): what its noise does to the \
-         residuals, drawn {} times (fresh white noise of the deviation read on each signal, \
-         {}, added and taken away) and the maxima taken as a Gumbel law",
-        crossing,
-        crate::replicas::COUNT,
-        read.join(", ")
-    ));
 }
 
 /// The healthy record's column mapping: `--column`'s, with each signal `--calibrate-column`
@@ -1281,25 +967,7 @@ impl Named {
 
 #[cfg(test)]
 mod tests {
-    use super::{calibration_columns, FalseAlarms, Walk};
-
-    #[test]
-    fn a_false_alarm_rate_is_a_rate_in_time_or_a_share_of_samples() {
-        let read = |s: &str| s.parse::<FalseAlarms>();
-        assert_eq!(read("1/h"), Ok(FalseAlarms::PerSecond(1.0 / 3600.0)));
-        assert_eq!(read("0.5 / min"), Ok(FalseAlarms::PerSecond(0.5 / 60.0)));
-        assert_eq!(read("2/d"), Ok(FalseAlarms::PerSecond(2.0 / 86_400.0)));
-        assert_eq!(read("0.01"), Ok(FalseAlarms::Share(0.01)));
-        assert!(read("1/week").unwrap_err().contains("a unit of time"));
-        assert!(read("1.5").unwrap_err().contains("below 1"));
-        assert!(read("0/h").unwrap_err().contains("above 0"));
-        assert!(read("-1/h").unwrap_err().contains("at least 0"));
-        // One an hour over a 200-s healthy record: that record's share of an hour.
-        let hourly = FalseAlarms::PerSecond(1.0 / 3600.0).crossing(200.0);
-        assert!((hourly - 200.0 / 3600.0).abs() < 1e-15, "{hourly}");
-        assert_eq!(FalseAlarms::Share(0.0).crossing(200.0), Walk::CROSSING);
-        assert_eq!(FalseAlarms::PerSecond(1.0).crossing(200.0), 0.5);
-    }
+    use super::calibration_columns;
 
     #[test]
     fn the_healthy_record_maps_the_overridden_signals_only() {

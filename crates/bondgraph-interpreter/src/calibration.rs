@@ -317,6 +317,96 @@ fn count(s: &str) -> Result<usize, String> {
         .ok_or_else(|| format!("`{s}`: expected a count of samples"))
 }
 
+/// Why a kept calibration does not apply to a model, its residuals or a record.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Mismatch {
+    /// The model's text is not the one calibrated (named as it was then).
+    Model(String),
+    /// The residuals were chosen and realised otherwise (kept, asked).
+    Residuals((String, String), (String, String)),
+    /// The calibration's step is not the record's (kept, record's), in seconds.
+    Step(f64, f64),
+    /// The parameters are not the model's (kept, model's).
+    Parameters(Vec<String>, Vec<String>),
+    /// The residuals are not the model's (kept, model's).
+    Arrs(Vec<String>, Vec<String>),
+}
+
+impl std::fmt::Display for Mismatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Mismatch::Model(was) => write!(
+                f,
+                "made for another model ({was} as it was then): the model's text differs"
+            ),
+            Mismatch::Residuals(kept, asked) => write!(
+                f,
+                "made with residuals `{}` realised `{}`, not `{}` `{}`",
+                kept.0, kept.1, asked.0, asked.1
+            ),
+            Mismatch::Step(kept, record) => write!(
+                f,
+                "made on a record of step {kept} s, not the record's {record} s"
+            ),
+            Mismatch::Parameters(kept, model) => write!(
+                f,
+                "its parameters are {}, the model's {}",
+                kept.join(", "),
+                model.join(", ")
+            ),
+            Mismatch::Arrs(kept, model) => write!(
+                f,
+                "its residuals are {}, the model's {}",
+                kept.join(", "),
+                model.join(", ")
+            ),
+        }
+    }
+}
+
+impl Calibration {
+    /// Whether this calibration is for the model of text `text` (without a byte-order mark),
+    /// its `residuals` (as spelled), its parameters and ARRs (by name) and a record of step
+    /// `step`: a calibration is for the model it was made on, and for nothing else.
+    pub fn applies(
+        &self,
+        text: &[u8],
+        residuals: (&str, &str),
+        params: &[&str],
+        arrs: &[&str],
+        step: f64,
+    ) -> Result<(), Mismatch> {
+        if fnv1a(text) != self.hash {
+            return Err(Mismatch::Model(self.model.clone()));
+        }
+        if (self.residuals.0.as_str(), self.residuals.1.as_str()) != residuals {
+            return Err(Mismatch::Residuals(
+                self.residuals.clone(),
+                (residuals.0.to_string(), residuals.1.to_string()),
+            ));
+        }
+        let made = self.healthy.2;
+        if (made - step).abs() > crate::step::STEP_TOLERANCE * step {
+            return Err(Mismatch::Step(made, step));
+        }
+        let owned = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let kept: Vec<&str> = self.params.iter().map(|(n, _)| n.as_str()).collect();
+        if kept != params {
+            return Err(Mismatch::Parameters(owned(&kept), owned(params)));
+        }
+        let decided: Vec<&str> = self.decisions.iter().map(|d| d.name.as_str()).collect();
+        if decided != arrs {
+            return Err(Mismatch::Arrs(owned(&decided), owned(arrs)));
+        }
+        Ok(())
+    }
+
+    /// The kept parameter values, in the model's order.
+    pub fn values(&self) -> Vec<f64> {
+        self.params.iter().map(|(_, v)| *v).collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,6 +3,7 @@
 //! integrators and copy of the model, in the same order, so the two agree to rounding.
 //! `bgc residuals` and the tests run models through it without compiling Rust.
 
+mod calibrate;
 mod calibration;
 mod copy;
 mod fit;
@@ -14,7 +15,11 @@ mod size;
 mod step;
 mod walk;
 
-pub use calibration::{fnv1a, Calibration, Decision};
+pub use calibrate::{
+    calibrate, window_of, CalibrateError, Calibrated, Choices, EstimatorKind, FalseAlarms, Samples,
+    INTEGRATIONS, MODULATING_DEFAULT, REPLICAS, WINDOWS,
+};
+pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
 pub use identify::{

@@ -6,8 +6,8 @@ use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    fnv1a, uniform_step, Calibration, Estimates, Estimator, Fit, Generator, Integration, Sized,
-    Sizing, StepError, Walk, STEP_TOLERANCE,
+    uniform_step, Calibration, Estimates, Estimator, Fit, Generator, Integration, Sized, Sizing,
+    StepError, Walk, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -305,37 +305,11 @@ fn kept(
     let c = &model.compiled;
     let refused = |what: String| errors::data(format!("{name}: {what}"));
     let kept = Calibration::parse(text).map_err(refused)?;
-    if fnv1a(model.text.as_bytes()) != kept.hash {
-        return Err(refused(format!(
-            "made for another model ({} as it was then): {}'s text differs",
-            kept.model, model.file
-        )));
-    }
-    if &kept.residuals != choice {
-        return Err(refused(format!(
-            "made with residuals={:?}, realise={:?}, not {:?}, {:?}",
-            kept.residuals.0, kept.residuals.1, choice.0, choice.1
-        )));
-    }
-    let made = kept.healthy.2;
-    if (made - step).abs() > STEP_TOLERANCE * step {
-        return Err(refused(format!(
-            "made on a record of step {made} s, not the record's {step} s"
-        )));
-    }
-    let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
-    let read: Vec<&str> = kept.params.iter().map(|(n, _)| n.as_str()).collect();
+    let params: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
     let arrs: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
-    let decided: Vec<&str> = kept.decisions.iter().map(|d| d.name.as_str()).collect();
-    if names != read || arrs != decided {
-        return Err(refused(format!(
-            "its parameters and residuals ({}; {}) are not the model's ({}; {})",
-            read.join(", "),
-            decided.join(", "),
-            names.join(", "),
-            arrs.join(", ")
-        )));
-    }
+    let choice = (choice.0.as_str(), choice.1.as_str());
+    (kept.applies(model.text.as_bytes(), choice, &params, &arrs, step))
+        .map_err(|e| refused(format!("{e} ({})", model.file)))?;
     settings.estimator = kept.estimator;
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
@@ -344,7 +318,7 @@ fn kept(
             settings.walks[k] = d.walk;
         }
     }
-    Ok(kept.params.iter().map(|(_, v)| *v).collect())
+    Ok(kept.values())
 }
 
 /// The fault's size, as `bgc residuals` estimates it: once some residual alarms, each

@@ -7,11 +7,11 @@
 //! plant's actual trajectory. (A smoother cannot take the record's own noise out first: what it
 //! leaves is the noise in the signals' band, which is what the residuals see.)
 
-use crate::record::Data;
+use crate::calibrate::Samples;
 
 /// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
 /// records, from which the level a record crosses with a stated probability is extrapolated.
-pub(crate) const COUNT: usize = 64;
+pub const COUNT: usize = 64;
 
 /// Where the replicas' noise comes from: distinct from any scenario's seeds, so that a
 /// record `bgc simulate` wrote with noise is not replicated with its own numbers.
@@ -36,13 +36,13 @@ pub(crate) fn deviation(x: &[f64]) -> f64 {
 
 /// The healthy record and the deviation of each of its columns' noise.
 pub(crate) struct Replicas<'a> {
-    record: &'a Data,
+    record: &'a Samples<'a>,
     deviations: Vec<f64>,
 }
 
 impl<'a> Replicas<'a> {
     /// The record with its columns' noise read.
-    pub(crate) fn new(record: &'a Data) -> Replicas<'a> {
+    pub(crate) fn new(record: &'a Samples<'a>) -> Replicas<'a> {
         let deviations = record.columns.iter().map(|x| deviation(x)).collect();
         Replicas { record, deviations }
     }
@@ -52,26 +52,39 @@ impl<'a> Replicas<'a> {
         self.deviations.iter().any(|&s| s > 0.0)
     }
 
+    /// The record's time stamps.
+    pub(crate) fn time(&self) -> &'a [f64] {
+        self.record.time
+    }
+
     /// Each column's noise deviation, as the note gives them.
     pub(crate) fn deviations(&self) -> &[f64] {
         &self.deviations
     }
 
-    /// The record with the `index`-th draw of fresh noise added (`sign` 1) or taken away
-    /// (`sign` −1).
-    pub(crate) fn perturbed(&self, index: usize, sign: f64) -> Data {
-        let columns = (self.record.columns.iter().zip(&self.deviations).enumerate())
-            .map(|(c, (x, sigma))| {
-                let stream = (index as u64) << 32 | c as u64;
-                (x.iter().enumerate())
-                    .map(|(k, v)| {
-                        v + sign * sigma * bondgraph_sim::gaussian(SEED, stream, k as u64)
-                    })
-                    .collect()
-            })
-            .collect();
-        self.record.with_columns(columns)
+    /// The record's columns with the `index`-th draw of fresh noise added (`sign` 1) or
+    /// taken away (`sign` −1).
+    pub(crate) fn perturbed(&self, index: usize, sign: f64) -> Vec<Vec<f64>> {
+        perturbed(&self.record.columns, &self.deviations, index, sign)
     }
+}
+
+/// `columns` with the `index`-th draw of fresh noise of the deviations `sigma` added (`sign`
+/// 1) or taken away (`sign` −1).
+pub(crate) fn perturbed(
+    columns: &[&[f64]],
+    deviations: &[f64],
+    index: usize,
+    sign: f64,
+) -> Vec<Vec<f64>> {
+    (columns.iter().zip(deviations).enumerate())
+        .map(|(c, (x, sigma))| {
+            let stream = (index as u64) << 32 | c as u64;
+            (x.iter().enumerate())
+                .map(|(k, v)| v + sign * sigma * bondgraph_sim::gaussian(SEED, stream, k as u64))
+                .collect()
+        })
+        .collect()
 }
 
 /// The level that the largest of a record's values (normalised) exceeds with probability `p`,

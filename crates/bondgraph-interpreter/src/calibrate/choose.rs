@@ -1,0 +1,204 @@
+//! The choices a calibration makes on a healthy record: the estimator's window and kind,
+//! each integrated residual's integration.
+
+use bondgraph::Reference;
+
+use crate::calibrate::levels::thresholds;
+use crate::calibrate::{residuals, rms, CalibrateError, Samples};
+use crate::fit::{Estimator, Integration};
+use crate::generator::Generator;
+use crate::walk::Walk;
+
+/// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
+pub const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
+
+/// The integration windows `--calibrate` chooses from, shortest first.
+pub const INTEGRATIONS: [usize; 5] = [Reference::DEFAULT_WINDOW, 1000, 2500, 10_000, 25_000];
+
+/// The longest window of [`WINDOWS`] (at most a tenth of the healthy record) up to which no
+/// residual's RMS on it grows: a longer window averages more noise away until its polynomial
+/// no longer follows the signals somewhere, which the residual that reads them shows first.
+/// Stopping there rather than at the least overall noise keeps a margin for a faulty record,
+/// whose signals are less smooth than the healthy one's (on the bench's dead-zone scenario, the
+/// window of least noise, 501 samples, had ARR1 alarm at the load's stalls, which ARR2 alone
+/// should show).
+pub(super) fn longest_steady_window(
+    build: &dyn Fn(usize) -> Result<Generator, CalibrateError>,
+    healthy: &Samples<'_>,
+) -> Result<usize, CalibrateError> {
+    let longest = (healthy.time.len() / 10).max(WINDOWS[0]);
+    let mut chosen: Option<(usize, Vec<f64>)> = None;
+    for &window in WINDOWS.iter().filter(|&&w| w <= longest) {
+        let now: Vec<f64> = residuals(build(window)?, healthy.time, &healthy.columns)
+            .iter()
+            .map(|r| rms(r))
+            .collect();
+        if let Some((_, before)) = &chosen {
+            if now.iter().zip(before).any(|(n, b)| n > b) {
+                break;
+            }
+        }
+        chosen = Some((window, now));
+    }
+    Ok(chosen.map_or(WINDOWS[0], |(w, _)| w))
+}
+
+/// The modulating functions' window when neither `--window` nor `--calibrate` gives one.
+pub const MODULATING_DEFAULT: usize = 101;
+
+/// The windows of modulating functions `--calibrate` chooses from for a healthy record, for a
+/// program that reads derivatives up to `top`: from 21 samples to a quarter of the record,
+/// each holding the function (more than twice its smoothness, `top + 1`). Longer than the
+/// polynomial fits' (a tenth): on ARRs linear in the signals they carry no fit error, only
+/// the time a fault takes to show.
+pub(super) fn modulating_windows(healthy: &Samples<'_>, top: u32) -> impl Iterator<Item = usize> {
+    let longest = healthy.time.len() / 4;
+    let shortest = 2 * (top as usize + 1) + 1;
+    [21, 51, 101, 201, 501, 1001, 2001, 5001]
+        .into_iter()
+        .filter(move |&w| w <= longest && w > shortest)
+}
+
+/// A generator with an estimator and parameters of the caller's choice.
+pub(super) type BuildWith<'a> = dyn Fn(Estimator, &[f64]) -> Result<Generator, CalibrateError> + 'a;
+
+/// How far a parameter is moved to see what the residuals make of a fault of it.
+const PERTURBATION: f64 = 0.2;
+
+/// The estimator of `candidates` under whose thresholds (as [`thresholds`] calibrates them,
+/// with no false alarm allowed) a fault of a fifth of a parameter moves the residuals most,
+/// for the parameter they see least, then for the parameters' geometric mean: the hardest
+/// fault decides, as it is the one an estimator can lose. A fault's move is the RMS change
+/// of the residual that shows it best, in thresholds, with the residuals evaluated on the
+/// healthy record with that parameter moved: to first order, what the fault adds. With
+/// what was measured, for the note.
+pub(super) fn most_sensitive(
+    build: &BuildWith<'_>,
+    healthy: &Samples<'_>,
+    candidates: &[Estimator],
+    params: &[f64],
+    margin: f64,
+) -> Result<(Estimator, String), CalibrateError> {
+    let mut best: Option<((f64, f64), Estimator)> = None;
+    let mut said = Vec::new();
+    for &estimator in candidates {
+        let nominal = residuals(build(estimator, params)?, healthy.time, &healthy.columns);
+        let none = vec![None; nominal.len()];
+        let levels = thresholds(
+            &|| build(estimator, params),
+            healthy,
+            &none,
+            (0.0, margin),
+            None,
+            Walk::CROSSING,
+        )?;
+        let mut moves = Vec::new();
+        for k in (0..params.len()).filter(|&k| params[k] != 0.0) {
+            let mut moved = params.to_vec();
+            moved[k] *= 1.0 + PERTURBATION;
+            let series = residuals(build(estimator, &moved)?, healthy.time, &healthy.columns);
+            // A parameter no residual reads moves none under any estimator.
+            if series == nominal {
+                continue;
+            }
+            let shown = (series.iter().zip(&nominal).zip(&levels))
+                .map(|((s, n), &level)| {
+                    let change: Vec<f64> = s.iter().zip(n).map(|(a, b)| a - b).collect();
+                    rms(&change) / level.max(f64::MIN_POSITIVE)
+                })
+                .fold(0.0, f64::max);
+            moves.push(shown);
+        }
+        // No parameter read: nothing to tell the candidates apart by, the first stays.
+        let (least, typical) = match moves.is_empty() {
+            true => (0.0, 0.0),
+            false => (
+                moves.iter().copied().fold(f64::INFINITY, f64::min),
+                (moves
+                    .iter()
+                    .map(|m| m.max(f64::MIN_POSITIVE).ln())
+                    .sum::<f64>()
+                    / moves.len() as f64)
+                    .exp(),
+            ),
+        };
+        said.push(format!(
+            "{}: {} at least, {} typically",
+            describe(estimator),
+            significant(least),
+            significant(typical)
+        ));
+        if best.is_none_or(|(b, _)| (least, typical) > b) {
+            best = Some(((least, typical), estimator));
+        }
+    }
+    let chosen = best.map_or(candidates[0], |(_, e)| e);
+    Ok((chosen, said.join(", ")))
+}
+
+/// `x` to two significant digits.
+fn significant(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.digits$}")
+}
+
+/// An estimator as the notes name it.
+fn describe(e: Estimator) -> String {
+    match e {
+        Estimator::SavitzkyGolay { window, .. } => format!("fits over {window} samples"),
+        Estimator::Modulating { window } => format!("modulating functions over {window} samples"),
+    }
+}
+
+/// Each integrated residual's integration: a window of [`INTEGRATIONS`] (at most a twentieth
+/// of the healthy record) or from the start, whichever has the largest ratio of its length to
+/// the residual's noise on it; and for those taken from the start, their noise's [`Walk`].
+///
+/// A fault that moves a relation for as long as it lasts moves its integral in proportion to
+/// the length, while the noise grows as its square root or less, and a model error as the
+/// length itself. A longer window must gain a tenth to be chosen: it also takes longer to show
+/// a fault, and its noise is known from fewer independent stretches.
+///
+/// From the start counts as the whole record's length against the noise at its end, and is a
+/// candidate only where the residual's noise fits a [`Walk`]: its threshold then grows with
+/// the walk's deviation, so that it holds on a record of another seed or length. On a record
+/// too short to tell a walk from a drift it is never chosen (on the Table 3 bench's 3-s
+/// records, a constant threshold from one record gave 1,316 false alarms of 2,800 samples on
+/// another). Where it is (the bench's ARR2 is the derivative of the link's law, so from the
+/// start it is that law, with the twist integrated from the encoders), a fault that shows only
+/// while a signal moves keeps the residual offset for as long as the fault lasts.
+pub(super) fn longest_integration(
+    build: &dyn Fn(Integration) -> Result<Generator, CalibrateError>,
+    healthy: &Samples<'_>,
+    integrated: &[bool],
+    window: usize,
+) -> Result<Vec<(Integration, Option<Walk>)>, CalibrateError> {
+    let rows = healthy.time.len();
+    let windows = (INTEGRATIONS.iter())
+        .filter(|&&n| n <= (rows / 20).max(INTEGRATIONS[0]))
+        .map(|&n| Integration::Window(n));
+    let candidates = windows.chain([Integration::Start]);
+    let mut best: Vec<Option<(f64, Integration, Option<Walk>)>> = vec![None; integrated.len()];
+    for candidate in candidates {
+        let series = residuals(build(candidate)?, healthy.time, &healthy.columns);
+        for ((best, r), &integrated) in best.iter_mut().zip(&series).zip(integrated) {
+            let (score, walk) = match candidate {
+                Integration::Window(n) => ((n as f64 / rms(r)).ln(), None),
+                Integration::Start => match Walk::fit(r, window) {
+                    Some(w) => ((r.len() as f64 / w.deviation(r.len())).ln(), Some(w)),
+                    None => continue,
+                },
+            };
+            if integrated && best.is_none_or(|(b, ..)| score > b + 0.1f64.ln_1p()) {
+                *best = Some((score, candidate, walk));
+            }
+        }
+    }
+    Ok(best
+        .into_iter()
+        .map(|b| b.map_or((Integration::default(), None), |(_, i, w)| (i, w)))
+        .collect())
+}

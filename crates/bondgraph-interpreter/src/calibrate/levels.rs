@@ -1,0 +1,163 @@
+//! Each residual's threshold, calibrated on a healthy record: a statement about the next
+//! record, from what the healthy record's noise, drawn again, does to the residuals.
+
+use crate::calibrate::replicas::{self, Replicas};
+use crate::calibrate::{residuals, CalibrateError, Samples};
+use crate::generator::Generator;
+use crate::walk::Walk;
+
+/// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin; where a
+/// residual's noise follows a [`Walk`], of |r| over the walk's deviation, which the threshold
+/// is then multiplied by at each sample. With adaptive thresholds this is the margin for noise
+/// and estimation error, added to the bound from parameter uncertainty: a healthy record taken
+/// at the nominal parameters shows what the noise does, and nothing of what the uncertainty
+/// may do.
+///
+/// With no false alarm allowed (`rate` 0) the threshold is also a statement about the next
+/// record: at least the level a record of the same length crosses with probability
+/// `crossing`, from what the healthy record's noise, drawn again, does to the residuals
+/// (see [`replicas`]) where the record has noise to read, else from the walk's or the
+/// record's own excursions.
+pub(super) fn thresholds(
+    build: &dyn Fn() -> Result<Generator, CalibrateError>,
+    healthy: &Samples<'_>,
+    walks: &[Option<Walk>],
+    (rate, margin): (f64, f64),
+    replicas: Option<&Replicas<'_>>,
+    crossing: f64,
+) -> Result<Vec<f64>, CalibrateError> {
+    let series = normalised(residuals(build()?, healthy.time, &healthy.columns), walks);
+    let length = healthy.len();
+    let replicated = match replicas.filter(|_| rate == 0.0) {
+        Some(replicas) => replica_levels(build, replicas, walks, crossing)?,
+        None => vec![None; walks.len()],
+    };
+    Ok((series.into_iter().zip(walks).zip(replicated))
+        .map(|((s, walk), replicated)| {
+            // A residual that is not a number somewhere (singular at rest) says nothing
+            // there: the quantile is that of the samples where it is one.
+            let stated = replicated.unwrap_or_else(|| match walk {
+                Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
+                _ => rice_level(&s, length, crossing),
+            });
+            let mut s: Vec<f64> = s
+                .into_iter()
+                .filter(|v| v.is_finite())
+                .map(f64::abs)
+                .collect();
+            s.sort_by(f64::total_cmp);
+            // The sample with a share `rate` of the others above it.
+            let above = (rate * s.len() as f64).floor() as usize;
+            let at = s.len().saturating_sub(above + 1);
+            let seen = s.get(at).copied().unwrap_or(0.0) * (1.0 + margin);
+            // With no false alarm allowed, a statement about the next records too.
+            if rate == 0.0 {
+                seen.max(stated)
+            } else {
+                seen
+            }
+        })
+        .collect())
+}
+
+/// Each residual's series over its walk's deviation, where it follows one.
+fn normalised(mut series: Vec<Vec<f64>>, walks: &[Option<Walk>]) -> Vec<Vec<f64>> {
+    for (r, walk) in series.iter_mut().zip(walks) {
+        if let Some(w) = walk {
+            for (k, v) in r.iter_mut().enumerate() {
+                *v /= w.deviation(k);
+            }
+        }
+    }
+    series
+}
+
+/// Each residual's level (normalised as [`thresholds`] does) that the healthy record's noise,
+/// drawn again, makes it exceed with probability `crossing`: the maxima of
+/// [`replicas::COUNT`] draws, as a Gumbel law. What the model's error adds along the
+/// trajectory is the healthy record's own, which the threshold is at least.
+fn replica_levels(
+    build: &dyn Fn() -> Result<Generator, CalibrateError>,
+    replicas: &Replicas<'_>,
+    walks: &[Option<Walk>],
+    crossing: f64,
+) -> Result<Vec<Option<f64>>, CalibrateError> {
+    let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
+    for index in 0..replicas::COUNT {
+        let time = replicas.time();
+        let up = replicas.perturbed(index, 1.0);
+        let up = residuals(
+            build()?,
+            time,
+            &up.iter().map(Vec::as_slice).collect::<Vec<_>>(),
+        );
+        let down = replicas.perturbed(index, -1.0);
+        let down = residuals(
+            build()?,
+            time,
+            &down.iter().map(Vec::as_slice).collect::<Vec<_>>(),
+        );
+        let noise = (up.iter().zip(&down))
+            .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())
+            .collect();
+        for (m, s) in maxima.iter_mut().zip(normalised(noise, walks)) {
+            let finite = s.iter().filter(|v| v.is_finite());
+            m.push(finite.fold(0.0, |a, v| a.max(v.abs())));
+        }
+    }
+    Ok((maxima.iter())
+        .map(|m| replicas::gumbel_level(m, crossing))
+        .collect())
+}
+
+/// The level that a stationary Gaussian residual with the healthy series `s`'s spectrum
+/// crosses, on either side, with probability `crossing` over [`Walk::HORIZON`]
+/// times `length` samples: by Rice's formula its upcrossings of `c σ` come at
+/// `ν₀ e^{−c²/2}` per sample. `ν₀` is read from the series' own excursions past one
+/// deviation, each counted once from the mean (a slow residual with a little white noise on
+/// it chatters across its mean, not past a deviation). The largest value of one record is an
+/// extreme value, which says less of the next record than this does. 0 (no statement) where
+/// the record holds too few excursions to tell.
+fn rice_level(s: &[f64], length: usize, crossing: f64) -> f64 {
+    let finite: Vec<f64> = s.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.len() < 3 {
+        return 0.0;
+    }
+    let mean = finite.iter().sum::<f64>() / finite.len() as f64;
+    let var = finite.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / finite.len() as f64;
+    if var <= 0.0 {
+        return 0.0;
+    }
+    let sigma = var.sqrt();
+    let excursions = excursions(&finite, mean, sigma);
+    if excursions < 10 {
+        return 0.0;
+    }
+    // Upcrossings of one deviation on either side, per sample, back to the mean level.
+    let rate = excursions as f64 / (2.0 * finite.len() as f64) * 0.5f64.exp();
+    let crossings = 2.0 * rate * Walk::HORIZON * length as f64;
+    let c = if crossings > crossing {
+        (2.0 * (crossings / crossing).ln()).sqrt()
+    } else {
+        0.0
+    };
+    mean.abs() + c * sigma
+}
+
+/// How many times `s` goes past `mean ± sigma`, each counted once until it is back at the
+/// mean.
+fn excursions(s: &[f64], mean: f64, sigma: f64) -> usize {
+    let mut count = 0;
+    // The side of the excursion under way: +1 above, −1 below, 0 none.
+    let mut side = 0.0;
+    for v in s {
+        let d = v - mean;
+        if side == 0.0 && d.abs() > sigma {
+            count += 1;
+            side = d.signum();
+        } else if side != 0.0 && d * side <= 0.0 {
+            side = 0.0;
+        }
+    }
+    count
+}

@@ -1,0 +1,399 @@
+//! Calibration on a healthy record: the model fitted to it, then the estimator, each
+//! integrated residual's integration and each residual's threshold chosen on it, in that
+//! order (each choice made under the ones before it). `bgc residuals --calibrate` and
+//! Python's `calibrate=` both call [`calibrate`], so that they decide alike.
+
+mod choose;
+mod fitted;
+mod levels;
+mod rate;
+mod replicas;
+
+use bondgraph::EstimatorError;
+use bondgraph_core::program::Program;
+use bondgraph_core::{Compiled, Realisation};
+
+use crate::fit::{Estimator, Fit, Integration};
+use crate::generator::Generator;
+use crate::walk::Walk;
+
+pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
+pub use rate::FalseAlarms;
+pub use replicas::COUNT as REPLICAS;
+
+/// A record's samples as calibration reads them.
+#[derive(Clone, Debug)]
+pub struct Samples<'a> {
+    /// The time of each sample.
+    pub time: &'a [f64],
+    /// One column per raw signal of the program, in its order.
+    pub columns: Vec<&'a [f64]>,
+    /// The step between samples.
+    pub step: f64,
+}
+
+impl Samples<'_> {
+    /// How many samples.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+}
+
+/// Which kind of estimator of the signals' derivatives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EstimatorKind {
+    /// Savitzky–Golay polynomial fits.
+    SavitzkyGolay,
+    /// Modulating functions (residuals linear in the signals only).
+    Modulating,
+}
+
+impl EstimatorKind {
+    /// The estimator of this kind over `window` samples, fits of degree `degree`.
+    pub fn over(self, window: usize, degree: u32) -> Estimator {
+        match self {
+            EstimatorKind::SavitzkyGolay => Estimator::SavitzkyGolay { window, degree },
+            EstimatorKind::Modulating => Estimator::Modulating { window },
+        }
+    }
+
+    /// The window used when none is given nor calibrated.
+    pub fn default_window(self) -> usize {
+        match self {
+            EstimatorKind::SavitzkyGolay => WINDOWS[0],
+            EstimatorKind::Modulating => MODULATING_DEFAULT,
+        }
+    }
+}
+
+/// What the user fixed, and what the thresholds must state.
+#[derive(Clone, Debug)]
+pub struct Choices {
+    /// The estimator's kind, where given; else fits, or whichever shows faults most.
+    pub estimator: Option<EstimatorKind>,
+    /// The estimator's window, where given.
+    pub window: Option<usize>,
+    /// The fits' degree.
+    pub degree: u32,
+    /// Every integrated residual's integration, where given.
+    pub integration: Option<Integration>,
+    /// A share of healthy samples allowed above the thresholds (0: none, and the thresholds
+    /// state `crossing`).
+    pub share: f64,
+    /// The probability that a healthy record as long as the calibration's crosses a
+    /// threshold.
+    pub crossing: f64,
+    /// How far above the healthy record's largest |r| a threshold is at least.
+    pub margin: f64,
+    /// Keep the model's values rather than fit them to the healthy record.
+    pub keep_model: bool,
+    /// Levels given, by residual: those are not calibrated.
+    pub thresholds: Vec<Option<f64>>,
+}
+
+/// What a calibration chose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Calibrated {
+    /// The model's parameter values (fitted, unless kept).
+    pub params: Vec<f64>,
+    /// The signals' estimator.
+    pub estimator: Estimator,
+    /// Each residual's integration (unused for those not integrated).
+    pub integration: Vec<Integration>,
+    /// Each residual's noise walk, where its threshold grows with it.
+    pub walks: Vec<Option<Walk>>,
+    /// Each residual's threshold (in its walk's deviations where it has one).
+    pub levels: Vec<Option<f64>>,
+    /// The probability that a healthy record as long as the calibration's crosses one.
+    pub crossing: f64,
+    /// What was chosen and why, a sentence each, for the user.
+    pub notes: Vec<String>,
+}
+
+/// Why a calibration could not be made.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CalibrateError {
+    /// An estimator could not be built for the record's step.
+    Estimator(String),
+    /// The margin is not a non-negative number.
+    Margin(f64),
+    /// The crossing probability or the share is not a probability below 1.
+    Probability(f64),
+}
+
+impl std::fmt::Display for CalibrateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CalibrateError::Estimator(e) => f.write_str(e),
+            CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number ≥ 0"),
+            CalibrateError::Probability(p) => write!(f, "{p}: expected a probability in [0, 1)"),
+        }
+    }
+}
+
+impl std::error::Error for CalibrateError {}
+
+impl From<EstimatorError> for CalibrateError {
+    fn from(e: EstimatorError) -> Self {
+        CalibrateError::Estimator(e.to_string())
+    }
+}
+
+/// Calibrates the residuals of `c` on the healthy record `healthy`, starting from the model's
+/// values `params`; `step` is that of the records to monitor (the healthy record's is
+/// within the tolerance of it).
+pub fn calibrate(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    healthy: &Samples<'_>,
+    step: f64,
+    choices: &Choices,
+) -> Result<Calibrated, CalibrateError> {
+    if !(0.0..=f64::MAX).contains(&choices.margin) {
+        return Err(CalibrateError::Margin(choices.margin));
+    }
+    for p in [choices.share, choices.crossing] {
+        if !(0.0..1.0).contains(&p) {
+            return Err(CalibrateError::Probability(p));
+        }
+    }
+    let mut notes = Vec::new();
+    // Thresholds set on a model that is not the plant's measure the model's error, not the
+    // noise: the model is fitted to the healthy record first.
+    let params = match choices.keep_model {
+        false => fitted::fit_model(c, program, params, healthy, &mut notes),
+        true => params.to_vec(),
+    };
+    let mut on = Calibrating {
+        c,
+        program,
+        healthy,
+        step,
+        choices,
+        params,
+        notes,
+    };
+    let default = vec![choices.integration.unwrap_or_default(); c.arrs.len()];
+    let estimator = on.estimator(&default)?;
+    let (integration, walks) = on.integrations(estimator)?;
+    let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
+    Ok(Calibrated {
+        params: on.params,
+        estimator,
+        integration,
+        walks,
+        levels,
+        crossing: choices.crossing,
+        notes: on.notes,
+    })
+}
+
+/// An estimator's window, in samples.
+pub fn window_of(estimator: Estimator) -> usize {
+    match estimator {
+        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
+    }
+}
+
+/// Each residual's threshold and the walk it grows with, where it has them.
+type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
+
+/// What a calibration chooses with: the choices, the model as fitted, the healthy record.
+struct Calibrating<'a> {
+    c: &'a Compiled,
+    program: &'a Program,
+    healthy: &'a Samples<'a>,
+    step: f64,
+    choices: &'a Choices,
+    params: Vec<f64>,
+    notes: Vec<String>,
+}
+
+impl Calibrating<'_> {
+    /// A generator of the residuals with these choices.
+    fn generator(
+        &self,
+        estimator: Estimator,
+        integration: &[Integration],
+        params: &[f64],
+    ) -> Result<Generator, CalibrateError> {
+        let fit = Fit {
+            step: self.step,
+            estimator,
+            integration: integration.to_vec(),
+        };
+        Ok(Generator::new(self.c, self.program, params, &fit)?)
+    }
+
+    /// The estimator: the kind and window where given; for fits, the longest steady window;
+    /// where every residual is linear in the signals, the fits or modulating functions under
+    /// whose thresholds a fault of a fifth of a parameter shows most.
+    fn estimator(&mut self, integration: &[Integration]) -> Result<Estimator, CalibrateError> {
+        let choices = self.choices;
+        let kind = choices.estimator.unwrap_or(EstimatorKind::SavitzkyGolay);
+        let of = |kind: EstimatorKind, window| kind.over(window, choices.degree);
+        if let Some(window) = choices.window {
+            return Ok(of(kind, window));
+        }
+        let window = match kind {
+            EstimatorKind::SavitzkyGolay => {
+                let build = |w| self.generator(of(kind, w), integration, &self.params);
+                let window = choose::longest_steady_window(&build, self.healthy)?;
+                self.notes.push(format!(
+                    "estimates over {window} samples, the longest window up to which no \
+                     residual grows there"
+                ));
+                window
+            }
+            EstimatorKind::Modulating => MODULATING_DEFAULT,
+        };
+        if !self.program.linear() {
+            return Ok(of(kind, window));
+        }
+        // Residuals linear in the signals hold on modulating functions' estimates at any
+        // window: those compete with the fits.
+        let fits = std::iter::once(of(EstimatorKind::SavitzkyGolay, window));
+        let modulating = (choose::modulating_windows(self.healthy, self.program.top_order()))
+            .map(|w| of(EstimatorKind::Modulating, w));
+        let candidates: Vec<Estimator> = match choices.estimator {
+            None => fits.chain(modulating).collect(),
+            Some(EstimatorKind::Modulating) => modulating.collect(),
+            Some(EstimatorKind::SavitzkyGolay) => Vec::new(),
+        };
+        if candidates.is_empty() {
+            return Ok(of(kind, window));
+        }
+        let (best, said) = choose::most_sensitive(
+            &|e, p| self.generator(e, integration, p),
+            self.healthy,
+            &candidates,
+            &self.params,
+            choices.margin,
+        )?;
+        self.notes.push(format!(
+            "every residual is linear in the signals: estimates with what a fault of a fifth \
+             of a parameter moves most, in thresholds, for the parameter that moves least \
+             ({said})"
+        ));
+        Ok(match best {
+            Estimator::SavitzkyGolay { .. } => of(EstimatorKind::SavitzkyGolay, window_of(best)),
+            Estimator::Modulating { .. } => of(EstimatorKind::Modulating, window_of(best)),
+        })
+    }
+
+    /// Each residual's integration (the one given, or where its length is largest against
+    /// its noise), and the walk of those taken from the start.
+    fn integrations(
+        &mut self,
+        estimator: Estimator,
+    ) -> Result<(Vec<Integration>, Vec<Option<Walk>>), CalibrateError> {
+        let c = self.c;
+        let n = c.arrs.len();
+        let which: Vec<bool> = (c.arrs.iter())
+            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+            .collect();
+        if let Some(given) = self.choices.integration {
+            return Ok((vec![given; n], vec![None; n]));
+        }
+        if !which.contains(&true) {
+            return Ok((vec![Integration::default(); n], vec![None; n]));
+        }
+        let chosen = choose::longest_integration(
+            &|i| self.generator(estimator, &vec![i; n], &self.params),
+            self.healthy,
+            &which,
+            window_of(estimator),
+        )?;
+        let (integration, walks): (Vec<Integration>, Vec<Option<Walk>>) =
+            chosen.into_iter().unzip();
+        let said: Vec<String> = (c.arrs.iter().zip(&integration).zip(&which))
+            .filter(|(_, &i)| i)
+            .map(|((a, i), _)| match i {
+                Integration::Window(n) => format!("{} over {n}", a.name),
+                Integration::Start => format!(
+                    "{} from the start (its threshold grows as its noise's random walk)",
+                    a.name
+                ),
+            })
+            .collect();
+        self.notes.push(format!(
+            "integrated residuals taken where their length is largest against their noise (of \
+             {} samples, or from the start where its noise is white plus a random walk): {}",
+            INTEGRATIONS.map(|n| n.to_string()).join(", "),
+            said.join(", ")
+        ));
+        Ok((integration, walks))
+    }
+
+    /// Each residual's threshold: the level given, else calibrated on the healthy record
+    /// (see [`levels::thresholds`]); a residual with a level given loses its walk.
+    fn thresholds(
+        &mut self,
+        estimator: Estimator,
+        integration: &[Integration],
+        mut walks: Vec<Option<Walk>>,
+    ) -> Result<Levels, CalibrateError> {
+        let choices = self.choices;
+        let replicas = replicas::Replicas::new(self.healthy);
+        if replicas.noisy() && choices.share == 0.0 {
+            let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
+                .map(|(s, d)| format!("{} {d:.2e}", s.name))
+                .collect();
+            self.notes.push(format!(
+                "thresholds that a healthy record of its length crosses with probability {} \
+                 (at least its own largest |r| times 1 + the margin): what its noise does to \
+                 the residuals, drawn {} times (fresh white noise of the deviation read on \
+                 each signal, {}, added and taken away) and the maxima taken as a Gumbel law",
+                choices.crossing,
+                replicas::COUNT,
+                read.join(", ")
+            ));
+        }
+        let calibrated = levels::thresholds(
+            &|| self.generator(estimator, integration, &self.params),
+            self.healthy,
+            &walks,
+            (choices.share, choices.margin),
+            replicas.noisy().then_some(&replicas),
+            choices.crossing,
+        )?;
+        let mut levels = choices.thresholds.clone();
+        levels.resize(walks.len(), None);
+        for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
+            // A level the user gave is a level, not a multiple of the walk's deviation.
+            if level.is_some() {
+                *walk = None;
+            }
+            level.get_or_insert(calibrated);
+        }
+        Ok((levels, walks))
+    }
+}
+
+/// A series' RMS (at least the smallest positive number), over its finite values.
+fn rms(r: &[f64]) -> f64 {
+    let (sum, n) =
+        (r.iter().filter(|v| v.is_finite())).fold((0.0, 0), |(s, n), v| (s + v * v, n + 1));
+    (sum / (n as f64).max(1.0)).sqrt().max(f64::MIN_POSITIVE)
+}
+
+/// Each residual's values over a record's samples (its columns given apart, a replica's),
+/// one per estimate.
+fn residuals(mut generator: Generator, time: &[f64], columns: &[&[f64]]) -> Vec<Vec<f64>> {
+    let mut series: Vec<Vec<f64>> = Vec::new();
+    generator.run(time, columns, false, |e| {
+        if !e.is_empty() {
+            series.resize(e.residual_count(), Vec::new());
+        }
+        for (k, s) in series.iter_mut().enumerate() {
+            s.extend_from_slice(e.residual(k));
+        }
+    });
+    series
+}
