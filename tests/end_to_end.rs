@@ -57,12 +57,20 @@ fn excitation(file: &str) -> Excitation {
         "coulomb_friction.bg" => &["initial p_slide = 2.4"],
         // Moving at 9 cm/s: a few tenths of a metre over the record.
         "positioning_axis.bg" => &["initial p_load = 8"],
+        // At its working point (270 rad/s, 20 kPa): tests/pump.rs starts it from rest.
+        "centrifugal_pump.bg" => &[
+            "initial p_Lm = 0.032",
+            "initial p_rotor = 1.36",
+            "initial q_tank = 1e-3",
+        ],
         _ => &[],
     };
     let inputs: &[&str] = match file {
         // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
         "coulomb_friction.bg" => &["input F = 60*t + 2*sin(3*t)"],
         "positioning_axis.bg" => &["input tau = 30 + 5*sin(3*t)"],
+        // A 200-V motor about its working point (270 rad/s, 20 kPa).
+        "centrifugal_pump.bg" => &["input U0 = 180 + 20*sin(3*t)"],
         "heated_tank.bg" => &[
             "input Qin = 1e-4*(1 - cos(0.0043*t) + 0.3*sin(0.0097*t)^2)",
             "input Tin = 15 + 3*sin(0.006*t)",

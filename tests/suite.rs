@@ -23,6 +23,8 @@ mod isolability;
 mod models;
 #[path = "mutations.rs"]
 mod mutations;
+#[path = "pump.rs"]
+mod pump;
 #[path = "refusals.rs"]
 mod refusals;
 #[path = "residuals.rs"]

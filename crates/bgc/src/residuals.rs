@@ -12,8 +12,9 @@ use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
-    calibrate, fnv1a, window_of, Calibration, Choices, Decision, Estimator, EstimatorKind,
-    FalseAlarms, Fit, Generator, Integration, Mismatch, Samples, Walk, STEP_TOLERANCE, WINDOWS,
+    calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, Decision, Estimator,
+    EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Samples, Singular, Walk,
+    GAIN, STEP_TOLERANCE, WINDOWS,
 };
 
 use crate::io;
@@ -260,8 +261,10 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         integration,
         walks,
         levels,
+        conditioning,
         ..
     } = chosen;
+    let data = settled(data, &data_name, &program, conditioning.as_ref(), estimator);
     let generator = |integration: &[Integration]| {
         let fit = Fit {
             step: data.step,
@@ -274,6 +277,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         return Err(report::refused(format!("{data_name}: {} rows: the estimator's window of {window} samples needs at least {window}",
             data.time.len())));
     }
+    let singular_spans = match &conditioning {
+        Some(conditioning) => {
+            let pair = (generator(&integration)?, generator(&integration)?);
+            let raw: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
+            conditioning.singular(pair, &data.time, &raw, window)
+        }
+        None => Singular::default(),
+    };
     let mut generator = generator(&integration)?;
     let mut levels = levels;
     if args.adaptive {
@@ -332,14 +343,16 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                 for (k, (r, b)) in residuals.iter_mut().zip(&mut bounds).enumerate() {
                     (*r, *b) = (e.residual(k)[j], e.bound(k)[j]);
                 }
-                for ((((now, on), alarm), walk), ((l, b), &r)) in now
-                    .iter_mut()
+                for (k, ((((now, on), alarm), walk), ((l, b), &r))) in (now.iter_mut())
                     .zip(&mut on)
                     .zip(&mut alarms)
                     .zip(&walks)
                     .zip(levels.iter().zip(&bounds).zip(&residuals))
+                    .enumerate()
                 {
-                    *now = l.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
+                    // Where the relation is singular the noise decides it: no threshold.
+                    let level = l.filter(|_| !singular_spans.contains(k, e_at));
+                    *now = level.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
                     // A residual that is not a number says nothing: no alarm, and its
                     // debounce goes on from where it was.
                     *on = match (alarm.as_mut(), *now) {
@@ -402,12 +415,48 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             c.arrs[*k].name
         ));
     }
+    for (k, spans) in singular_spans.spans.iter().enumerate() {
+        if !spans.is_empty() {
+            report::warn(format!(
+                "{data_name}: {} is singular at {} (its sensitivity to the noise over {GAIN} \
+                 times its median on the healthy record): no threshold and no alarm there",
+                c.arrs[k].name,
+                singular_spans.said(k)
+            ));
+        }
+    }
     // The residuals first: a plot that cannot be drawn leaves them written.
     io::write(args.output.as_deref(), &out)?;
     if let Some(path) = &args.plot {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// The record from where it has settled under `estimator`, as the calibration's
+/// `conditioning` tells it (see `bondgraph_interpreter::Conditioning::settled`), said.
+fn settled(
+    data: Data,
+    name: &str,
+    program: &Program,
+    conditioning: Option<&Conditioning>,
+    estimator: Estimator,
+) -> Data {
+    let Some(conditioning) = conditioning else {
+        return data;
+    };
+    let columns: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
+    match conditioning.settled(program, &columns, estimator) {
+        Some(first) => {
+            report::note(format!(
+                "{name}: it starts unsettled (signals the estimators' polynomials do not \
+                 follow, a start-up): its first {first} rows, to {} s, are left out",
+                io::seconds(data.time[first])
+            ));
+            data.skip(first)
+        }
+        None => data,
+    }
 }
 
 /// The record from `--from` on (all of it without), with at least `window` rows left.
@@ -449,6 +498,8 @@ struct Chosen {
     levels: Vec<Option<f64>>,
     /// The probability a healthy record as long as the calibration's crosses a threshold.
     crossing: f64,
+    /// What tells where a record is singular, where calibration read it.
+    conditioning: Option<Conditioning>,
 }
 
 impl Chosen {
@@ -470,6 +521,7 @@ impl Chosen {
             walks: vec![None; c.arrs.len()],
             levels: thresholds(c, &args.thresholds)?,
             crossing: Walk::CROSSING,
+            conditioning: None,
         })
     }
 
@@ -494,12 +546,19 @@ impl Chosen {
             params: (c.parameters.values().map(|p| p.name.clone()))
                 .zip(self.params.iter().copied())
                 .collect(),
+            noise: match &self.conditioning {
+                Some(conditioning) => (c.program().raw.values().map(|r| r.name.clone()))
+                    .zip(conditioning.deviations.iter().copied())
+                    .collect(),
+                None => Vec::new(),
+            },
             decisions: (c.arrs.iter().zip(integrated).enumerate())
                 .map(|(k, (a, integrated))| Decision {
                     name: a.name.clone(),
                     integration: integrated.then_some(self.integration[k]),
                     threshold: self.levels[k],
                     walk: self.walks[k],
+                    typical: (self.conditioning.as_ref()).and_then(|c| c.typical[k]),
                 })
                 .collect(),
         })
@@ -577,6 +636,7 @@ fn kept(
         walks,
         levels,
         crossing: kept.crossing,
+        conditioning: kept.conditioning(),
     })
 }
 
@@ -629,6 +689,7 @@ fn calibrated(
         levels: chosen.levels,
         crossing: chosen.crossing,
         params: chosen.params,
+        conditioning: chosen.conditioning,
     })
 }
 

@@ -14,14 +14,19 @@
 //! crossing 0.001
 //! estimator savitzky-golay 201 3
 //! param ke 0.5082694886183107
+//! noise y1 1.0e-4
 //! arr ARR1 start 7.1e-3 walk 1.2e-6 3.4e-11
-//! arr ARR2 250 1.5e-2
+//! arr ARR2 250 1.5e-2 typical 2.2e-5
 //! ```
 //!
-//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE]`: the integration is `start`, a window in
-//! samples, or `-` for a residual not integrated; the threshold is `-` for none, and for a
-//! residual with a walk it is in the walk's deviations.
+//! `noise SIGNAL DEVIATION`: a signal's noise as read on the healthy record, for the samples
+//! where a residual is singular (see `Conditioning`); none where no residual can be.
+//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE] [typical SENSITIVITY]`: the integration
+//! is `start`, a window in samples, or `-` for a residual not integrated; the threshold is
+//! `-` for none, and for a residual with a walk it is in the walk's deviations; `typical`,
+//! the residual's median sensitivity to that noise on the healthy record.
 
+use crate::calibrate::Conditioning;
 use crate::fit::{Estimator, Integration};
 use crate::walk::Walk;
 
@@ -39,6 +44,9 @@ pub struct Decision {
     pub threshold: Option<f64>,
     /// Its noise's walk, where it is integrated from the start.
     pub walk: Option<Walk>,
+    /// Its median sensitivity to the signals' noise on the healthy record, where it can be
+    /// singular.
+    pub typical: Option<f64>,
 }
 
 /// What monitoring runs with, as `--calibrate` chose it.
@@ -58,6 +66,9 @@ pub struct Calibration {
     pub estimator: Estimator,
     /// Each parameter's value, in the model's order.
     pub params: Vec<(String, f64)>,
+    /// Each raw signal's noise deviation on the healthy record, in the program's order;
+    /// empty where no residual can be singular.
+    pub noise: Vec<(String, f64)>,
     /// Each residual's integration and threshold, in the model's order.
     pub decisions: Vec<Decision>,
 }
@@ -105,6 +116,9 @@ impl Calibration {
         for (name, value) in &self.params {
             out += &format!("param {name} {}\n", number(*value));
         }
+        for (name, deviation) in &self.noise {
+            out += &format!("noise {name} {}\n", number(*deviation));
+        }
         for d in &self.decisions {
             let integration = match d.integration {
                 None => "-".to_string(),
@@ -115,6 +129,9 @@ impl Calibration {
             out += &format!("arr {} {integration} {threshold}", d.name);
             if let Some(w) = d.walk {
                 out += &format!(" walk {} {}", number(w.floor), number(w.rate));
+            }
+            if let Some(typical) = d.typical {
+                out += &format!(" typical {}", number(typical));
             }
             out += "\n";
         }
@@ -155,6 +172,7 @@ struct Parts {
     crossing: Option<f64>,
     estimator: Option<Estimator>,
     params: Vec<(String, f64)>,
+    noise: Vec<(String, f64)>,
     decisions: Vec<Decision>,
 }
 
@@ -191,6 +209,9 @@ impl Parts {
                 });
             }
             ["param", name, value] => self.params.push((name.to_string(), finite(value)?)),
+            ["noise", name, deviation] => self
+                .noise
+                .push((name.to_string(), non_negative(deviation)?)),
             ["arr", name, integration, threshold, rest @ ..] => {
                 let integration = match *integration {
                     "-" => None,
@@ -201,15 +222,24 @@ impl Parts {
                     "-" => None,
                     t => Some(non_negative(t)?),
                 };
-                let walk = match rest {
+                let (walk, rest) = match rest {
+                    ["walk", floor, rate, rest @ ..] => (
+                        Some(Walk {
+                            floor: non_negative(floor)?,
+                            rate: non_negative(rate)?,
+                        }),
+                        rest,
+                    ),
+                    rest => (None, rest),
+                };
+                let typical = match rest {
                     [] => None,
-                    ["walk", floor, rate] => Some(Walk {
-                        floor: non_negative(floor)?,
-                        rate: non_negative(rate)?,
-                    }),
+                    ["typical", typical] => Some(positive(typical)?),
                     _ => {
                         return Err(
-                            "expected nothing after the threshold but `walk FLOOR RATE`".into()
+                            "expected nothing after the threshold but `walk FLOOR RATE` \
+                                    and `typical SENSITIVITY`"
+                                .into(),
                         )
                     }
                 };
@@ -218,12 +248,13 @@ impl Parts {
                     integration,
                     threshold,
                     walk,
+                    typical,
                 });
             }
             _ => {
                 return Err(
                     "expected `model`, `residuals`, `healthy`, `crossing`, `estimator`, \
-                            `param` or `arr` with their fields"
+                            `param`, `noise` or `arr` with their fields"
                         .into(),
                 )
             }
@@ -243,6 +274,7 @@ impl Parts {
             crossing: self.crossing.ok_or_else(|| missing("crossing"))?,
             estimator: self.estimator.ok_or_else(|| missing("estimator"))?,
             params: self.params,
+            noise: self.noise,
             decisions: self.decisions,
         })
     }
@@ -401,6 +433,14 @@ impl Calibration {
         Ok(())
     }
 
+    /// What tells where a record is singular, where the calibration read it.
+    pub fn conditioning(&self) -> Option<Conditioning> {
+        (!self.noise.is_empty()).then(|| Conditioning {
+            deviations: self.noise.iter().map(|(_, d)| *d).collect(),
+            typical: self.decisions.iter().map(|d| d.typical).collect(),
+        })
+    }
+
     /// The kept parameter values, in the model's order.
     pub fn values(&self) -> Vec<f64> {
         self.params.iter().map(|(_, v)| *v).collect()
@@ -423,6 +463,7 @@ mod tests {
                 degree: 3,
             },
             params: vec![("ke".into(), 0.508_269_488_618_310_7), ("N".into(), 5.0)],
+            noise: vec![("y1".into(), 1e-4), ("U0".into(), 0.0)],
             decisions: vec![
                 Decision {
                     name: "ARR1".into(),
@@ -432,18 +473,21 @@ mod tests {
                         floor: 1.2e-6,
                         rate: 3.4e-11,
                     }),
+                    typical: None,
                 },
                 Decision {
                     name: "ARR2".into(),
                     integration: None,
                     threshold: None,
                     walk: None,
+                    typical: Some(2.5e-5),
                 },
                 Decision {
                     name: "ARR3".into(),
                     integration: Some(Integration::Window(250)),
                     threshold: Some(0.015),
                     walk: None,
+                    typical: None,
                 },
             ],
         }
@@ -460,7 +504,7 @@ mod tests {
     fn a_bad_line_is_refused_with_its_number_and_what_was_expected() {
         let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
         let e = Calibration::parse(&text).unwrap_err();
-        assert!(e.starts_with("line 12: `arr ARR3 0 0.015`"), "{e}");
+        assert!(e.starts_with("line 14: `arr ARR3 0 0.015`"), "{e}");
         assert!(e.contains("expected a count of samples"), "{e}");
         let e = Calibration::parse("model x").unwrap_err();
         assert!(e.contains("expected `bgc-calibration 1`"), "{e}");

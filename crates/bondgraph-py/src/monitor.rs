@@ -6,8 +6,9 @@ use std::collections::HashMap;
 
 use bondgraph::{Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    uniform_step, Calibration, Estimates, Estimator, Fit, Generator, Integration, Sized, Sizing,
-    StepError, Walk, STEP_TOLERANCE,
+    calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning, Estimates, Estimator,
+    EstimatorKind, FalseAlarms, Fit, Generator, Integration, Samples as CalibrationSamples,
+    Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -24,6 +25,10 @@ struct Settings {
     thresholds: Vec<Option<f64>>,
     /// Per residual, the walk its threshold grows with (a kept calibration's).
     walks: Vec<Option<Walk>>,
+    /// What tells where a record has settled and is singular (a calibration's).
+    conditioning: Option<Conditioning>,
+    /// Where the record is singular: no threshold there.
+    singular: Singular,
     debounce: u32,
     adaptive: bool,
 }
@@ -136,21 +141,46 @@ fn check_finite(name: &str, column: &[f64]) -> PyResult<()> {
     }
 }
 
-/// The estimator a keyword names.
-fn estimator(kind: &str, window: usize, degree: u32) -> PyResult<Estimator> {
+/// The kind of estimator a keyword names.
+fn estimator_kind(kind: &str) -> PyResult<EstimatorKind> {
     match kind {
-        "savitzky-golay" => Ok(Estimator::SavitzkyGolay { window, degree }),
-        "modulating" => Ok(Estimator::Modulating { window }),
+        "savitzky-golay" => Ok(EstimatorKind::SavitzkyGolay),
+        "modulating" => Ok(EstimatorKind::Modulating),
         other => Err(PyValueError::new_err(format!(
             "estimator={other:?}: expected \"savitzky-golay\" or \"modulating\""
         ))),
     }
 }
 
+/// A healthy record to calibrate on, as Python hands it: its time, its columns (in the order
+/// of `model.signals()`), their names in the data, the false alarms allowed (`"1/h"`, or a
+/// share of samples), the margin and whether the model's values are kept.
+pub(crate) type Healthy<'py> = (
+    PyReadonlyArray1<'py, f64>,
+    Vec<PyReadonlyArray1<'py, f64>>,
+    Option<Vec<String>>,
+    String,
+    f64,
+    bool,
+);
+
+/// What the estimator, integration and thresholds are, as given (no healthy record).
+fn given(
+    kind: Option<EstimatorKind>,
+    window: Option<usize>,
+    degree: u32,
+    integration: Option<Integration>,
+    n: usize,
+) -> (Estimator, Vec<Integration>) {
+    let kind = kind.unwrap_or(EstimatorKind::SavitzkyGolay);
+    let estimator = kind.over(window.unwrap_or(kind.default_window()), degree);
+    (estimator, vec![integration.unwrap_or_default(); n])
+}
+
 /// Runs the residual program of `model` over the samples `columns` (in the order of
 /// `model.signals()`) taken at `time`.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = "savitzky-golay", degree = None, integration = "250", debounce = 1, adaptive = false, size_span = Some(5.0), calibration = None))]
+#[pyo3(signature = (model, time, columns, *, thresholds, labels = None, window = None, estimator = None, degree = None, integration = None, debounce = 1, adaptive = false, size_span = Some(5.0), calibration = None, calibrate = None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn residuals<'py>(
     py: Python<'py>,
@@ -160,13 +190,14 @@ pub(crate) fn residuals<'py>(
     thresholds: Vec<Option<f64>>,
     labels: Option<Vec<String>>,
     window: Option<usize>,
-    estimator: &str,
+    estimator: Option<&str>,
     degree: Option<u32>,
-    integration: &str,
+    integration: Option<&str>,
     debounce: u32,
     adaptive: bool,
     size_span: Option<f64>,
     calibration: Option<(String, String, (String, String))>,
+    calibrate: Option<Healthy<'py>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let c = &model.compiled;
     if size_span.is_some_and(|s| !(s.is_finite() && s > 0.0)) {
@@ -206,30 +237,46 @@ pub(crate) fn residuals<'py>(
             )));
         }
     }
-    let kind = estimator;
+    let kind = estimator.map(estimator_kind).transpose()?;
     let degree = degree.unwrap_or(program.top_order().max(3));
+    let integration = (integration.map(str::parse::<Integration>).transpose())
+        .map_err(|e| PyValueError::new_err(format!("integration: {e}")))?;
+    let (estimator, integrations) = given(kind, window, degree, integration, c.arrs.len());
     let mut settings = Settings {
-        estimator: self::estimator(
-            kind,
-            window.unwrap_or(if kind == "modulating" { 101 } else { 11 }),
-            degree,
-        )?,
-        integration: vec![
-            integration
-                .parse()
-                .map_err(|e: String| PyValueError::new_err(format!(
-                    "integration: {e}"
-                )))?;
-            c.arrs.len()
-        ],
+        estimator,
+        integration: integrations,
         thresholds,
         walks: vec![None; c.arrs.len()],
+        conditioning: None,
+        singular: Singular::default(),
         debounce,
         adaptive,
     };
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let mut notes = Vec::new();
     if let Some((text, name, choice)) = &calibration {
         params = kept(&model, text, name, choice, step, &mut settings)?;
+    }
+    if let Some(healthy) = &calibrate {
+        let choices = Choices {
+            estimator: kind,
+            window,
+            degree,
+            integration,
+            share: 0.0,
+            crossing: 0.0,
+            margin: healthy.4,
+            keep_model: healthy.5,
+            thresholds: settings.thresholds.clone(),
+        };
+        let chosen = calibrated(py, c, &program, &params, healthy, step, choices)?;
+        settings.estimator = chosen.estimator;
+        settings.integration = chosen.integration;
+        settings.thresholds = chosen.levels;
+        settings.walks = chosen.walks;
+        settings.conditioning = chosen.conditioning;
+        params = chosen.params;
+        notes = chosen.notes;
     }
     let window = match settings.estimator {
         Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
@@ -248,8 +295,31 @@ pub(crate) fn residuals<'py>(
         estimator: settings.estimator,
         integration: settings.integration.clone(),
     };
-    let generator = Generator::new(c, &program, &params, &fit)
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let generator = || {
+        Generator::new(c, &program, &params, &fit).map_err(|e| PyValueError::new_err(e.to_string()))
+    };
+    // As the CLI: a record that starts unsettled is taken from where it has settled, and
+    // where it is singular its residuals have no threshold.
+    let (time, data) = match &settings.conditioning {
+        Some(conditioning) => {
+            let first = (conditioning.settled(&program, &data, settings.estimator)).unwrap_or(0);
+            if first > 0 {
+                notes.push(format!(
+                    "the record starts unsettled (signals the estimators' polynomials do not \
+                     follow, a start-up): its first {first} samples, to {} s, are left out",
+                    time[first]
+                ));
+            }
+            let data: Vec<&[f64]> = data.iter().map(|c| &c[first..]).collect();
+            (&time[first..], data)
+        }
+        None => (time, data),
+    };
+    if let Some(conditioning) = &settings.conditioning {
+        settings.singular =
+            conditioning.singular((generator()?, generator()?), time, &data, window);
+    }
+    let generator = generator()?;
     let rows: Vec<(&str, Vec<u32>)> = (c.components.iter())
         .map(|(_, comp)| {
             let marks = comp
@@ -273,7 +343,7 @@ pub(crate) fn residuals<'py>(
         program: &program,
         params: &params,
         time,
-        columns: data.clone(),
+        columns: data.to_vec(),
         step,
     };
     let lookahead = (window.saturating_sub(1) / 2) as f64 * step;
@@ -285,8 +355,48 @@ pub(crate) fn residuals<'py>(
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
     out.set_item("sizes", size_dicts(py, c, &params, &sized)?)?;
     out.set_item("has_threshold", has)?;
+    out.set_item("notes", notes)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
+}
+
+/// The calibration of `bgc residuals --calibrate` on the healthy record Python handed over
+/// (see `bondgraph_interpreter::calibrate`), with the interpreter's lock released: the same
+/// choices, thresholds and notes as the CLI's for the same record and options.
+fn calibrated(
+    py: Python<'_>,
+    c: &bondgraph_core::Compiled,
+    program: &bondgraph_core::program::Program,
+    params: &[f64],
+    healthy: &Healthy<'_>,
+    step: f64,
+    mut choices: Choices,
+) -> PyResult<Calibrated> {
+    let names: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    if healthy.1.len() != names.len() {
+        return Err(errors::data(format!(
+            "calibrate: {} columns given; the residuals read {}",
+            healthy.1.len(),
+            names.len()
+        )));
+    }
+    let (time, columns, made) = samples(&names, &healthy.0, &healthy.1, healthy.2.clone())?;
+    if (made - step).abs() > STEP_TOLERANCE * step {
+        return Err(errors::data(format!(
+            "calibrate: its step ({made} s) is not the record's ({step} s)"
+        )));
+    }
+    let rate: FalseAlarms = (healthy.3.parse())
+        .map_err(|e: String| PyValueError::new_err(format!("false_alarm_rate: {e}")))?;
+    choices.share = rate.share();
+    choices.crossing = rate.crossing(time.len() as f64 * made);
+    let samples = CalibrationSamples {
+        time,
+        columns,
+        step: made,
+    };
+    py.detach(|| calibrate(c, program, params, &samples, step, &choices))
+        .map_err(|e| PyValueError::new_err(format!("calibrate: {e}")))
 }
 
 /// Applies a kept calibration (the text of a file `bgc residuals --calibrate ...
@@ -311,6 +421,7 @@ fn kept(
     (kept.applies(model.text.as_bytes(), choice, &params, &arrs, step))
         .map_err(|e| refused(format!("{e} ({})", model.file)))?;
     settings.estimator = kept.estimator;
+    settings.conditioning = kept.conditioning();
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
         if settings.thresholds[k].is_none() {
@@ -393,7 +504,8 @@ impl Pass {
     /// outputs never move once reserved.
     fn reserved(n: usize, settings: &Settings) -> Pass {
         let m = settings.thresholds.len();
-        let levels = if settings.adaptive || settings.walks.iter().any(Option::is_some) {
+        let moving = settings.walks.iter().any(Option::is_some) || !settings.singular.is_empty();
+        let levels = if settings.adaptive || moving {
             Levels::Moving(Vec::with_capacity(n * m))
         } else {
             Levels::Fixed(
@@ -478,10 +590,12 @@ impl Watch<'_> {
             for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
                 let at = base + j * m + k;
                 let grown = walk.map_or(1.0, |w| w.deviation(first + j));
-                let now = level.map(|l| l * grown + b);
+                // Where the relation is singular the noise decides it: no threshold.
+                let singular = self.settings.singular.contains(k, e.at()[j]);
+                let now = level.filter(|_| !singular).map(|l| l * grown + b);
                 pass.residuals[at] = r;
                 if let Levels::Moving(levels) = &mut pass.levels {
-                    levels[at] = now.unwrap_or(0.0);
+                    levels[at] = now.unwrap_or(if singular { f64::NAN } else { 0.0 });
                 }
                 // A residual that is not a number raises no alarm; its debounce goes on.
                 pass.alarms[at] = match (alarm.as_mut(), now) {

@@ -4,7 +4,7 @@
 use bondgraph::Reference;
 
 use crate::calibrate::levels::thresholds;
-use crate::calibrate::{residuals, rms, CalibrateError, Samples};
+use crate::calibrate::{rms, CalibrateError, Healthy};
 use crate::fit::{Estimator, Integration};
 use crate::generator::Generator;
 use crate::walk::Walk;
@@ -24,12 +24,13 @@ pub const INTEGRATIONS: [usize; 5] = [Reference::DEFAULT_WINDOW, 1000, 2500, 10_
 /// should show).
 pub(super) fn longest_steady_window(
     build: &dyn Fn(usize) -> Result<Generator, CalibrateError>,
-    healthy: &Samples<'_>,
+    healthy: &Healthy<'_>,
 ) -> Result<usize, CalibrateError> {
-    let longest = (healthy.time.len() / 10).max(WINDOWS[0]);
+    let longest = (healthy.len() / 10).max(WINDOWS[0]);
     let mut chosen: Option<(usize, Vec<f64>)> = None;
     for &window in WINDOWS.iter().filter(|&&w| w <= longest) {
-        let now: Vec<f64> = residuals(build(window)?, healthy.time, &healthy.columns)
+        let now: Vec<f64> = healthy
+            .residuals(build(window)?)
             .iter()
             .map(|r| rms(r))
             .collect();
@@ -51,8 +52,8 @@ pub const MODULATING_DEFAULT: usize = 101;
 /// each holding the function (more than twice its smoothness, `top + 1`). Longer than the
 /// polynomial fits' (a tenth): on ARRs linear in the signals they carry no fit error, only
 /// the time a fault takes to show.
-pub(super) fn modulating_windows(healthy: &Samples<'_>, top: u32) -> impl Iterator<Item = usize> {
-    let longest = healthy.time.len() / 4;
+pub(super) fn modulating_windows(healthy: &Healthy<'_>, top: u32) -> impl Iterator<Item = usize> {
+    let longest = healthy.len() / 4;
     let shortest = 2 * (top as usize + 1) + 1;
     [21, 51, 101, 201, 501, 1001, 2001, 5001]
         .into_iter()
@@ -74,7 +75,7 @@ const PERTURBATION: f64 = 0.2;
 /// what was measured, for the note.
 pub(super) fn most_sensitive(
     build: &BuildWith<'_>,
-    healthy: &Samples<'_>,
+    healthy: &Healthy<'_>,
     candidates: &[Estimator],
     params: &[f64],
     margin: f64,
@@ -82,7 +83,7 @@ pub(super) fn most_sensitive(
     let mut best: Option<((f64, f64), Estimator)> = None;
     let mut said = Vec::new();
     for &estimator in candidates {
-        let nominal = residuals(build(estimator, params)?, healthy.time, &healthy.columns);
+        let nominal = healthy.residuals(build(estimator, params)?);
         let none = vec![None; nominal.len()];
         let levels = thresholds(
             &|| build(estimator, params),
@@ -96,7 +97,7 @@ pub(super) fn most_sensitive(
         for k in (0..params.len()).filter(|&k| params[k] != 0.0) {
             let mut moved = params.to_vec();
             moved[k] *= 1.0 + PERTURBATION;
-            let series = residuals(build(estimator, &moved)?, healthy.time, &healthy.columns);
+            let series = healthy.residuals(build(estimator, &moved)?);
             // A parameter no residual reads moves none under any estimator.
             if series == nominal {
                 continue;
@@ -172,18 +173,18 @@ fn describe(e: Estimator) -> String {
 /// while a signal moves keeps the residual offset for as long as the fault lasts.
 pub(super) fn longest_integration(
     build: &dyn Fn(Integration) -> Result<Generator, CalibrateError>,
-    healthy: &Samples<'_>,
+    healthy: &Healthy<'_>,
     integrated: &[bool],
     window: usize,
 ) -> Result<Vec<(Integration, Option<Walk>)>, CalibrateError> {
-    let rows = healthy.time.len();
+    let rows = healthy.len();
     let windows = (INTEGRATIONS.iter())
         .filter(|&&n| n <= (rows / 20).max(INTEGRATIONS[0]))
         .map(|&n| Integration::Window(n));
     let candidates = windows.chain([Integration::Start]);
     let mut best: Vec<Option<(f64, Integration, Option<Walk>)>> = vec![None; integrated.len()];
     for candidate in candidates {
-        let series = residuals(build(candidate)?, healthy.time, &healthy.columns);
+        let series = healthy.residuals(build(candidate)?);
         for ((best, r), &integrated) in best.iter_mut().zip(&series).zip(integrated) {
             let (score, walk) = match candidate {
                 Integration::Window(n) => ((n as f64 / rms(r)).ln(), None),

@@ -5,7 +5,7 @@ use bondgraph_core::Compiled;
 
 use crate::calibrate::Samples;
 use crate::fit::{Estimator, Fit, Integration};
-use crate::identify::{identify, Determined, Record, Settings};
+use crate::identify::{identify, Determined, Origin, Record, Settings, Span};
 
 /// The healthy samples the model is fitted on: a few minutes at the rates benches sample at
 /// determine what a record can, and a fit's time grows with them.
@@ -23,6 +23,7 @@ pub(super) fn fit_model(
     program: &Program,
     params: &[f64],
     healthy: &Samples<'_>,
+    settled: Option<f64>,
     notes: &mut Vec<String>,
 ) -> Vec<f64> {
     let rows = healthy.len().min(FIT_ROWS);
@@ -38,7 +39,14 @@ pub(super) fn fit_model(
         },
         free: Vec::new(),
         bounded: false,
-        span: None,
+        // A record that starts singular (at rest) is fitted from where it has settled.
+        span: settled
+            .filter(|&t| t < healthy.time[rows - 1])
+            .map(|from| Span {
+                from,
+                to: healthy.time[rows - 1],
+                origin: Origin::Span,
+            }),
     };
     let record = Record {
         time: &healthy.time[..rows],
@@ -54,6 +62,15 @@ pub(super) fn fit_model(
             return params.to_vec();
         }
     };
+    let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    if let Some(why) = implausible(params, &found.values, (&names, &found.rms)) {
+        notes.push(format!(
+            "thresholds set on the model's values: fitted to the healthy record, {why}, which \
+             says the record does not determine them (bgc identify says which) or the model \
+             is not the plant, not that the plant is a few percent off it"
+        ));
+        return params.to_vec();
+    }
     let moved: Vec<String> = (found.estimates.iter())
         .filter(|e| matches!(e.determined, Determined::Yes | Determined::Weakly))
         .filter(|e| (e.value - e.start).abs() > e.half_width)
@@ -96,4 +113,33 @@ pub(super) fn fit_model(
             .join(", ")
     ));
     found.values
+}
+
+/// How far a calibration's fit may move a parameter, as a factor either way: it is there to
+/// take up a plant a few percent off its model; a larger change is a fault, or a fit gone
+/// along what the record does not determine.
+const PLAUSIBLE: f64 = 2.0;
+
+/// Why a fit is not to be taken: a residual that is no longer a number or vanishes
+/// altogether (a relation scaled away), or a parameter moved by more than [`PLAUSIBLE`] or
+/// across zero. `None` where it is to be.
+fn implausible(
+    model: &[f64],
+    fitted: &[f64],
+    (names, rms): (&[&str], &[(f64, f64)]),
+) -> Option<String> {
+    if let Some(k) = rms
+        .iter()
+        .position(|(_, after)| !(after.is_finite() && *after > 0.0))
+    {
+        return Some(format!("{}'s RMS would be {}", names[k], rms[k].1));
+    }
+    let far = |(a, b): (&f64, &f64)| {
+        let ratio = b / a;
+        *a != 0.0 && !(ratio.is_finite() && (1.0 / PLAUSIBLE..=PLAUSIBLE).contains(&ratio))
+    };
+    let moved = model.iter().zip(fitted).filter(|&p| far(p)).count();
+    (moved > 0).then(|| {
+        format!("{moved} parameter(s) would move by more than a factor {PLAUSIBLE} or change sign")
+    })
 }

@@ -2,7 +2,7 @@
 //! record, from what the healthy record's noise, drawn again, does to the residuals.
 
 use crate::calibrate::replicas::{self, Replicas};
-use crate::calibrate::{residuals, CalibrateError, Samples};
+use crate::calibrate::{CalibrateError, Healthy};
 use crate::generator::Generator;
 use crate::walk::Walk;
 
@@ -20,16 +20,16 @@ use crate::walk::Walk;
 /// record's own excursions.
 pub(super) fn thresholds(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    healthy: &Samples<'_>,
+    healthy: &Healthy<'_>,
     walks: &[Option<Walk>],
     (rate, margin): (f64, f64),
     replicas: Option<&Replicas<'_>>,
     crossing: f64,
 ) -> Result<Vec<f64>, CalibrateError> {
-    let series = normalised(residuals(build()?, healthy.time, &healthy.columns), walks);
+    let series = normalised(healthy.residuals(build()?), walks);
     let length = healthy.len();
     let replicated = match replicas.filter(|_| rate == 0.0) {
-        Some(replicas) => replica_levels(build, replicas, walks, crossing)?,
+        Some(replicas) => replica_levels(build, (healthy, replicas), walks, crossing)?,
         None => vec![None; walks.len()],
     };
     Ok((series.into_iter().zip(walks).zip(replicated))
@@ -76,27 +76,21 @@ fn normalised(mut series: Vec<Vec<f64>>, walks: &[Option<Walk>]) -> Vec<Vec<f64>
 /// drawn again, makes it exceed with probability `crossing`: the maxima of
 /// [`replicas::COUNT`] draws, as a Gumbel law. What the model's error adds along the
 /// trajectory is the healthy record's own, which the threshold is at least.
+/// Borrowed columns.
+fn slices(columns: &[Vec<f64>]) -> Vec<&[f64]> {
+    columns.iter().map(Vec::as_slice).collect()
+}
+
 fn replica_levels(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    replicas: &Replicas<'_>,
+    (healthy, replicas): (&Healthy<'_>, &Replicas<'_>),
     walks: &[Option<Walk>],
     crossing: f64,
 ) -> Result<Vec<Option<f64>>, CalibrateError> {
     let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
     for index in 0..replicas::COUNT {
-        let time = replicas.time();
-        let up = replicas.perturbed(index, 1.0);
-        let up = residuals(
-            build()?,
-            time,
-            &up.iter().map(Vec::as_slice).collect::<Vec<_>>(),
-        );
-        let down = replicas.perturbed(index, -1.0);
-        let down = residuals(
-            build()?,
-            time,
-            &down.iter().map(Vec::as_slice).collect::<Vec<_>>(),
-        );
+        let up = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, 1.0)));
+        let down = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, -1.0)));
         let noise = (up.iter().zip(&down))
             .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())
             .collect();

@@ -8,6 +8,8 @@ mod fitted;
 mod levels;
 mod rate;
 mod replicas;
+mod settle;
+mod singular;
 
 use bondgraph::EstimatorError;
 use bondgraph_core::program::Program;
@@ -20,6 +22,7 @@ use crate::walk::Walk;
 pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
 pub use rate::FalseAlarms;
 pub use replicas::COUNT as REPLICAS;
+pub use singular::{Conditioning, Singular, GAIN};
 
 /// A record's samples as calibration reads them.
 #[derive(Clone, Debug)]
@@ -111,6 +114,13 @@ pub struct Calibrated {
     pub levels: Vec<Option<f64>>,
     /// The probability that a healthy record as long as the calibration's crosses one.
     pub crossing: f64,
+    /// What tells where a record has settled and where a residual is singular, on any record
+    /// (`None` for a healthy record without noise).
+    pub conditioning: Option<Conditioning>,
+    /// The healthy record's first sample kept, where it starts unsettled.
+    pub settled: Option<usize>,
+    /// Where the healthy record is singular, residual by residual.
+    pub singular: Singular,
     /// What was chosen and why, a sentence each, for the user.
     pub notes: Vec<String>,
 }
@@ -164,24 +174,78 @@ pub fn calibrate(
         }
     }
     let mut notes = Vec::new();
-    // Thresholds set on a model that is not the plant's measure the model's error, not the
-    // noise: the model is fitted to the healthy record first.
-    let params = match choices.keep_model {
-        false => fitted::fit_model(c, program, params, healthy, &mut notes),
-        true => params.to_vec(),
-    };
+    let deviations = replicas::Replicas::new(healthy).deviations().to_vec();
+    let n = c.arrs.len();
+    let noisy = deviations.iter().any(|&d| d > 0.0);
+    // Where the healthy record is singular, found first with a provisional estimator: its
+    // samples there would decide every choice after.
+    let provisional = (choices.estimator.unwrap_or(EstimatorKind::SavitzkyGolay))
+        .over(choices.window.unwrap_or(PROVISIONAL_WINDOW), choices.degree);
+    let conditioned = !program.linear() && noisy;
+    let mut settled = settle_on(program, healthy, &deviations, provisional);
+    let trimmed = trim(healthy, settled);
     let mut on = Calibrating {
         c,
         program,
-        healthy,
+        healthy: Healthy {
+            samples: &trimmed,
+            singular: Singular {
+                spans: vec![Vec::new(); n],
+            },
+        },
         step,
         choices,
-        params,
-        notes,
+        params: params.to_vec(),
+        notes: Vec::new(),
     };
-    let default = vec![choices.integration.unwrap_or_default(); c.arrs.len()];
+    if conditioned {
+        let default = vec![Integration::default(); n];
+        on.healthy.singular = on.conditioning(provisional, &default, &deviations, &[])?.1;
+    }
+    // Thresholds set on a model that is not the plant's measure the model's error, not the
+    // noise: the model is fitted to the healthy record first.
+    if !choices.keep_model {
+        let first = trimmed.time.get(window_of(provisional) / 2).copied();
+        let from = first.and_then(|t| on.healthy.singular.settled(t));
+        on.params = fitted::fit_model(c, program, params, &trimmed, from, &mut notes);
+    }
+    notes.append(&mut on.notes);
+    on.notes = notes;
+    let default = vec![choices.integration.unwrap_or_default(); n];
     let estimator = on.estimator(&default)?;
+    // The window chosen may be longer than the provisional one, and settle later.
+    if let Some(later) = settle_on(program, healthy, &deviations, estimator) {
+        if settled.is_none_or(|s| later > s) {
+            settled = Some(later);
+        }
+    }
+    let trimmed = trim(healthy, settled);
+    on.healthy.samples = &trimmed;
+    if let Some(first) = settled {
+        on.notes.push(format!(
+            "it starts unsettled, with signals the estimators' polynomials do not follow (a \
+             start-up): its first {first} samples (to {} s) are left out, as they are of every \
+             record monitored with this calibration until it has settled",
+            healthy.time[first]
+        ));
+    }
     let (integration, walks) = on.integrations(estimator)?;
+    let mut conditioning = noisy.then(|| Conditioning {
+        deviations: deviations.clone(),
+        typical: vec![None; n],
+    });
+    if conditioned {
+        let from_start: Vec<bool> = (integration.iter().zip(&c.arrs))
+            .map(|(i, a)| {
+                *i == Integration::Start && matches!(a.realisation, Realisation::Integrated(_))
+            })
+            .collect();
+        let (read, singular) =
+            on.conditioning(estimator, &integration, &deviations, &from_start)?;
+        on.healthy.singular = singular;
+        on.note_singular();
+        conditioning = Some(read);
+    }
     let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
     Ok(Calibrated {
         params: on.params,
@@ -190,9 +254,50 @@ pub fn calibrate(
         walks,
         levels,
         crossing: choices.crossing,
+        conditioning,
+        settled,
+        singular: on.healthy.singular,
         notes: on.notes,
     })
 }
+
+/// Where `healthy` settles under `estimator` (see [`settle`]).
+fn settle_on(
+    program: &Program,
+    healthy: &Samples<'_>,
+    deviations: &[f64],
+    estimator: Estimator,
+) -> Option<usize> {
+    let differentiated: Vec<bool> = program.raw.values().map(|r| r.order > 0).collect();
+    settle::settled(
+        &healthy.columns,
+        deviations,
+        &differentiated,
+        (window_of(estimator), degree_of(estimator)),
+    )
+}
+
+/// The samples from `first` on (all of them without).
+fn trim<'a>(samples: &Samples<'a>, first: Option<usize>) -> Samples<'a> {
+    let first = first.unwrap_or(0);
+    Samples {
+        time: &samples.time[first..],
+        columns: samples.columns.iter().map(|c| &c[first..]).collect(),
+        step: samples.step,
+    }
+}
+
+/// The degree of the polynomials an estimator follows signals with (modulating functions:
+/// a cubic's, as the fits' default).
+fn degree_of(estimator: Estimator) -> u32 {
+    match estimator {
+        Estimator::SavitzkyGolay { degree, .. } => degree,
+        Estimator::Modulating { .. } => 3,
+    }
+}
+
+/// The estimator's window while the singular samples are looked for, before it is chosen.
+const PROVISIONAL_WINDOW: usize = 51;
 
 /// An estimator's window, in samples.
 pub fn window_of(estimator: Estimator) -> usize {
@@ -208,7 +313,7 @@ type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
 struct Calibrating<'a> {
     c: &'a Compiled,
     program: &'a Program,
-    healthy: &'a Samples<'a>,
+    healthy: Healthy<'a>,
     step: f64,
     choices: &'a Choices,
     params: Vec<f64>,
@@ -216,6 +321,47 @@ struct Calibrating<'a> {
 }
 
 impl Calibrating<'_> {
+    /// The healthy record's conditioning under an estimator and integrations, and where it
+    /// is singular; residuals marked in `skip` are never singular.
+    fn conditioning(
+        &self,
+        estimator: Estimator,
+        integration: &[Integration],
+        deviations: &[f64],
+        skip: &[bool],
+    ) -> Result<(Conditioning, Singular), CalibrateError> {
+        let build = || self.generator(estimator, integration, &self.params);
+        let skip: Vec<bool> = (0..self.c.arrs.len())
+            .map(|k| skip.get(k).copied().unwrap_or(false))
+            .collect();
+        let samples = self.healthy.samples;
+        Ok(Conditioning::read(
+            (build()?, build()?),
+            samples.time,
+            &samples.columns,
+            deviations,
+            (window_of(estimator), &skip),
+        ))
+    }
+
+    /// Says where the healthy record is singular, residual by residual.
+    fn note_singular(&mut self) {
+        let singular = &self.healthy.singular;
+        let said: Vec<String> = (self.c.arrs.iter().enumerate())
+            .filter(|(k, _)| !singular.spans[*k].is_empty())
+            .map(|(k, a)| format!("{} at {}", a.name, singular.said(k)))
+            .collect();
+        if !said.is_empty() {
+            self.notes.push(format!(
+                "singular there, where a residual's sensitivity to the noise is over {GAIN} \
+                 times its median (a division by a signal near zero, a law at the edge of its \
+                 domain, a start-up): {}; those samples are left out of the thresholds, and \
+                 raise no alarm on any record",
+                said.join("; ")
+            ));
+        }
+    }
+
     /// A generator of the residuals with these choices.
     fn generator(
         &self,
@@ -244,7 +390,7 @@ impl Calibrating<'_> {
         let window = match kind {
             EstimatorKind::SavitzkyGolay => {
                 let build = |w| self.generator(of(kind, w), integration, &self.params);
-                let window = choose::longest_steady_window(&build, self.healthy)?;
+                let window = choose::longest_steady_window(&build, &self.healthy)?;
                 self.notes.push(format!(
                     "estimates over {window} samples, the longest window up to which no \
                      residual grows there"
@@ -259,7 +405,7 @@ impl Calibrating<'_> {
         // Residuals linear in the signals hold on modulating functions' estimates at any
         // window: those compete with the fits.
         let fits = std::iter::once(of(EstimatorKind::SavitzkyGolay, window));
-        let modulating = (choose::modulating_windows(self.healthy, self.program.top_order()))
+        let modulating = (choose::modulating_windows(&self.healthy, self.program.top_order()))
             .map(|w| of(EstimatorKind::Modulating, w));
         let candidates: Vec<Estimator> = match choices.estimator {
             None => fits.chain(modulating).collect(),
@@ -271,7 +417,7 @@ impl Calibrating<'_> {
         }
         let (best, said) = choose::most_sensitive(
             &|e, p| self.generator(e, integration, p),
-            self.healthy,
+            &self.healthy,
             &candidates,
             &self.params,
             choices.margin,
@@ -306,7 +452,7 @@ impl Calibrating<'_> {
         }
         let chosen = choose::longest_integration(
             &|i| self.generator(estimator, &vec![i; n], &self.params),
-            self.healthy,
+            &self.healthy,
             &which,
             window_of(estimator),
         )?;
@@ -340,7 +486,7 @@ impl Calibrating<'_> {
         mut walks: Vec<Option<Walk>>,
     ) -> Result<Levels, CalibrateError> {
         let choices = self.choices;
-        let replicas = replicas::Replicas::new(self.healthy);
+        let replicas = replicas::Replicas::new(self.healthy.samples);
         if replicas.noisy() && choices.share == 0.0 {
             let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
                 .map(|(s, d)| format!("{} {d:.2e}", s.name))
@@ -357,7 +503,7 @@ impl Calibrating<'_> {
         }
         let calibrated = levels::thresholds(
             &|| self.generator(estimator, integration, &self.params),
-            self.healthy,
+            &self.healthy,
             &walks,
             (choices.share, choices.margin),
             replicas.noisy().then_some(&replicas),
@@ -383,17 +529,47 @@ fn rms(r: &[f64]) -> f64 {
     (sum / (n as f64).max(1.0)).sqrt().max(f64::MIN_POSITIVE)
 }
 
-/// Each residual's values over a record's samples (its columns given apart, a replica's),
-/// one per estimate.
-fn residuals(mut generator: Generator, time: &[f64], columns: &[&[f64]]) -> Vec<Vec<f64>> {
-    let mut series: Vec<Vec<f64>> = Vec::new();
-    generator.run(time, columns, false, |e| {
-        if !e.is_empty() {
-            series.resize(e.residual_count(), Vec::new());
-        }
-        for (k, s) in series.iter_mut().enumerate() {
-            s.extend_from_slice(e.residual(k));
-        }
-    });
-    series
+/// The healthy record, with where it is singular: what the choices are made on.
+pub(crate) struct Healthy<'a> {
+    samples: &'a Samples<'a>,
+    singular: Singular,
+}
+
+impl Healthy<'_> {
+    /// How many samples.
+    pub(crate) fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Each residual's values over the record, one per estimate; not a number where it is
+    /// singular.
+    pub(crate) fn residuals(&self, generator: Generator) -> Vec<Vec<f64>> {
+        self.residuals_with(generator, &self.samples.columns)
+    }
+
+    /// The same over the record's time with other columns (a replica's).
+    pub(crate) fn residuals_with(
+        &self,
+        mut generator: Generator,
+        columns: &[&[f64]],
+    ) -> Vec<Vec<f64>> {
+        let mut series: Vec<Vec<f64>> = Vec::new();
+        let singular = &self.singular;
+        generator.run(self.samples.time, columns, false, |e| {
+            if !e.is_empty() {
+                series.resize(e.residual_count(), Vec::new());
+            }
+            for (k, s) in series.iter_mut().enumerate() {
+                let at = e.at();
+                s.extend((e.residual(k).iter().zip(at)).map(|(&r, &t)| {
+                    if singular.contains(k, t) {
+                        f64::NAN
+                    } else {
+                        r
+                    }
+                }));
+            }
+        });
+        series
+    }
 }

@@ -52,11 +52,6 @@ impl<'a> Replicas<'a> {
         self.deviations.iter().any(|&s| s > 0.0)
     }
 
-    /// The record's time stamps.
-    pub(crate) fn time(&self) -> &'a [f64] {
-        self.record.time
-    }
-
     /// Each column's noise deviation, as the note gives them.
     pub(crate) fn deviations(&self) -> &[f64] {
         &self.deviations

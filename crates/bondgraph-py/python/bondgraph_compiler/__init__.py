@@ -251,6 +251,9 @@ class Residuals:
         #: whose change alone best explains the residuals over the span after the first alarm
         #: (dicts: component, parameter, value, half_width, model, cost), best fit first.
         self.sizes: List[Dict[str, Any]] = list(out.get("sizes", []))
+        #: What a calibration chose and why (`calibrate`), a sentence each, as
+        #: ``bgc residuals --calibrate`` says them on standard error.
+        self.notes: List[str] = list(out.get("notes", []))
 
     def __len__(self) -> int:
         return len(self.time)
@@ -558,16 +561,17 @@ class Model:
         columns: Optional[Mapping[str, str]] = None,
         thresholds: Optional[Union[float, Mapping[str, float]]] = None,
         calibrate: Any = None,
-        false_alarm_rate: float = 0.0,
+        false_alarm_rate: Union[float, str] = 0.0,
         margin: float = 0.2,
         window: Optional[int] = None,
-        estimator: str = "savitzky-golay",
+        estimator: Optional[str] = None,
         degree: Optional[int] = None,
-        integration: Union[int, str] = 250,
+        integration: Union[int, str, None] = None,
         debounce: int = 1,
         adaptive: bool = False,
         size_span: Optional[float] = 5.0,
         calibration: Any = None,
+        keep_model: bool = False,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -575,17 +579,25 @@ class Model:
         at a uniform step and a column per signal the residuals read (`signals`), named as in
         the model or as `columns` maps them (``{"y1": "motor_speed"}``).
 
-        Thresholds: `thresholds` gives levels (one for all, or by ARR name); `calibrate`, a
-        healthy record with the same columns, sets every other one at the (1 -
-        `false_alarm_rate`) quantile of |residual| there, times 1 + `margin`. A residual
-        without a threshold raises no alarm. `adaptive` adds the bound from the parameters'
-        stated uncertainties (`+- 5%`) at each sample; as ``bgc residuals --adaptive``, it
-        evaluates the ARRs as written (``realise="direct"``), the form those bounds are
-        derived for, whatever the model was compiled with.
+        Thresholds: `thresholds` gives levels (one for all, or by ARR name). `calibrate`, a
+        healthy record with the same columns, calibrates everything else on it exactly as
+        ``bgc residuals --calibrate`` does (one implementation, in Rust): the model fitted to
+        it (unless `keep_model`), the estimator's window and kind, each integrated residual's
+        integration, and each threshold for the false alarms stated: `false_alarm_rate` 0
+        (the default) for thresholds a healthy record as long as this one crosses with
+        probability 1e-3, a rate in time (``"1/h"``, ``"0.5/min"``, ``"2/d"``), or a share
+        of healthy samples allowed above them (``0.01``); every threshold at least the healthy
+        record's largest |residual| times 1 + `margin`. What it chose and why is in
+        `Residuals.notes`. A residual without a threshold raises no alarm. `adaptive` adds
+        the bound from the parameters' stated uncertainties (`+- 5%`) at each sample; as
+        ``bgc residuals --adaptive``, it evaluates the ARRs as written (``realise="direct"``),
+        the form those bounds are derived for, whatever the model was compiled with.
 
-        Estimation: `window` samples (odd; default 11 for ``"savitzky-golay"``, 101 for
-        ``"modulating"``) of polynomial `degree` (default 3 or the highest derivative read);
-        integrated residuals over the last `integration` samples, or ``"start"``.
+        Estimation: `window`, `estimator` (``"savitzky-golay"`` or ``"modulating"``),
+        `degree` and `integration` (the last N samples, or ``"start"``) fix what calibration
+        would choose; without `calibrate`, polynomial fits over 11 samples (101 for
+        ``"modulating"``) of degree 3 or the highest derivative read, integrated residuals
+        over the last 250 samples.
 
         Kept calibration: `calibration`, the path of a file ``bgc residuals MODEL RECORD
         --calibrate HEALTHY --save-calibration FILE`` wrote for this model, decides as the CLI
@@ -614,7 +626,7 @@ class Model:
             window=window,
             estimator=estimator,
             degree=degree,
-            integration=str(integration),
+            integration=None if integration is None else str(integration),
             debounce=debounce,
         )
         kept = None
@@ -626,27 +638,16 @@ class Model:
                 )
             with open(calibration, encoding="utf-8") as f:
                 kept = (f.read(), str(calibration), tuple(self._options))
+        healthy = None
         if calibrate is not None:
-            if not (0.0 <= false_alarm_rate < 1.0) or not (margin >= 0.0):
-                raise ValueError("false_alarm_rate must be in [0, 1) and margin non-negative")
-            t, cols, labels = _columns(calibrate, self.signals, time, columns)
-            healthy = _native.residuals(
-                native, t, cols, thresholds=[None] * len(arr_names), labels=labels, adaptive=False,
-                size_span=None, **options
-            )
-            values = np.abs(healthy["residuals"])
-            for k in range(len(arr_names)):
-                if levels[k] is not None:
-                    continue
-                finite = values[:, k][np.isfinite(values[:, k])]
-                if finite.size:
-                    levels[k] = float(np.quantile(finite, 1.0 - false_alarm_rate)) * (1.0 + margin)
+            ht, hcols, hlabels = _columns(calibrate, self.signals, time, columns)
+            healthy = (ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model))
         if adaptive:
             levels = [0.0 if level is None else level for level in levels]
         t, cols, labels = _columns(data, self.signals, time, columns)
         out = _native.residuals(
             native, t, cols, thresholds=levels, labels=labels, adaptive=adaptive,
-            size_span=size_span, calibration=kept, **options
+            size_span=size_span, calibration=kept, calibrate=healthy, **options
         )
         return Residuals(arr_names, out)
 

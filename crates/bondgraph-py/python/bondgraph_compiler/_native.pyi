@@ -35,12 +35,23 @@ def residuals(
     thresholds: Sequence[Optional[float]],
     labels: Optional[Sequence[str]] = None,
     window: Optional[int] = None,
-    estimator: str = "savitzky-golay",
+    estimator: Optional[str] = None,
     degree: Optional[int] = None,
-    integration: str = "250",
+    integration: Optional[str] = None,
     debounce: int = 1,
     adaptive: bool = False,
     size_span: Optional[float] = 5.0,
+    calibration: Optional[Tuple[str, str, Tuple[str, str]]] = None,
+    calibrate: Optional[
+        Tuple[
+            npt.NDArray[np.float64],
+            Sequence[npt.NDArray[np.float64]],
+            Optional[Sequence[str]],
+            str,
+            float,
+            bool,
+        ]
+    ] = None,
 ) -> Dict[str, Any]: ...
 def identify(
     model: Model,
