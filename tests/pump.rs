@@ -137,3 +137,75 @@ fn a_pump_from_rest_calibrates_to_its_own_scale_and_finds_a_clog() {
         assert_eq!(on, [0, 0, 0], "seed {seed}: false alarms");
     }
 }
+
+/// `--cusum`: a clog of 0.2 % moves ARR3 by a third of its threshold, which it never
+/// crosses; the CUSUM beside it alarms from about a second after the clog and names the
+/// drain, the thresholds alone stay quiet, and healthy records of other seeds raise nothing
+/// under the kept calibration. With the model's own values (`--keep-model`): a calibration's
+/// fit moves parameters along what the healthy record does not determine, and a CUSUM sums
+/// what that leaves at another operating point (docs/identification.md).
+#[test]
+fn a_cusum_sees_a_clog_too_small_for_the_thresholds() {
+    let dir = scratch("pump-cusum");
+    let (healthy, clogged) = (dir.join("healthy.csv"), dir.join("clogged.csv"));
+    simulate(&healthy, &["duration 20"]);
+    simulate(
+        &clogged,
+        &["duration 30", "seed 3", "fault c = 0.998*c at 20"],
+    );
+    let (kept, out) = (dir.join("pump.cal"), dir.join("clogged-r.csv"));
+    let residuals = |extra: &[&str], out: &std::path::Path| {
+        let mut args = vec!["residuals", PUMP];
+        let (record, out) = (clogged.display().to_string(), out.display().to_string());
+        args.extend([record.as_str(), "-o", out.as_str()]);
+        args.extend(extra);
+        let run = bgc(&args);
+        assert_eq!(code(&run), 0, "{}", stderr(&run));
+    };
+    let calibrate = [
+        "--calibrate",
+        healthy.to_str().expect("path"),
+        "--keep-model",
+    ];
+    let save = [
+        "--cusum",
+        "--save-calibration",
+        kept.to_str().expect("path"),
+    ];
+    residuals(&[&calibrate[..], &save[..]].concat(), &out);
+    let t = table(&out);
+    let time: Vec<f64> = t["t"].iter().map(|c| c.parse().expect("t")).collect();
+    let crossed = (t["ARR3"].iter().zip(&t["threshold_ARR3"]))
+        .filter(|(r, l)| r.parse::<f64>().expect("r").abs() > l.parse::<f64>().expect("threshold"));
+    assert_eq!(crossed.count(), 0, "the thresholds see the clog");
+    let first = (time.iter().zip(&t["alarm_ARR3"])).find(|(_, a)| *a == "1");
+    let first = *first.expect("the CUSUM alarms").0;
+    assert!(
+        (20.0..23.0).contains(&first),
+        "the CUSUM's first alarm at {first} s"
+    );
+    assert_eq!(t["episode"].last().map(String::as_str), Some("tank drain"));
+    let alone = dir.join("alone-r.csv");
+    residuals(&calibrate, &alone);
+    let quiet: Vec<usize> = alarms(&table(&alone)).iter().map(|a| a.0).collect();
+    assert_eq!(quiet, [0, 0, 0], "the thresholds alone");
+
+    for seed in ["11", "12"] {
+        let other = dir.join(format!("healthy-{seed}.csv"));
+        simulate(&other, &["duration 30", &format!("seed {seed}")]);
+        let out = dir.join(format!("healthy-{seed}-r.csv"));
+        let (other, out_path) = (other.display().to_string(), out.display().to_string());
+        let run = bgc(&[
+            "residuals",
+            PUMP,
+            &other,
+            "--calibration",
+            kept.to_str().expect("path"),
+            "-o",
+            &out_path,
+        ]);
+        assert_eq!(code(&run), 0, "{}", stderr(&run));
+        let on: Vec<usize> = alarms(&table(&out)).iter().map(|a| a.0).collect();
+        assert_eq!(on, [0, 0, 0], "seed {seed}: false alarms");
+    }
+}

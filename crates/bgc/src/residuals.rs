@@ -8,13 +8,13 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph::{Episode, Signature, Threshold};
+use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
-    calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, Decision, Estimator,
-    EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Samples, Singular, Walk,
-    GAIN, STEP_TOLERANCE, WINDOWS,
+    calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
+    Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Samples,
+    Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS,
 };
 
 use crate::io;
@@ -139,6 +139,19 @@ pub(crate) struct ResidualArgs {
     /// on the fitted model.
     #[arg(long, requires = "calibrate")]
     keep_model: bool,
+    /// With `--calibrate`, a sequential test beside each threshold, for small persistent
+    /// faults: a CUSUM on the residual over its noise's deviation, with drift K deviations
+    /// (half the shift it is tuned for; at least what the model's error leaves on the healthy
+    /// record), its level calibrated as the thresholds are. An alarm is either test's; the
+    /// stated false-alarm probability is shared between the two.
+    #[arg(
+        long,
+        value_name = "K",
+        num_args = 0..=1,
+        default_missing_value = "0.5",
+        requires = "calibrate"
+    )]
+    cusum: Option<f64>,
     /// Headroom over the calibrated quantile, as a fraction of it.
     #[arg(long, value_name = "M", default_value_t = 0.2)]
     margin: f64,
@@ -262,6 +275,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         walks,
         levels,
         conditioning,
+        cusum,
         ..
     } = chosen;
     let data = settled(data, &data_name, &program, conditioning.as_ref(), estimator);
@@ -299,6 +313,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         .iter()
         .map(|l| l.map(|l| Threshold::new(l, args.debounce)))
         .collect();
+    let mut sequential: Vec<Option<Cusum>> = cusum.iter().map(|c| c.map(|c| c.test())).collect();
     let rows: Vec<(&str, Vec<u32>)> = c
         .components
         .iter()
@@ -351,7 +366,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     .enumerate()
                 {
                     // Where the relation is singular the noise decides it: no threshold.
-                    let level = l.filter(|_| !singular_spans.contains(k, e_at));
+                    let singular = singular_spans.contains(k, e_at);
+                    let level = l.filter(|_| !singular);
                     *now = level.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
                     // A residual that is not a number says nothing: no alarm, and its
                     // debounce goes on from where it was.
@@ -359,6 +375,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                         (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
                         _ => false,
                     };
+                    if let Some(test) = sequential[k].as_mut().filter(|_| !singular) {
+                        *on |= test.update(r);
+                    }
                 }
                 let at = io::tidy_time(e_at, data.step);
                 for (k, r) in residuals.iter().enumerate() {
@@ -500,6 +519,8 @@ struct Chosen {
     crossing: f64,
     /// What tells where a record is singular, where calibration read it.
     conditioning: Option<Conditioning>,
+    /// Each residual's CUSUM beside its threshold, where calibration made one.
+    cusum: Vec<Option<CusumLevels>>,
 }
 
 impl Chosen {
@@ -522,6 +543,7 @@ impl Chosen {
             levels: thresholds(c, &args.thresholds)?,
             crossing: Walk::CROSSING,
             conditioning: None,
+            cusum: vec![None; c.arrs.len()],
         })
     }
 
@@ -559,6 +581,7 @@ impl Chosen {
                     threshold: self.levels[k],
                     walk: self.walks[k],
                     typical: (self.conditioning.as_ref()).and_then(|c| c.typical[k]),
+                    cusum: self.cusum[k],
                 })
                 .collect(),
         })
@@ -637,6 +660,7 @@ fn kept(
         levels,
         crossing: kept.crossing,
         conditioning: kept.conditioning(),
+        cusum: kept.decisions.iter().map(|d| d.cusum).collect(),
     })
 }
 
@@ -670,6 +694,7 @@ fn calibrated(
         margin: args.margin,
         keep_model: args.keep_model,
         thresholds: thresholds(c, &args.thresholds)?,
+        cusum: args.cusum,
     };
     let samples = Samples {
         time: &healthy.time,
@@ -690,6 +715,7 @@ fn calibrated(
         crossing: chosen.crossing,
         params: chosen.params,
         conditioning: chosen.conditioning,
+        cusum: chosen.cusum,
     })
 }
 

@@ -21,12 +21,13 @@
 //!
 //! `noise SIGNAL DEVIATION`: a signal's noise as read on the healthy record, for the samples
 //! where a residual is singular (see `Conditioning`); none where no residual can be.
-//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE] [typical SENSITIVITY]`: the integration
-//! is `start`, a window in samples, or `-` for a residual not integrated; the threshold is
-//! `-` for none, and for a residual with a walk it is in the walk's deviations; `typical`,
-//! the residual's median sensitivity to that noise on the healthy record.
+//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE] [typical SENSITIVITY] [cusum SIGMA DRIFT
+//! LEVEL]`: the integration is `start`, a window in samples, or `-` for a residual not
+//! integrated; the threshold is `-` for none, and for a residual with a walk it is in the
+//! walk's deviations; `typical`, the residual's median sensitivity to that noise on the
+//! healthy record; `cusum`, the sequential test beside the threshold (`--cusum`).
 
-use crate::calibrate::Conditioning;
+use crate::calibrate::{Conditioning, CusumLevels};
 use crate::fit::{Estimator, Integration};
 use crate::walk::Walk;
 
@@ -47,6 +48,8 @@ pub struct Decision {
     /// Its median sensitivity to the signals' noise on the healthy record, where it can be
     /// singular.
     pub typical: Option<f64>,
+    /// Its CUSUM beside the threshold, where it has one.
+    pub cusum: Option<CusumLevels>,
 }
 
 /// What monitoring runs with, as `--calibrate` chose it.
@@ -132,6 +135,14 @@ impl Calibration {
             }
             if let Some(typical) = d.typical {
                 out += &format!(" typical {}", number(typical));
+            }
+            if let Some(c) = d.cusum {
+                out += &format!(
+                    " cusum {} {} {}",
+                    number(c.sigma),
+                    number(c.drift),
+                    number(c.level)
+                );
             }
             out += "\n";
         }
@@ -222,33 +233,45 @@ impl Parts {
                     "-" => None,
                     t => Some(non_negative(t)?),
                 };
-                let (walk, rest) = match rest {
-                    ["walk", floor, rate, rest @ ..] => (
-                        Some(Walk {
-                            floor: non_negative(floor)?,
-                            rate: non_negative(rate)?,
-                        }),
-                        rest,
-                    ),
-                    rest => (None, rest),
-                };
-                let typical = match rest {
-                    [] => None,
-                    ["typical", typical] => Some(positive(typical)?),
-                    _ => {
-                        return Err(
-                            "expected nothing after the threshold but `walk FLOOR RATE` \
-                                    and `typical SENSITIVITY`"
-                                .into(),
-                        )
-                    }
-                };
+                let (mut walk, mut typical, mut cusum) = (None, None, None);
+                let mut rest = rest;
+                loop {
+                    rest = match rest {
+                        [] => break,
+                        ["walk", floor, rate, more @ ..] if walk.is_none() => {
+                            walk = Some(Walk {
+                                floor: non_negative(floor)?,
+                                rate: non_negative(rate)?,
+                            });
+                            more
+                        }
+                        ["typical", value, more @ ..] if typical.is_none() => {
+                            typical = Some(positive(value)?);
+                            more
+                        }
+                        ["cusum", sigma, drift, level, more @ ..] if cusum.is_none() => {
+                            cusum = Some(CusumLevels {
+                                sigma: positive(sigma)?,
+                                drift: non_negative(drift)?,
+                                level: positive(level)?,
+                            });
+                            more
+                        }
+                        _ => {
+                            return Err("expected nothing after the threshold but `walk FLOOR \
+                                        RATE`, `typical SENSITIVITY` and `cusum SIGMA DRIFT \
+                                        LEVEL`, each once"
+                                .into())
+                        }
+                    };
+                }
                 self.decisions.push(Decision {
                     name: name.to_string(),
                     integration,
                     threshold,
                     walk,
                     typical,
+                    cusum,
                 });
             }
             _ => {
@@ -474,6 +497,7 @@ mod tests {
                         rate: 3.4e-11,
                     }),
                     typical: None,
+                    cusum: None,
                 },
                 Decision {
                     name: "ARR2".into(),
@@ -481,6 +505,11 @@ mod tests {
                     threshold: None,
                     walk: None,
                     typical: Some(2.5e-5),
+                    cusum: Some(CusumLevels {
+                        sigma: 1.5e-5,
+                        drift: 0.5,
+                        level: 21.25,
+                    }),
                 },
                 Decision {
                     name: "ARR3".into(),
@@ -488,6 +517,7 @@ mod tests {
                     threshold: Some(0.015),
                     walk: None,
                     typical: None,
+                    cusum: None,
                 },
             ],
         }

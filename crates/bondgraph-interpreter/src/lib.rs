@@ -16,8 +16,9 @@ mod step;
 mod walk;
 
 pub use calibrate::{
-    calibrate, window_of, CalibrateError, Calibrated, Choices, Conditioning, EstimatorKind,
-    FalseAlarms, Samples, Singular, GAIN, INTEGRATIONS, MODULATING_DEFAULT, REPLICAS, WINDOWS,
+    calibrate, window_of, CalibrateError, Calibrated, Choices, Conditioning, CusumLevels,
+    EstimatorKind, FalseAlarms, Samples, Singular, GAIN, INTEGRATIONS, MODULATING_DEFAULT,
+    REPLICAS, WINDOWS,
 };
 pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};

@@ -4,11 +4,11 @@
 
 use std::collections::HashMap;
 
-use bondgraph::{Episode, Signature, Threshold};
+use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning, Estimates, Estimator,
-    EstimatorKind, FalseAlarms, Fit, Generator, Integration, Samples as CalibrationSamples,
-    Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
+    calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning, CusumLevels,
+    Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration,
+    Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -29,6 +29,8 @@ struct Settings {
     conditioning: Option<Conditioning>,
     /// Where the record is singular: no threshold there.
     singular: Singular,
+    /// Each residual's CUSUM beside its threshold (a calibration's).
+    cusum: Vec<Option<CusumLevels>>,
     debounce: u32,
     adaptive: bool,
 }
@@ -154,7 +156,8 @@ fn estimator_kind(kind: &str) -> PyResult<EstimatorKind> {
 
 /// A healthy record to calibrate on, as Python hands it: its time, its columns (in the order
 /// of `model.signals()`), their names in the data, the false alarms allowed (`"1/h"`, or a
-/// share of samples), the margin and whether the model's values are kept.
+/// share of samples), the margin, whether the model's values are kept, and the drift of a
+/// CUSUM beside each threshold (none without).
 pub(crate) type Healthy<'py> = (
     PyReadonlyArray1<'py, f64>,
     Vec<PyReadonlyArray1<'py, f64>>,
@@ -162,6 +165,7 @@ pub(crate) type Healthy<'py> = (
     String,
     f64,
     bool,
+    Option<f64>,
 );
 
 /// What the estimator, integration and thresholds are, as given (no healthy record).
@@ -249,6 +253,7 @@ pub(crate) fn residuals<'py>(
         walks: vec![None; c.arrs.len()],
         conditioning: None,
         singular: Singular::default(),
+        cusum: vec![None; c.arrs.len()],
         debounce,
         adaptive,
     };
@@ -268,6 +273,7 @@ pub(crate) fn residuals<'py>(
             margin: healthy.4,
             keep_model: healthy.5,
             thresholds: settings.thresholds.clone(),
+            cusum: healthy.6,
         };
         let chosen = calibrated(py, c, &program, &params, healthy, step, choices)?;
         settings.estimator = chosen.estimator;
@@ -275,6 +281,7 @@ pub(crate) fn residuals<'py>(
         settings.thresholds = chosen.levels;
         settings.walks = chosen.walks;
         settings.conditioning = chosen.conditioning;
+        settings.cusum = chosen.cusum;
         params = chosen.params;
         notes = chosen.notes;
     }
@@ -422,6 +429,7 @@ fn kept(
         .map_err(|e| refused(format!("{e} ({})", model.file)))?;
     settings.estimator = kept.estimator;
     settings.conditioning = kept.conditioning();
+    settings.cusum = kept.decisions.iter().map(|d| d.cusum).collect();
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
         if settings.thresholds[k].is_none() {
@@ -538,6 +546,8 @@ struct Watch<'a> {
     rows: &'a [(&'a str, Vec<u32>)],
     roots: &'a [usize],
     alarms: Vec<Option<Threshold>>,
+    /// Each residual's CUSUM beside its threshold, where it has one.
+    sequential: Vec<Option<Cusum>>,
     /// The last estimate's alarms, and its pattern's index.
     on: Vec<bool>,
     last: Option<usize>,
@@ -558,6 +568,9 @@ impl<'a> Watch<'a> {
             roots,
             alarms: (settings.thresholds.iter())
                 .map(|l| l.map(|l| Threshold::new(l, settings.debounce)))
+                .collect(),
+            sequential: (settings.cusum.iter())
+                .map(|c| c.map(|c| c.test()))
                 .collect(),
             on: vec![false; m],
             last: None,
@@ -584,9 +597,10 @@ impl Watch<'_> {
             levels.resize(base + len * m, 0.0);
         }
         let each = (self.alarms.iter_mut())
+            .zip(&mut self.sequential)
             .zip(&self.settings.thresholds)
             .zip(&self.settings.walks);
-        for (k, ((alarm, level), walk)) in each.enumerate() {
+        for (k, (((alarm, sequential), level), walk)) in each.enumerate() {
             for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
                 let at = base + j * m + k;
                 let grown = walk.map_or(1.0, |w| w.deviation(first + j));
@@ -602,6 +616,9 @@ impl Watch<'_> {
                     (Some(a), Some(l)) if r.is_finite() => a.update_with_level(r, l),
                     _ => false,
                 };
+                if let Some(test) = sequential.as_mut().filter(|_| !singular) {
+                    pass.alarms[at] |= test.update(r);
+                }
             }
         }
         let rows = pass.alarms[base..].chunks_exact(m.max(1));

@@ -307,3 +307,10 @@ def test_calibration_in_python_decides_as_the_cli_on_a_pump_from_rest(tmp_path):
     _assert_decides_as_the_cli(header, rows, run)
     assert run.alarms[:, 2].any() and not run.alarms[run.time < 11.7].any()
     assert run.episode[-1] == "tank drain"
+    # A CUSUM beside each threshold decides alike too.
+    header, rows = read_csv(bgc_cli(
+        "residuals", str(PUMP), str(clogged), "--calibrate", str(healthy), "--keep-model", "--cusum", "0.7",
+    ))
+    run = pump.residuals(columns(clogged), calibrate=columns(healthy), keep_model=True, cusum=0.7)
+    assert any("a CUSUM beside each threshold" in n for n in run.notes), run.notes
+    _assert_decides_as_the_cli(header, rows, run)

@@ -15,6 +15,7 @@
 //! time, so a healthy residual stays near zero.
 
 mod bank;
+mod cusum;
 mod decision;
 mod differentiate;
 mod episode;
@@ -30,6 +31,7 @@ mod threshold;
 mod window;
 
 pub use bank::{Bank, Each, SavitzkyGolayBank};
+pub use cusum::Cusum;
 pub use decision::{candidates, suspects, Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
 pub use episode::{Episode, Ranked};

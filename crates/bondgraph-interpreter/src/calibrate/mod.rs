@@ -8,6 +8,7 @@ mod fitted;
 mod levels;
 mod rate;
 mod replicas;
+mod sequential;
 mod settle;
 mod singular;
 
@@ -22,6 +23,7 @@ use crate::walk::Walk;
 pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
 pub use rate::FalseAlarms;
 pub use replicas::COUNT as REPLICAS;
+pub use sequential::CusumLevels;
 pub use singular::{Conditioning, Singular, GAIN};
 
 /// A record's samples as calibration reads them.
@@ -97,6 +99,9 @@ pub struct Choices {
     pub keep_model: bool,
     /// Levels given, by residual: those are not calibrated.
     pub thresholds: Vec<Option<f64>>,
+    /// A CUSUM beside each threshold, with this drift (in deviations of the residual's
+    /// noise) at least: the stated probability is then shared between the two tests.
+    pub cusum: Option<f64>,
 }
 
 /// What a calibration chose.
@@ -121,6 +126,8 @@ pub struct Calibrated {
     pub settled: Option<usize>,
     /// Where the healthy record is singular, residual by residual.
     pub singular: Singular,
+    /// Each residual's CUSUM, where one was asked for and its noise allows it.
+    pub cusum: Vec<Option<CusumLevels>>,
     /// What was chosen and why, a sentence each, for the user.
     pub notes: Vec<String>,
 }
@@ -247,6 +254,7 @@ pub fn calibrate(
         conditioning = Some(read);
     }
     let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
+    let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
         params: on.params,
         estimator,
@@ -257,6 +265,7 @@ pub fn calibrate(
         conditioning,
         settled,
         singular: on.healthy.singular,
+        cusum,
         notes: on.notes,
     })
 }
@@ -360,6 +369,62 @@ impl Calibrating<'_> {
                 said.join("; ")
             ));
         }
+    }
+
+    /// The probability each test is calibrated for: the stated one, shared between the
+    /// thresholds and the CUSUMs where both decide.
+    fn crossing(&self) -> f64 {
+        match self.choices.cusum {
+            Some(_) => self.choices.crossing / 2.0,
+            None => self.choices.crossing,
+        }
+    }
+
+    /// Each residual's CUSUM, where one is asked for and the healthy record has noise to
+    /// draw again (see [`sequential`]).
+    fn cusum(
+        &mut self,
+        estimator: Estimator,
+        integration: &[Integration],
+        walks: &[Option<Walk>],
+    ) -> Result<Vec<Option<CusumLevels>>, CalibrateError> {
+        let n = self.c.arrs.len();
+        let Some(drift) = self.choices.cusum else {
+            return Ok(vec![None; n]);
+        };
+        let replicas = replicas::Replicas::new(self.healthy.samples);
+        if !replicas.noisy() {
+            self.notes.push(
+                "no CUSUM: the healthy record has no noise to tell its deviation from".into(),
+            );
+            return Ok(vec![None; n]);
+        }
+        let span = sequential::bias_span(window_of(estimator));
+        let levels = sequential::cusum_levels(
+            &|| self.generator(estimator, integration, &self.params),
+            (&self.healthy, &replicas),
+            walks,
+            (drift, self.crossing(), self.choices.margin),
+            span,
+        )?;
+        let said: Vec<String> = (self.c.arrs.iter().zip(&levels))
+            .map(|(a, l)| match l {
+                Some(l) => format!(
+                    "{} σ {:.3e} drift {:.2} level {:.1}",
+                    a.name, l.sigma, l.drift, l.level
+                ),
+                None => format!("{} none (integrated from the start)", a.name),
+            })
+            .collect();
+        self.notes.push(format!(
+            "a CUSUM beside each threshold, on the residual over its noise's deviation, each \
+             test crossed by a healthy record of its length with probability {} (the drift \
+             at least {drift}, and at least the largest mean the model's error leaves over \
+             the healthy record): {}",
+            self.crossing(),
+            said.join(", ")
+        ));
+        Ok(levels)
     }
 
     /// A generator of the residuals with these choices.
@@ -486,6 +551,7 @@ impl Calibrating<'_> {
         mut walks: Vec<Option<Walk>>,
     ) -> Result<Levels, CalibrateError> {
         let choices = self.choices;
+        let crossing = self.crossing();
         let replicas = replicas::Replicas::new(self.healthy.samples);
         if replicas.noisy() && choices.share == 0.0 {
             let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
@@ -496,7 +562,7 @@ impl Calibrating<'_> {
                  (at least its own largest |r| times 1 + the margin): what its noise does to \
                  the residuals, drawn {} times (fresh white noise of the deviation read on \
                  each signal, {}, added and taken away) and the maxima taken as a Gumbel law",
-                choices.crossing,
+                crossing,
                 replicas::COUNT,
                 read.join(", ")
             ));
@@ -507,7 +573,7 @@ impl Calibrating<'_> {
             &walks,
             (choices.share, choices.margin),
             replicas.noisy().then_some(&replicas),
-            choices.crossing,
+            crossing,
         )?;
         let mut levels = choices.thresholds.clone();
         levels.resize(walks.len(), None);

@@ -572,6 +572,7 @@ class Model:
         size_span: Optional[float] = 5.0,
         calibration: Any = None,
         keep_model: bool = False,
+        cusum: Union[bool, float] = False,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -588,7 +589,9 @@ class Model:
         probability 1e-3, a rate in time (``"1/h"``, ``"0.5/min"``, ``"2/d"``), or a share
         of healthy samples allowed above them (``0.01``); every threshold at least the healthy
         record's largest |residual| times 1 + `margin`. What it chose and why is in
-        `Residuals.notes`. A residual without a threshold raises no alarm. `adaptive` adds
+        `Residuals.notes`. With `cusum` (``True``, or the drift K in deviations, 0.5 by
+        default), a CUSUM beside each threshold for small persistent faults, as ``bgc
+        residuals --cusum K``. A residual without a threshold raises no alarm. `adaptive` adds
         the bound from the parameters' stated uncertainties (`+- 5%`) at each sample; as
         ``bgc residuals --adaptive``, it evaluates the ARRs as written (``realise="direct"``),
         the form those bounds are derived for, whatever the model was compiled with.
@@ -641,7 +644,8 @@ class Model:
         healthy = None
         if calibrate is not None:
             ht, hcols, hlabels = _columns(calibrate, self.signals, time, columns)
-            healthy = (ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model))
+            drift = None if cusum is False else (0.5 if cusum is True else float(cusum))
+            healthy = (ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model), drift)
         if adaptive:
             levels = [0.0 if level is None else level for level in levels]
         t, cols, labels = _columns(data, self.signals, time, columns)

@@ -50,6 +50,7 @@ def residuals(
             str,
             float,
             bool,
+            Optional[float],
         ]
     ] = None,
 ) -> Dict[str, Any]: ...
