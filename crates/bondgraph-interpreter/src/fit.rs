@@ -72,6 +72,22 @@ pub enum Estimator {
 }
 
 impl Estimator {
+    /// Its window, in samples.
+    pub fn window(self) -> usize {
+        match self {
+            Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
+        }
+    }
+
+    /// The degree of the polynomials it follows signals with (modulating functions: a
+    /// cubic's, the fits' default).
+    pub fn degree(self) -> u32 {
+        match self {
+            Estimator::SavitzkyGolay { degree, .. } => degree,
+            Estimator::Modulating { .. } => 3,
+        }
+    }
+
     /// The estimator of a channel read up to `order`, in a program that reads up to `top`,
     /// for samples every `step` seconds.
     pub fn build(

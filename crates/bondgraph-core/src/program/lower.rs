@@ -469,6 +469,11 @@ mod tests {
                         _ => f64::NAN,
                     })
                     .value(code);
+                    // Arbitrary values may lie outside a law's domain (the pump's square
+                    // roots of a pressure): both are then not a number, and agree.
+                    if got.is_nan() && want.is_nan() {
+                        continue;
+                    }
                     let scale = want.abs().max(1.0);
                     assert!(
                         (got - want).abs() <= 1e-9 * scale,

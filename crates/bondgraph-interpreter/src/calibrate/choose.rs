@@ -3,8 +3,9 @@
 
 use bondgraph::Reference;
 
+use crate::calibrate::error::CalibrateError;
 use crate::calibrate::levels::thresholds;
-use crate::calibrate::{rms, CalibrateError, Healthy};
+use crate::calibrate::samples::{rms, Healthy};
 use crate::fit::{Estimator, Integration};
 use crate::generator::Generator;
 use crate::walk::Walk;

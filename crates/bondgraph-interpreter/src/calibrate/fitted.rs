@@ -3,7 +3,7 @@
 use bondgraph_core::program::Program;
 use bondgraph_core::Compiled;
 
-use crate::calibrate::Samples;
+use crate::calibrate::samples::Samples;
 use crate::fit::{Estimator, Fit, Integration};
 use crate::identify::{identify, Determined, Origin, Record, Settings, Span};
 

@@ -1,8 +1,9 @@
 //! Each residual's threshold, calibrated on a healthy record: a statement about the next
 //! record, from what the healthy record's noise, drawn again, does to the residuals.
 
+use crate::calibrate::error::CalibrateError;
 use crate::calibrate::replicas::{self, Replicas};
-use crate::calibrate::{CalibrateError, Healthy};
+use crate::calibrate::samples::Healthy;
 use crate::generator::Generator;
 use crate::walk::Walk;
 

@@ -4,15 +4,16 @@
 //! Python's `calibrate=` both call [`calibrate`], so that they decide alike.
 
 mod choose;
+mod error;
 mod fitted;
 mod levels;
 mod rate;
 mod replicas;
+mod samples;
 mod sequential;
 mod settle;
 mod singular;
 
-use bondgraph::EstimatorError;
 use bondgraph_core::program::Program;
 use bondgraph_core::{Compiled, Realisation};
 
@@ -21,33 +22,13 @@ use crate::generator::Generator;
 use crate::walk::Walk;
 
 pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
+pub use error::CalibrateError;
 pub use rate::FalseAlarms;
 pub use replicas::COUNT as REPLICAS;
+use samples::Healthy;
+pub use samples::{Samples, Singular};
 pub use sequential::CusumLevels;
-pub use singular::{Conditioning, Singular, GAIN};
-
-/// A record's samples as calibration reads them.
-#[derive(Clone, Debug)]
-pub struct Samples<'a> {
-    /// The time of each sample.
-    pub time: &'a [f64],
-    /// One column per raw signal of the program, in its order.
-    pub columns: Vec<&'a [f64]>,
-    /// The step between samples.
-    pub step: f64,
-}
-
-impl Samples<'_> {
-    /// How many samples.
-    pub fn len(&self) -> usize {
-        self.time.len()
-    }
-
-    /// Whether there are none.
-    pub fn is_empty(&self) -> bool {
-        self.time.is_empty()
-    }
-}
+pub use singular::{Conditioning, GAIN};
 
 /// Which kind of estimator of the signals' derivatives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -130,35 +111,6 @@ pub struct Calibrated {
     pub cusum: Vec<Option<CusumLevels>>,
     /// What was chosen and why, a sentence each, for the user.
     pub notes: Vec<String>,
-}
-
-/// Why a calibration could not be made.
-#[derive(Clone, Debug, PartialEq)]
-pub enum CalibrateError {
-    /// An estimator could not be built for the record's step.
-    Estimator(String),
-    /// The margin is not a non-negative number.
-    Margin(f64),
-    /// The crossing probability or the share is not a probability below 1.
-    Probability(f64),
-}
-
-impl std::fmt::Display for CalibrateError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            CalibrateError::Estimator(e) => f.write_str(e),
-            CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number ≥ 0"),
-            CalibrateError::Probability(p) => write!(f, "{p}: expected a probability in [0, 1)"),
-        }
-    }
-}
-
-impl std::error::Error for CalibrateError {}
-
-impl From<EstimatorError> for CalibrateError {
-    fn from(e: EstimatorError) -> Self {
-        CalibrateError::Estimator(e.to_string())
-    }
 }
 
 /// Calibrates the residuals of `c` on the healthy record `healthy`, starting from the model's
@@ -282,7 +234,7 @@ fn settle_on(
         &healthy.columns,
         deviations,
         &differentiated,
-        (window_of(estimator), degree_of(estimator)),
+        (estimator.window(), estimator.degree()),
     )
 }
 
@@ -296,23 +248,12 @@ fn trim<'a>(samples: &Samples<'a>, first: Option<usize>) -> Samples<'a> {
     }
 }
 
-/// The degree of the polynomials an estimator follows signals with (modulating functions:
-/// a cubic's, as the fits' default).
-fn degree_of(estimator: Estimator) -> u32 {
-    match estimator {
-        Estimator::SavitzkyGolay { degree, .. } => degree,
-        Estimator::Modulating { .. } => 3,
-    }
-}
-
 /// The estimator's window while the singular samples are looked for, before it is chosen.
 const PROVISIONAL_WINDOW: usize = 51;
 
 /// An estimator's window, in samples.
 pub fn window_of(estimator: Estimator) -> usize {
-    match estimator {
-        Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
-    }
+    estimator.window()
 }
 
 /// Each residual's threshold and the walk it grows with, where it has them.
@@ -585,57 +526,5 @@ impl Calibrating<'_> {
             level.get_or_insert(calibrated);
         }
         Ok((levels, walks))
-    }
-}
-
-/// A series' RMS (at least the smallest positive number), over its finite values.
-fn rms(r: &[f64]) -> f64 {
-    let (sum, n) =
-        (r.iter().filter(|v| v.is_finite())).fold((0.0, 0), |(s, n), v| (s + v * v, n + 1));
-    (sum / (n as f64).max(1.0)).sqrt().max(f64::MIN_POSITIVE)
-}
-
-/// The healthy record, with where it is singular: what the choices are made on.
-pub(crate) struct Healthy<'a> {
-    samples: &'a Samples<'a>,
-    singular: Singular,
-}
-
-impl Healthy<'_> {
-    /// How many samples.
-    pub(crate) fn len(&self) -> usize {
-        self.samples.len()
-    }
-
-    /// Each residual's values over the record, one per estimate; not a number where it is
-    /// singular.
-    pub(crate) fn residuals(&self, generator: Generator) -> Vec<Vec<f64>> {
-        self.residuals_with(generator, &self.samples.columns)
-    }
-
-    /// The same over the record's time with other columns (a replica's).
-    pub(crate) fn residuals_with(
-        &self,
-        mut generator: Generator,
-        columns: &[&[f64]],
-    ) -> Vec<Vec<f64>> {
-        let mut series: Vec<Vec<f64>> = Vec::new();
-        let singular = &self.singular;
-        generator.run(self.samples.time, columns, false, |e| {
-            if !e.is_empty() {
-                series.resize(e.residual_count(), Vec::new());
-            }
-            for (k, s) in series.iter_mut().enumerate() {
-                let at = e.at();
-                s.extend((e.residual(k).iter().zip(at)).map(|(&r, &t)| {
-                    if singular.contains(k, t) {
-                        f64::NAN
-                    } else {
-                        r
-                    }
-                }));
-            }
-        });
-        series
     }
 }

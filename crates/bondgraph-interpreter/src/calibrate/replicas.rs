@@ -7,7 +7,7 @@
 //! plant's actual trajectory. (A smoother cannot take the record's own noise out first: what it
 //! leaves is the noise in the signals' band, which is what the residuals see.)
 
-use crate::calibrate::Samples;
+use crate::calibrate::samples::Samples;
 
 /// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
 /// records, from which the level a record crosses with a stated probability is extrapolated.

@@ -8,8 +8,9 @@
 
 use bondgraph::Cusum;
 
+use crate::calibrate::error::CalibrateError;
 use crate::calibrate::replicas::{self, Replicas};
-use crate::calibrate::{CalibrateError, Healthy};
+use crate::calibrate::samples::Healthy;
 use crate::generator::Generator;
 use crate::walk::Walk;
 

@@ -11,6 +11,7 @@
 //! no alarm, and the user is told which, residual by residual.
 
 use crate::calibrate::replicas;
+use crate::calibrate::samples::Singular;
 use crate::generator::Generator;
 
 /// How many times its healthy median a residual's sensitivity to the noise must be for its
@@ -20,54 +21,6 @@ pub const GAIN: f64 = 10.0;
 
 /// The draw of noise singular samples are found with: beyond those of the replicas.
 const DRAW: usize = 1 << 20;
-
-/// Per residual, the spans of time (first and last estimate's instants) where it is
-/// singular, in order.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Singular {
-    /// One list of spans per residual.
-    pub spans: Vec<Vec<(f64, f64)>>,
-}
-
-impl Singular {
-    /// Whether residual `k` is singular at `t`.
-    pub fn contains(&self, k: usize, t: f64) -> bool {
-        let Some(spans) = self.spans.get(k) else {
-            return false;
-        };
-        let after = spans.partition_point(|&(from, _)| from <= t);
-        after > 0 && t <= spans[after - 1].1
-    }
-
-    /// The latest end of the spans that begin at `first` (a record's first estimate): when
-    /// a record that starts singular (at rest) has settled, where it does.
-    pub fn settled(&self, first: f64) -> Option<f64> {
-        (self.spans.iter())
-            .filter_map(|s| {
-                s.first()
-                    .filter(|(from, _)| *from <= first)
-                    .map(|(_, to)| *to)
-            })
-            .fold(None, |a: Option<f64>, t| Some(a.map_or(t, |a| a.max(t))))
-    }
-
-    /// Whether no residual is singular anywhere.
-    pub fn is_empty(&self) -> bool {
-        self.spans.iter().all(Vec::is_empty)
-    }
-
-    /// Each residual's spans as the notes give them: `0–0.31 s, 12.5–12.6 s`.
-    pub fn said(&self, k: usize) -> String {
-        let spans = &self.spans[k];
-        let mut out: Vec<String> = (spans.iter().take(4))
-            .map(|(a, b)| format!("{a}–{b} s"))
-            .collect();
-        if spans.len() > 4 {
-            out.push(format!("and {} more", spans.len() - 4));
-        }
-        out.join(", ")
-    }
-}
 
 /// What tells a singular sample on any record: each signal's noise deviation, and each
 /// residual's median sensitivity to it on the healthy record (`None`: never singular, a
@@ -111,8 +64,7 @@ impl Conditioning {
         estimator: crate::fit::Estimator,
     ) -> Option<usize> {
         let differentiated: Vec<bool> = program.raw.values().map(|r| r.order > 0).collect();
-        let window = crate::calibrate::window_of(estimator);
-        let degree = crate::calibrate::degree_of(estimator);
+        let (window, degree) = (estimator.window(), estimator.degree());
         crate::calibrate::settle::settled(
             columns,
             &self.deviations,

@@ -1,0 +1,32 @@
+//! Why a calibration could not be made.
+
+use bondgraph::EstimatorError;
+
+/// Why a calibration could not be made.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CalibrateError {
+    /// An estimator could not be built for the record's step.
+    Estimator(String),
+    /// The margin is not a non-negative number.
+    Margin(f64),
+    /// The crossing probability or the share is not a probability below 1.
+    Probability(f64),
+}
+
+impl std::fmt::Display for CalibrateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            CalibrateError::Estimator(e) => f.write_str(e),
+            CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number ≥ 0"),
+            CalibrateError::Probability(p) => write!(f, "{p}: expected a probability in [0, 1)"),
+        }
+    }
+}
+
+impl std::error::Error for CalibrateError {}
+
+impl From<EstimatorError> for CalibrateError {
+    fn from(e: EstimatorError) -> Self {
+        CalibrateError::Estimator(e.to_string())
+    }
+}

@@ -1,0 +1,127 @@
+//! The records a calibration reads: the samples as handed over, and the healthy record with
+//! where it is singular, over which every choice is made.
+
+use crate::generator::Generator;
+
+/// A record's samples as calibration reads them.
+#[derive(Clone, Debug)]
+pub struct Samples<'a> {
+    /// The time of each sample.
+    pub time: &'a [f64],
+    /// One column per raw signal of the program, in its order.
+    pub columns: Vec<&'a [f64]>,
+    /// The step between samples.
+    pub step: f64,
+}
+
+impl Samples<'_> {
+    /// How many samples.
+    pub fn len(&self) -> usize {
+        self.time.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.time.is_empty()
+    }
+}
+
+/// The healthy record, with where it is singular: what the choices are made on.
+pub(super) struct Healthy<'a> {
+    pub(super) samples: &'a Samples<'a>,
+    pub(super) singular: Singular,
+}
+
+impl Healthy<'_> {
+    /// How many samples.
+    pub(crate) fn len(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Each residual's values over the record, one per estimate; not a number where it is
+    /// singular.
+    pub(crate) fn residuals(&self, generator: Generator) -> Vec<Vec<f64>> {
+        self.residuals_with(generator, &self.samples.columns)
+    }
+
+    /// The same over the record's time with other columns (a replica's).
+    pub(crate) fn residuals_with(
+        &self,
+        mut generator: Generator,
+        columns: &[&[f64]],
+    ) -> Vec<Vec<f64>> {
+        let mut series: Vec<Vec<f64>> = Vec::new();
+        let singular = &self.singular;
+        generator.run(self.samples.time, columns, false, |e| {
+            if !e.is_empty() {
+                series.resize(e.residual_count(), Vec::new());
+            }
+            for (k, s) in series.iter_mut().enumerate() {
+                let at = e.at();
+                s.extend((e.residual(k).iter().zip(at)).map(|(&r, &t)| {
+                    if singular.contains(k, t) {
+                        f64::NAN
+                    } else {
+                        r
+                    }
+                }));
+            }
+        });
+        series
+    }
+}
+
+/// A series' RMS (at least the smallest positive number), over its finite values.
+pub(super) fn rms(r: &[f64]) -> f64 {
+    let (sum, n) =
+        (r.iter().filter(|v| v.is_finite())).fold((0.0, 0), |(s, n), v| (s + v * v, n + 1));
+    (sum / (n as f64).max(1.0)).sqrt().max(f64::MIN_POSITIVE)
+}
+
+/// Per residual, the spans of time (first and last estimate's instants) where it is
+/// singular, in order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Singular {
+    /// One list of spans per residual.
+    pub spans: Vec<Vec<(f64, f64)>>,
+}
+
+impl Singular {
+    /// Whether residual `k` is singular at `t`.
+    pub fn contains(&self, k: usize, t: f64) -> bool {
+        let Some(spans) = self.spans.get(k) else {
+            return false;
+        };
+        let after = spans.partition_point(|&(from, _)| from <= t);
+        after > 0 && t <= spans[after - 1].1
+    }
+
+    /// The latest end of the spans that begin at `first` (a record's first estimate): when
+    /// a record that starts singular (at rest) has settled, where it does.
+    pub fn settled(&self, first: f64) -> Option<f64> {
+        (self.spans.iter())
+            .filter_map(|s| {
+                s.first()
+                    .filter(|(from, _)| *from <= first)
+                    .map(|(_, to)| *to)
+            })
+            .fold(None, |a: Option<f64>, t| Some(a.map_or(t, |a| a.max(t))))
+    }
+
+    /// Whether no residual is singular anywhere.
+    pub fn is_empty(&self) -> bool {
+        self.spans.iter().all(Vec::is_empty)
+    }
+
+    /// Each residual's spans as the notes give them: `0–0.31 s, 12.5–12.6 s`.
+    pub fn said(&self, k: usize) -> String {
+        let spans = &self.spans[k];
+        let mut out: Vec<String> = (spans.iter().take(4))
+            .map(|(a, b)| format!("{a}–{b} s"))
+            .collect();
+        if spans.len() > 4 {
+            out.push(format!("and {} more", spans.len() - 4));
+        }
+        out.join(", ")
+    }
+}

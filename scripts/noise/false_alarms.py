@@ -1,0 +1,122 @@
+#!/usr/bin/env python3
+"""False alarms against the stated rate: thresholds calibrated on one 200-s healthy record of
+the reference bench for a stated rate (`--false-alarm-rate`), then N healthy records of other
+noise seeds, 3,000 s each, monitored with the kept calibration; the false-alarm episodes
+counted (a run of samples with some alarm, however long) against what the stated rate
+predicts.
+
+Outside CI (tens of minutes). Records simulated by scipy (scripts/identify/bench_plant.py,
+not bgc), from rest, σ = 1e-4 rad/s on both encoders, 1 kHz; the plant's parameters drawn
+within ±3 % of the model's (`--draw`, 0: the model's own). The calibration record is the
+first 200 s of the trajectory with noise seed 1; every monitored record is the same 3,000-s
+trajectory (open loop: the input decides it) with noise seeds 100, 101, ... Records go to
+Parquet (pyarrow), residuals to CSV, read back with pyarrow.
+
+What a rate predicts: a calibration states the probability p that a healthy record as long
+as the calibration's crosses a threshold (its `crossing` line); a 3,000-s record is 15 such
+records, so N records predict about 15 N p episodes (fewer where one episode spans two).
+
+Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
+                       [--inputs square sine] [--rates 0 1/h 4/h] [--draw 7]
+"""
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "identify"))
+import bench_plant  # noqa: E402
+
+ROOT = os.path.dirname(os.path.dirname(HERE))
+MODEL = os.path.join(ROOT, "models", "backlash_bench.bg")
+CALIBRATION_SECONDS = 200.0
+SIGMA = 1e-4
+
+
+def write(path, t, U0, y1, y2):
+    pq.write_table(pa.table({"t": t, "U0": U0, "y1": y1, "y2": y2}), path)
+
+
+def noisy(clean, seed, rows):
+    t, U0, we, ws = (c[:rows] for c in clean)
+    rng = np.random.default_rng(seed)
+    return t, U0, we + SIGMA * rng.standard_normal(rows), ws + SIGMA * rng.standard_normal(rows)
+
+
+def episodes(path):
+    """The runs of samples with some alarm in a residual CSV, and the samples in alarm."""
+    table = pacsv.read_csv(path)
+    alarms = [c for c in table.column_names if c.startswith("alarm_")]
+    on = np.zeros(table.num_rows, dtype=bool)
+    for c in alarms:
+        on |= table[c].to_numpy() == 1
+    rising = np.count_nonzero(on[1:] & ~on[:-1]) + int(on[0]) if on.size else 0
+    return rising, int(on.sum())
+
+
+def crossing(path):
+    with open(path) as f:
+        for line in f:
+            if line.startswith("crossing "):
+                return float(line.split()[1])
+    raise RuntimeError(f"{path}: no crossing line")
+
+
+def main():
+    a = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    a.add_argument("--bgc", default=os.path.join(ROOT, "target", "release", "bgc"))
+    a.add_argument("--records", type=int, default=20)
+    a.add_argument("--seconds", type=float, default=3000.0)
+    a.add_argument("--inputs", nargs="+", default=["square", "sine"])
+    a.add_argument("--rates", nargs="+", default=["0", "1/h", "4/h"])
+    a.add_argument("--draw", type=int, default=7)
+    args = a.parse_args()
+    params = bench_plant.draw(args.draw) if args.draw else dict(bench_plant.MODEL)
+    print(f"plant: {' '.join(f'{k}={v:.5g}' for k, v in params.items())}")
+    print("input   rate   p per 200 s   predicted   episodes   records with any   samples")
+    with tempfile.TemporaryDirectory() as tmp:
+        for input in args.inputs:
+            clean = bench_plant.simulate(params, input, args.seconds, sigma=0.0)
+            calibration = os.path.join(tmp, "calibration.parquet")
+            write(calibration, *noisy(clean, 1, int(CALIBRATION_SECONDS * 1000) + 1))
+            kept = {}
+            for rate in args.rates:
+                kept[rate] = os.path.join(tmp, f"{rate.replace('/', '_')}.cal")
+                subprocess.run(
+                    [args.bgc, "residuals", MODEL, calibration, "--calibrate", calibration,
+                     "--false-alarm-rate", rate, "--save-calibration", kept[rate],
+                     "-o", os.devnull],
+                    check=True, capture_output=True)
+            counts = {rate: [0, 0, 0] for rate in args.rates}
+            for k in range(args.records):
+                record = os.path.join(tmp, "record.parquet")
+                write(record, *noisy(clean, 100 + k, len(clean[0])))
+                for rate in args.rates:
+                    out = os.path.join(tmp, "r.csv")
+                    subprocess.run(
+                        [args.bgc, "residuals", MODEL, record, "--calibration", kept[rate],
+                         "--no-size", "-o", out],
+                        check=True, capture_output=True)
+                    runs, samples = episodes(out)
+                    c = counts[rate]
+                    c[0] += runs
+                    c[1] += runs > 0
+                    c[2] += samples
+            for rate in args.rates:
+                p = crossing(kept[rate])
+                predicted = args.records * args.seconds / CALIBRATION_SECONDS * p
+                runs, records, samples = counts[rate]
+                print(f"{input:7} {rate:6} {p:11.3g} {predicted:11.2f} {runs:10} "
+                      f"{records:8} of {args.records}   {samples}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
