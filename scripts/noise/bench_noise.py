@@ -16,14 +16,21 @@ the record):
 - faultdiagnosistoolbox: the model's equations (the plant bgc simulates: the link's twist and
   the dead zone's argument are one integral, both from zero), its MSOs, for each one a
   sequential residual generator in integral causality (`SeqResGen`, forward Euler), run on
-  the same records from the plant's initial state; each threshold is calibrated as bgc's
-  is: the largest |r| on the healthy record, times 1.2;
+  the same records from the plant's initial state; each threshold is stated as bgc's is:
+  at least the largest |r| on the healthy record times 1.2, and at least the level that
+  the healthy record's noise, drawn again (`--draws` draws of fresh noise of the deviation
+  read from each encoder's third differences, added and taken away), makes the residual
+  cross with probability 1e-3, from their maxima as a Gumbel law (L-moments, location and
+  scale one standard error higher) -- the rule of bgc's `--calibrate`;
 - for each residual: its RMS before the fault, its fault-to-noise ratio (RMS of its change
-  after the fault, from 1 s on, over that RMS), the share of samples in alarm from 1 s after
-  the fault, and the alarms before it (from a quarter second before it: bgc's centred
-  estimates read up to half their window ahead).
+  after the fault, from 1 s on, over that RMS: a figure that grows with the record for a
+  residual integrated from the start), **the margin at equal time** (the median of
+  |r|/threshold from 1 s to 2 s after the fault) and **the delay** (from the fault to the
+  first alarm), the share of samples in alarm from 1 s after the fault, and the alarms
+  before it (from a quarter second before it: bgc's centred estimates read up to half their
+  window ahead).
 
-Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--no-fdt]
+Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--no-fdt]
 """
 
 import argparse
@@ -71,10 +78,10 @@ def bgc_residuals(bgc, record, healthy, extra):
                          check=True, capture_output=True, text=True).stdout
     rows = list(csv.reader(out.splitlines()))
     header, body = rows[0], rows[1:]
-    n = (len(header) - 3) // 3
+    n = sum(1 for h in header if h.startswith("alarm_"))
     data = np.array([[float(c) if c else np.nan for c in r[: 1 + 3 * n]] for r in body])
-    return [(header[1 + k], data[:, 0], data[:, 1 + k], data[:, 1 + 2 * n + k] > 0.5)
-            for k in range(n)]
+    return [(header[1 + k], data[:, 0], data[:, 1 + k], data[:, 1 + 2 * n + k] > 0.5,
+             data[:, 1 + n + k]) for k in range(n)]
 
 
 def fdt_generators(tmp):
@@ -125,7 +132,42 @@ def fdt_run(generator, data):
     return r
 
 
-def report(label, t, r, alarm, at):
+def deviation(x):
+    """A column's white-noise deviation from its third differences, as bgc reads it."""
+    d = np.abs(x[3:] - 3 * x[2:-1] + 3 * x[1:-2] - x[:-3])
+    return float(np.median(d) / 0.6745 / np.sqrt(20.0))
+
+
+def gumbel_level(maxima, p):
+    """bgc's Gumbel level (calibrate/replicas.rs): L-moments, each raised a standard error."""
+    m = np.sort(np.asarray(maxima))
+    n = len(m)
+    l1 = m.mean()
+    b1 = np.sum(np.arange(n) / (n - 1) * m) / n
+    l2 = 2 * b1 - l1
+    error = 1 / np.sqrt(n)
+    beta = l2 / np.log(2) * (1 + error)
+    location = l1 - 0.5772156649015329 * beta + beta * error
+    return location - beta * np.log(-np.log1p(-p))
+
+
+def fdt_level(generator, healthy, draws):
+    """A faultdiagnosistoolbox residual's threshold by bgc's rule (see the module's text)."""
+    seen = (1 + MARGIN) * np.max(np.abs(fdt_run(generator, healthy)))
+    rng = np.random.default_rng(0x6263)
+    sigma = [deviation(healthy[:, c]) for c in (2, 3)]
+    maxima = []
+    for _ in range(draws):
+        noise = np.zeros_like(healthy)
+        for c, s in zip((2, 3), sigma):
+            noise[:, c] = s * rng.standard_normal(len(healthy))
+        up = fdt_run(generator, healthy + noise)
+        down = fdt_run(generator, healthy - noise)
+        maxima.append(np.max(np.abs(0.5 * (up - down))))
+    return max(seen, gumbel_level(maxima, 1e-3))
+
+
+def report(label, t, r, alarm, at, level):
     # bgc's centred estimates at t read samples up to half a window later (at most 0.25 s):
     # alarms count as before the fault from that far before it.
     after, early = t > at + 1.0, t < at - LOOKAHEAD
@@ -133,8 +175,12 @@ def report(label, t, r, alarm, at):
     rms = float(np.sqrt(np.mean(r[early] ** 2)))
     change = r[after] - np.mean(r[early])
     snr = float(np.sqrt(np.mean(change ** 2)) / rms) if rms > 0 else float("inf")
-    print(f"| {label} | {rms:.3g} | {snr:.3g} | {100 * np.mean(alarm[after]):.1f} % | "
-          f"{int(np.sum(alarm[early]))} |")
+    window = (t >= at + 1.0) & (t <= at + 2.0)
+    margin = float(np.nanmedian(np.abs(r[window]) / level[window]))
+    seen = np.nonzero(alarm & (t >= at - LOOKAHEAD))[0]
+    delay = f"{t[seen[0]] - at:+.3f} s" if seen.size else "none"
+    print(f"| {label} | {rms:.3g} | {snr:.3g} | {margin:.3g} | {delay} | "
+          f"{100 * np.mean(alarm[after]):.1f} % | {int(np.sum(alarm[early]))} |")
     sys.stdout.flush()
 
 
@@ -142,31 +188,33 @@ def main():
     p = argparse.ArgumentParser()
     p.add_argument("--bgc", default=os.path.join(ROOT, "target", "release", "bgc"))
     p.add_argument("--seconds", type=float, default=1000.0)
+    p.add_argument("--draws", type=int, default=16)
     p.add_argument("--no-fdt", action="store_true")
     a = p.parse_args()
     at = a.seconds * 0.5125
     with tempfile.TemporaryDirectory() as tmp:
         generators = [] if a.no_fdt else fdt_generators(tmp)
         print("| input | fault | tool | residual | healthy RMS | fault/noise | "
-              "in alarm from 1 s after | alarms before |")
-        print("|---|---|---|---|---|---|---|---|")
+              "margin 1-2 s after | delay | in alarm from 1 s after | alarms before |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
         for input_name, u in INPUTS.items():
             healthy = os.path.join(tmp, f"{input_name}_healthy.csv")
             simulate(a.bgc, healthy, a.seconds, u, 1)
             healthy_data = read(healthy)
-            levels = {name: (1 + MARGIN) * np.max(np.abs(fdt_run(g, healthy_data)))
-                      for name, g in generators}
+            levels = {name: fdt_level(g, healthy_data, a.draws) for name, g in generators}
             for fault_name, fault in FAULTS.items():
                 record = os.path.join(tmp, f"{input_name}_{fault_name}.csv")
                 simulate(a.bgc, record, a.seconds, u, 2, fault.format(at=at))
                 for how, extra in [("bgc", []), ("bgc --realise direct", ["--realise", "direct"])]:
-                    for name, t, r, alarm in bgc_residuals(a.bgc, record, healthy, extra):
-                        report(f"{input_name} | {fault_name} | {how} | {name}", t, r, alarm, at)
+                    for name, t, r, alarm, level in bgc_residuals(a.bgc, record, healthy, extra):
+                        report(f"{input_name} | {fault_name} | {how} | {name}", t, r, alarm, at,
+                               level)
                 data = read(record)
                 for name, g in generators:
                     r = fdt_run(g, data)
                     report(f"{input_name} | {fault_name} | faultdiagnosistoolbox | {name}",
-                           data[:, 0], r, np.abs(r) > levels[name], at)
+                           data[:, 0], r, np.abs(r) > levels[name], at,
+                           np.full(len(r), levels[name]))
 
 
 if __name__ == "__main__":

@@ -368,7 +368,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     // Where the relation is singular the noise decides it: no threshold.
                     let singular = singular_spans.contains(k, e_at);
                     let level = l.filter(|_| !singular);
-                    *now = level.map(|l| l * walk.map_or(1.0, |w| w.deviation(estimates)) + b);
+                    *now = level.map(|l| walk.map_or(l, |w| w.threshold(l, estimates)) + b);
                     // A residual that is not a number says nothing: no alarm, and its
                     // debounce goes on from where it was.
                     *on = match (alarm.as_mut(), *now) {

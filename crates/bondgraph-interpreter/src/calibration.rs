@@ -21,10 +21,10 @@
 //!
 //! `noise SIGNAL DEVIATION`: a signal's noise as read on the healthy record, for the samples
 //! where a residual is singular (see `Conditioning`); none where no residual can be.
-//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE] [typical SENSITIVITY] [cusum SIGMA DRIFT
-//! LEVEL]`: the integration is `start`, a window in samples, or `-` for a residual not
-//! integrated; the threshold is `-` for none, and for a residual with a walk it is in the
-//! walk's deviations; `typical`, the residual's median sensitivity to that noise on the
+//! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE [drift PER_SAMPLE]] [typical SENSITIVITY]
+//! [cusum SIGMA DRIFT LEVEL]`: the integration is `start`, a window in samples, or `-` for a
+//! residual not integrated; the threshold is `-` for none, and for a residual with a walk it
+//! is in the walk's deviations, plus the drift allowed for times the samples from the start; `typical`, the residual's median sensitivity to that noise on the
 //! healthy record; `cusum`, the sequential test beside the threshold (`--cusum`).
 
 use crate::calibrate::{Conditioning, CusumLevels};
@@ -132,6 +132,9 @@ impl Calibration {
             out += &format!("arr {} {integration} {threshold}", d.name);
             if let Some(w) = d.walk {
                 out += &format!(" walk {} {}", number(w.floor), number(w.rate));
+                if w.drift > 0.0 {
+                    out += &format!(" drift {}", number(w.drift));
+                }
             }
             if let Some(typical) = d.typical {
                 out += &format!(" typical {}", number(typical));
@@ -242,7 +245,13 @@ impl Parts {
                             walk = Some(Walk {
                                 floor: non_negative(floor)?,
                                 rate: non_negative(rate)?,
+                                drift: 0.0,
                             });
+                            more
+                        }
+                        ["drift", value, more @ ..] => {
+                            let w = walk.as_mut().ok_or("`drift` before `walk`")?;
+                            w.drift = non_negative(value)?;
                             more
                         }
                         ["typical", value, more @ ..] if typical.is_none() => {
@@ -259,8 +268,8 @@ impl Parts {
                         }
                         _ => {
                             return Err("expected nothing after the threshold but `walk FLOOR \
-                                        RATE`, `typical SENSITIVITY` and `cusum SIGMA DRIFT \
-                                        LEVEL`, each once"
+                                        RATE`, `drift PER_SAMPLE`, `typical SENSITIVITY` and \
+                                        `cusum SIGMA DRIFT LEVEL`, each once"
                                 .into())
                         }
                     };
@@ -495,6 +504,7 @@ mod tests {
                     walk: Some(Walk {
                         floor: 1.2e-6,
                         rate: 3.4e-11,
+                        drift: 2.5e-9,
                     }),
                     typical: None,
                     cusum: None,

@@ -11,6 +11,11 @@ pub struct Walk {
     pub floor: f64,
     /// The walk's mean square growth per sample.
     pub rate: f64,
+    /// A steady drift allowed for, per sample: the model's error integrated, which a walk
+    /// fitted on a short record cannot tell from its noise but which, over a record many times
+    /// as long, outgrows it (on the bench drawn 3 % off, ARR2 drifted by 2e-6 per second, past
+    /// a constant threshold after 1,350 s of a 3,000-s record calibrated on 200 s).
+    pub drift: f64,
 }
 
 impl Walk {
@@ -45,7 +50,11 @@ impl Walk {
         }
         let rate = ((b - a) / (long - short) as f64).max(0.0);
         let floor = (a - rate * short as f64).max(0.0);
-        (floor + rate > 0.0).then_some(Walk { floor, rate })
+        (floor + rate > 0.0).then_some(Walk {
+            floor,
+            rate,
+            drift: 0.0,
+        })
     }
 
     /// The probability a healthy residual may cross its threshold anywhere on a record of
@@ -93,6 +102,51 @@ impl Walk {
             .sqrt()
             .max(f64::MIN_POSITIVE)
     }
+
+    /// The threshold at `k` samples from the start for a level in deviations: the level
+    /// times the deviation there, plus the drift allowed for over `k` samples.
+    pub fn threshold(&self, level: f64, k: usize) -> f64 {
+        level * self.deviation(k) + self.drift * k as f64
+    }
+
+    /// The drift of `r` (a residual integrated from the start, over a healthy record) to
+    /// allow for: its least-squares slope per sample, in magnitude, and three times `error`
+    /// (the slope's standard error under the record's noise) above it, over the whole record
+    /// and over its second half (a start-up's transient bends the first half), whichever is
+    /// larger, times `1 + margin`. On the bench drawn 3 % off, the drift of ARR2 (1.5e-6 per
+    /// second) is within the noise of a 200-s record's slope, and outgrows a constant threshold
+    /// after 1,350 s: it is bounded by what the record can tell, not by what it shows.
+    pub fn drift_of(r: &[f64], error: f64, margin: f64) -> f64 {
+        let half = r.len() / 2;
+        // A slope over half the samples has 2^1.5 times the standard error.
+        let whole = slope(r, 0) + 3.0 * error;
+        let second = slope(&r[half..], half) + 3.0 * 2f64.powf(1.5) * error;
+        whole.max(second) * (1.0 + margin)
+    }
+}
+
+/// The magnitude of the least-squares slope per sample of the finite values of `r` (whose
+/// first sample is the `offset`-th), 0 where there are fewer than 3.
+pub(crate) fn slope(r: &[f64], offset: usize) -> f64 {
+    let points: Vec<(f64, f64)> = (r.iter().enumerate())
+        .filter(|(_, v)| v.is_finite())
+        .map(|(k, &v)| ((k + offset) as f64, v))
+        .collect();
+    let n = points.len() as f64;
+    if n < 3.0 {
+        return 0.0;
+    }
+    let (mk, mv) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (k, v)| (a + k / n, b + v / n));
+    let (sxy, sxx) = (points.iter()).fold((0.0, 0.0), |(xy, xx), (k, v)| {
+        (xy + (k - mk) * (v - mv), xx + (k - mk) * (k - mk))
+    });
+    if sxx > 0.0 {
+        (sxy / sxx).abs()
+    } else {
+        0.0
+    }
 }
 
 /// The mean of `(r[k + lag] - r[k])²` over a series.
@@ -109,6 +163,27 @@ fn mean_square_change(r: &[f64], lag: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A drift is allowed for at its slope, and where the noise hides it, at three standard
+    /// errors of the slope above what the record shows; the second half's slope counts where
+    /// a start-up bends the first.
+    #[test]
+    fn the_drift_allowed_is_the_slope_and_what_the_noise_may_hide() {
+        let ramp: Vec<f64> = (0..1000).map(|k| 2e-3 * k as f64).collect();
+        assert!((Walk::drift_of(&ramp, 0.0, 0.0) - 2e-3).abs() < 1e-12);
+        assert!((Walk::drift_of(&ramp, 0.0, 0.2) - 2.4e-3).abs() < 1e-12);
+        let flat = vec![1.0; 1000];
+        let hidden = Walk::drift_of(&flat, 1e-4, 0.0);
+        assert!(
+            (hidden - 3.0 * 2f64.powf(1.5) * 1e-4).abs() < 1e-12,
+            "{hidden}"
+        );
+        // Flat for half the record, then a ramp: the second half's slope.
+        let bent: Vec<f64> = (0..1000)
+            .map(|k| if k < 500 { 0.0 } else { (k - 500) as f64 })
+            .collect();
+        assert!((Walk::drift_of(&bent, 0.0, 0.0) - 1.0).abs() < 1e-9);
+    }
 
     /// A reproducible standard normal sequence (Box–Muller over a linear congruential
     /// generator): the tests must not depend on a crate's random numbers.

@@ -603,10 +603,10 @@ impl Watch<'_> {
         for (k, (((alarm, sequential), level), walk)) in each.enumerate() {
             for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
                 let at = base + j * m + k;
-                let grown = walk.map_or(1.0, |w| w.deviation(first + j));
                 // Where the relation is singular the noise decides it: no threshold.
                 let singular = self.settings.singular.contains(k, e.at()[j]);
-                let now = level.filter(|_| !singular).map(|l| l * grown + b);
+                let grown = |l: f64| walk.map_or(l, |w| w.threshold(l, first + j));
+                let now = level.filter(|_| !singular).map(|l| grown(l) + b);
                 pass.residuals[at] = r;
                 if let Levels::Moving(levels) = &mut pass.levels {
                     levels[at] = now.unwrap_or(if singular { f64::NAN } else { 0.0 });

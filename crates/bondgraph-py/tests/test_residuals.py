@@ -294,10 +294,10 @@ def test_calibration_in_python_decides_as_the_cli_on_a_pump_from_rest(tmp_path):
     rest, Python and ``bgc residuals --calibrate`` leave the same start-up out and give the
     same thresholds, residuals and alarms; the clog of the drain alarms and is named."""
     healthy, clogged = tmp_path / "healthy.csv", tmp_path / "clogged.csv"
-    bgc_cli("simulate", str(PUMP), str(PUMP_SCENARIO), "--duration", "20", "-o", str(healthy))
+    bgc_cli("simulate", str(PUMP), str(PUMP_SCENARIO), "--duration", "12", "-o", str(healthy))
     bgc_cli(
-        "simulate", str(PUMP), str(PUMP_SCENARIO), "--duration", "20", "--seed", "2",
-        "-e", "fault c = 0.6*c at 12", "-o", str(clogged),
+        "simulate", str(PUMP), str(PUMP_SCENARIO), "--duration", "12", "--seed", "2",
+        "-e", "fault c = 0.6*c at 8", "-o", str(clogged),
     )
     header, rows = read_csv(bgc_cli("residuals", str(PUMP), str(clogged), "--calibrate", str(healthy)))
     pump = bgc.compile(PUMP)
@@ -305,7 +305,7 @@ def test_calibration_in_python_decides_as_the_cli_on_a_pump_from_rest(tmp_path):
     run = pump.residuals(columns(clogged), calibrate=columns(healthy))
     assert any("starts unsettled" in n for n in run.notes), run.notes
     _assert_decides_as_the_cli(header, rows, run)
-    assert run.alarms[:, 2].any() and not run.alarms[run.time < 11.7].any()
+    assert run.alarms[:, 2].any() and not run.alarms[run.time < 7.7].any()
     assert run.episode[-1] == "tank drain"
     # A CUSUM beside each threshold decides alike too.
     header, rows = read_csv(bgc_cli(

@@ -85,11 +85,11 @@ pub(super) fn most_sensitive(
     let mut said = Vec::new();
     for &estimator in candidates {
         let nominal = healthy.residuals(build(estimator, params)?);
-        let none = vec![None; nominal.len()];
+        let mut none = vec![None; nominal.len()];
         let levels = thresholds(
             &|| build(estimator, params),
             healthy,
-            &none,
+            &mut none,
             (0.0, margin),
             None,
             Walk::CROSSING,

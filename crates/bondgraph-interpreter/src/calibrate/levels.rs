@@ -22,12 +22,34 @@ use crate::walk::Walk;
 pub(super) fn thresholds(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
     healthy: &Healthy<'_>,
-    walks: &[Option<Walk>],
+    walks: &mut [Option<Walk>],
     (rate, margin): (f64, f64),
     replicas: Option<&Replicas<'_>>,
     crossing: f64,
 ) -> Result<Vec<f64>, CalibrateError> {
-    let series = normalised(healthy.residuals(build()?), walks);
+    let raw = healthy.residuals(build()?);
+    // A walk read from one record's changes over two lags misses a slow one that only its
+    // whole length shows: the draws of its noise show it at every sample.
+    let mut errors = vec![0.0; walks.len()];
+    if let Some(replicas) = replicas.filter(|_| rate == 0.0) {
+        let profiles = walk_profiles(build, (healthy, replicas), walks)?;
+        for ((w, profile), error) in walks.iter_mut().zip(profiles).zip(&mut errors) {
+            if let (Some(w), Some(p)) = (w.as_mut(), profile) {
+                w.floor = w.floor.max(p.floor);
+                w.rate = w.rate.max(p.rate);
+                *error = p.slope_error;
+            }
+        }
+    }
+    // A residual integrated from the start may drift (the model's error integrated): the
+    // threshold allows for it, and the healthy record is read net of it.
+    for ((w, r), error) in walks.iter_mut().zip(&raw).zip(&errors) {
+        if let Some(w) = w {
+            w.drift = Walk::drift_of(r, *error, margin);
+        }
+    }
+    let series = net_of_drift(raw, walks);
+    let walks: &[Option<Walk>] = walks;
     let length = healthy.len();
     let replicated = match replicas.filter(|_| rate == 0.0) {
         Some(replicas) => replica_levels(build, (healthy, replicas), walks, crossing)?,
@@ -59,6 +81,91 @@ pub(super) fn thresholds(
             }
         })
         .collect())
+}
+
+/// How many draws of the noise measure how a walk's variance grows.
+const PROFILE_DRAWS: usize = 8;
+
+/// What the draws of a healthy record's noise say of a residual integrated from the start.
+struct Profile {
+    /// Its noise's mean square at the start.
+    floor: f64,
+    /// Its growth per sample.
+    rate: f64,
+    /// The standard error of a least-squares slope of the residual over the record, under
+    /// that noise.
+    slope_error: f64,
+}
+
+/// For each residual with a walk, its noise's mean square at each sample from the start, as
+/// [`PROFILE_DRAWS`] draws of the healthy record's noise give it, fitted by least squares as
+/// `floor + rate * k` (each at least 0), and the spread of the draws' slopes; `None` for the
+/// others.
+fn walk_profiles(
+    build: &dyn Fn() -> Result<Generator, CalibrateError>,
+    (healthy, replicas): (&Healthy<'_>, &Replicas<'_>),
+    walks: &[Option<Walk>],
+) -> Result<Vec<Option<Profile>>, CalibrateError> {
+    let n = walks.len();
+    let mut squares: Vec<Vec<f64>> = vec![Vec::new(); n];
+    let mut slopes = vec![0.0; n];
+    for index in 0..PROFILE_DRAWS {
+        let up = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, 1.0)));
+        let down = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, -1.0)));
+        for k in (0..n).filter(|&k| walks[k].is_some()) {
+            let noise: Vec<f64> = (up[k].iter().zip(&down[k]))
+                .map(|(u, d)| 0.5 * (u - d))
+                .collect();
+            slopes[k] += crate::walk::slope(&noise, 0).powi(2) / PROFILE_DRAWS as f64;
+            squares[k].resize(noise.len(), 0.0);
+            for (s, v) in squares[k].iter_mut().zip(&noise) {
+                *s += v * v / PROFILE_DRAWS as f64;
+            }
+        }
+    }
+    Ok((0..n)
+        .map(|k| {
+            let (floor, rate) = walks[k].and(line(&squares[k]))?;
+            Some(Profile {
+                floor,
+                rate,
+                slope_error: slopes[k].sqrt(),
+            })
+        })
+        .collect())
+}
+
+/// The least-squares line `a + b k` through the finite values of `v` (at `k` = 0, 1, ...),
+/// each coefficient at least 0.
+fn line(v: &[f64]) -> Option<(f64, f64)> {
+    let points: Vec<(f64, f64)> = (v.iter().enumerate())
+        .filter(|(_, x)| x.is_finite())
+        .map(|(k, &x)| (k as f64, x))
+        .collect();
+    let n = points.len() as f64;
+    if n < 3.0 {
+        return None;
+    }
+    let (mk, mv) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (k, x)| (a + k / n, b + x / n));
+    let (sxy, sxx) = (points.iter()).fold((0.0, 0.0), |(xy, xx), (k, x)| {
+        (xy + (k - mk) * (x - mv), xx + (k - mk) * (k - mk))
+    });
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    Some(((mv - slope * mk).max(0.0), slope.max(0.0)))
+}
+
+/// Each residual's |series| net of its walk's drift, over its deviation, where it follows one.
+fn net_of_drift(mut series: Vec<Vec<f64>>, walks: &[Option<Walk>]) -> Vec<Vec<f64>> {
+    for (r, walk) in series.iter_mut().zip(walks) {
+        if let Some(w) = walk {
+            for (k, v) in r.iter_mut().enumerate() {
+                *v = (v.abs() - w.drift * k as f64).max(0.0) / w.deviation(k);
+            }
+        }
+    }
+    series
 }
 
 /// Each residual's series over its walk's deviation, where it follows one.
@@ -155,4 +262,19 @@ fn excursions(s: &[f64], mean: f64, sigma: f64) -> usize {
         }
     }
     count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_walks_profile_is_the_line_through_its_mean_squares() {
+        let v: Vec<f64> = (0..100).map(|k| 2.0 + 0.5 * k as f64).collect();
+        let (a, b) = line(&v).expect("a line");
+        assert!((a - 2.0).abs() < 1e-9 && (b - 0.5).abs() < 1e-12, "{a} {b}");
+        let falling: Vec<f64> = (0..100).map(|k| 10.0 - k as f64).collect();
+        assert_eq!(line(&falling).map(|l| l.1), Some(0.0));
+        assert_eq!(line(&[1.0, f64::NAN]), None);
+    }
 }

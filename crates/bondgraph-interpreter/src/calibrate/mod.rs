@@ -511,11 +511,23 @@ impl Calibrating<'_> {
         let calibrated = levels::thresholds(
             &|| self.generator(estimator, integration, &self.params),
             &self.healthy,
-            &walks,
+            &mut walks,
             (choices.share, choices.margin),
             replicas.noisy().then_some(&replicas),
             crossing,
         )?;
+        let drifting: Vec<String> = (self.c.arrs.iter().zip(&walks))
+            .filter_map(|(a, w)| w.filter(|w| w.drift > 0.0).map(|w| (a, w)))
+            .map(|(a, w)| format!("{} {:.3e} per sample", a.name, w.drift))
+            .collect();
+        if !drifting.is_empty() {
+            self.notes.push(format!(
+                "residuals integrated from the start may drift (the model's error \
+                 integrated): each threshold grows by the healthy record's drift, times 1 + \
+                 the margin, per sample: {}",
+                drifting.join(", ")
+            ));
+        }
         let mut levels = choices.thresholds.clone();
         levels.resize(walks.len(), None);
         for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
