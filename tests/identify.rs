@@ -220,12 +220,20 @@ fn calibration_fits_the_model_first_and_keep_model_keeps_its_values() {
         &["i", "y1"],
     );
     let run = |extra: &[&str]| {
+        // The estimator and the integration fixed: the test is of the fit, not of the
+        // search after it.
         let mut args = vec![
             "residuals",
             "models/dc_motor.bg",
             &record,
             "--calibrate",
             &record,
+            "--estimator",
+            "savitzky-golay",
+            "--window",
+            "501",
+            "--integration-window",
+            "250",
         ];
         args.extend(extra);
         let out = bgc(&args);
@@ -272,12 +280,20 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
         2,
     );
     let written = dir.join("residuals.csv").display().to_string();
+    // The estimator and the integration fixed: the test is of the size, not of the
+    // calibration's search.
     let out = bgc(&[
         "residuals",
         model,
         &faulty,
         "--calibrate",
         &healthy,
+        "--estimator",
+        "savitzky-golay",
+        "--window",
+        "501",
+        "--integration-window",
+        "250",
         "-o",
         &written,
     ]);

@@ -10,14 +10,16 @@ The plant (derived under bgc's conventions, `models/backlash_bench.bg`):
     z' = we - N ws
     w(z) = -4 K j0 (1 - exp(-gamma z)) / (1 + exp(-gamma z))
 
-from rest; y1 = we and y2 = ws measured with Gaussian noise. scipy's LSODA (rtol 1e-10,
+from rest; y1 = we and y2 = ws measured with Gaussian noise. Inputs: an open-loop square
+10 ± 5 V of period 10 s, a sine 6 + 12 sin(0.5 t) V, or a closed loop (a PI controller of
+the load speed to 2 + sin(0.3 t) rad/s, its voltage recorded as U0). scipy's LSODA (rtol 1e-10,
 atol 1e-12) integrates between the input's discontinuities and the faults' instants; the
 samples are taken from its dense output at the record's step.
 
 As a module: `simulate(params, input, seconds, faults=(), seed=0, sigma=1e-4, step=1e-3)`
 returns (t, U0, y1, y2); `write_csv(path, ...)`. As a script:
 
-    bench_plant.py OUT.csv [--seconds 200] [--input square|sine] [--seed N] [--sigma S]
+    bench_plant.py OUT.csv [--seconds 200] [--input square|sine|closed] [--seed N] [--sigma S]
                    [--draw SEED] [--fault 'j0=3*j0@100'] [--ramp 'j0:0.2:0.6:100:600']
 
 `--draw SEED` draws each of the 11 parameters uniformly within ±3 % of the model's values
@@ -43,8 +45,17 @@ def sine(t):
     return 6.0 + 12.0 * np.sin(0.5 * t)
 
 
-# Each input and the period of its discontinuities (None: smooth).
-INPUTS = {"square": (square, 5.0), "sine": (sine, None)}
+def reference(t):
+    """The closed loop's set point of the load speed, rad/s."""
+    return 2.0 + 1.0 * np.sin(0.3 * t)
+
+
+# The closed loop's PI controller on the load speed, V per rad/s and V per rad.
+KP, KI = 3.0, 1.0
+
+# Each input and the period of its discontinuities (None: smooth). "closed": the armature
+# voltage a PI controller of the load speed sets (see `closed_loop`), recorded as U0.
+INPUTS = {"square": (square, 5.0), "sine": (sine, None), "closed": (reference, None)}
 
 
 def draw(seed, spread=0.03):
@@ -64,6 +75,18 @@ def rates(p, u):
             we - p["N"] * ws,
             (-p["fs"] * ws + p["N"] * torque) / p["Js"],
         ]
+    return f
+
+
+def closed_loop(p, reference):
+    """The plant under a continuous PI controller of the load speed: a fifth state, the
+    integral of the speed error; U0 = KP e + KI ∫e, with e the set point less the load
+    speed (the controller reads the plant, not the noisy encoder: the loop is the plant's,
+    the noise the records')."""
+    def f(t, x):
+        e = reference(t) - x[3]
+        u = KP * e + KI * x[4]
+        return rates(p, lambda _t: u)(t, x[:4]) + [e]
     return f
 
 
@@ -90,8 +113,9 @@ def simulate(params, input="square", seconds=200.0, faults=(), ramps=(), seed=0,
         cuts.update(np.arange(period, seconds, period).tolist())
     cuts.update(at for (_, _, at) in faults if 0 < at < seconds)
     cuts = sorted(cuts)
-    state = np.zeros(4)
-    out = np.zeros((n, 4))
+    closed = input == "closed"
+    state = np.zeros(5 if closed else 4)
+    out = np.zeros((n, len(state)))
     U0 = np.zeros(n)
     for a, b in zip(cuts[:-1], cuts[1:]):
         p = dict(params)
@@ -101,14 +125,21 @@ def simulate(params, input="square", seconds=200.0, faults=(), ramps=(), seed=0,
         # A square input is one level over the stretch (the solver may probe past its end).
         level = u(0.5 * (a + b))
         stretch_u = (lambda tt, level=level: level) if period else u
-        f = drifting(p, stretch_u, ramps) if ramps else rates(p, stretch_u)
+        if closed:
+            f = closed_loop(p, u)
+        else:
+            f = drifting(p, stretch_u, ramps) if ramps else rates(p, stretch_u)
         sol = solve_ivp(f, (a, b), state, method="LSODA", rtol=1e-10, atol=1e-12,
                         dense_output=True, max_step=0.05)
         if not sol.success:
             raise RuntimeError(sol.message)
         inside = (t >= a - 1e-9) & ((t <= b + 1e-9) if b == cuts[-1] else (t < b - 1e-9))
         out[inside] = sol.sol(t[inside]).T
-        U0[inside] = level if period else u(t[inside])
+        if closed:
+            x = out[inside]
+            U0[inside] = KP * (u(t[inside]) - x[:, 3]) + KI * x[:, 4]
+        else:
+            U0[inside] = level if period else u(t[inside])
         state = sol.y[:, -1]
     rng = np.random.default_rng(seed)
     y1 = out[:, 1] + sigma * rng.standard_normal(n)

@@ -6,11 +6,14 @@ Needs bgc built in release mode (`cargo build --release -p bgc`), numpy, and for
 comparison faultdiagnosistoolbox (`pip install faultdiagnosistoolbox`, which brings sympy);
 without it only bgc's residuals are measured.
 
-Per input (an open-loop square 10 ± 5 V of period 10 s, and the sine of
-`scenarios/bench_dead_zone.scn`) and per fault (`Re` × 1.5, `j0` × 3, both from 51.25 % of
-the record):
-- `bgc simulate` writes the faulty record (seed 2) and a healthy one (seed 1), 1 kHz,
-  Gaussian noise σ = 1e-4 rad/s on both encoders;
+Per input (an open-loop square 10 ± 5 V of period 10 s, the sine of
+`scenarios/bench_dead_zone.scn`, and a closed loop: a PI controller of the load speed, its
+voltage recorded as U0) and per fault (`Re` × 1.5, `j0` × 3, both from 51.25 % of the
+record):
+- scipy (scripts/identify/bench_plant.py, not bgc) simulates the plant with its parameters
+  drawn within ±3 % of the model's (`--draw`, 0: the model's own), from rest, and writes the
+  faulty record (noise seed 2) and a healthy one (seed 1), 1 kHz, Gaussian noise σ = 1e-4
+  rad/s on both encoders;
 - bgc: `bgc residuals MODEL RECORD --calibrate HEALTHY` with no other option, and with
   `--realise direct` (the relations as written, derivatives estimated);
 - faultdiagnosistoolbox: the model's equations (the plant bgc simulates: the link's twist and
@@ -30,7 +33,8 @@ the record):
   before it (from a quarter second before it: bgc's centred estimates read up to half their
   window ahead).
 
-Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--no-fdt]
+Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--draw 7]
+                      [--inputs square sine closed] [--no-fdt]
 """
 
 import argparse
@@ -43,26 +47,21 @@ import tempfile
 
 import numpy as np
 
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "identify"))
+import bench_plant  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 MODEL = os.path.join(ROOT, "models", "backlash_bench.bg")
-INPUTS = {
-    "square": "10 + 5*sign(sin(0.6283185307179586*t))",
-    "sine": "6 + 12*sin(0.5*t)",
-}
-FAULTS = {"Re": "fault Re = 1.5*Re at {at}", "j0": "fault j0 = 3*j0 at {at}"}
+FAULTS = {"Re": 1.5, "j0": 3.0}
 PARAMS = {"Re": 0.3, "L": 0.5, "ke": 0.5, "Je": 0.8, "fe": 0.1, "K": 1.0, "N": 5.0,
           "Js": 10.0, "fs": 8.0, "j0": 0.2, "gamma": 2.5}
 MARGIN = 0.2
 LOOKAHEAD = 0.25
 
 
-def simulate(bgc, out, seconds, u, seed, fault=None):
-    args = [bgc, "simulate", MODEL, "-e", f"duration {seconds}", "-e", "step 0.001",
-            "-e", f"input U0 = {u}", "-e", "noise y1 1e-4", "-e", "noise y2 1e-4",
-            "-e", f"seed {seed}", "-o", out]
-    if fault:
-        args += ["-e", fault]
-    subprocess.run(args, check=True)
+def simulate(plant, out, seconds, input, seed, fault=()):
+    bench_plant.write_csv(out, *bench_plant.simulate(plant, input, seconds, fault, seed=seed))
 
 
 def read(path):
@@ -189,22 +188,26 @@ def main():
     p.add_argument("--bgc", default=os.path.join(ROOT, "target", "release", "bgc"))
     p.add_argument("--seconds", type=float, default=1000.0)
     p.add_argument("--draws", type=int, default=16)
+    p.add_argument("--draw", type=int, default=7)
+    p.add_argument("--inputs", nargs="+", default=list(bench_plant.INPUTS))
     p.add_argument("--no-fdt", action="store_true")
     a = p.parse_args()
     at = a.seconds * 0.5125
+    plant = bench_plant.draw(a.draw) if a.draw else dict(bench_plant.MODEL)
+    print(f"plant: {' '.join(f'{k}={v:.5g}' for k, v in plant.items())}\n")
     with tempfile.TemporaryDirectory() as tmp:
         generators = [] if a.no_fdt else fdt_generators(tmp)
         print("| input | fault | tool | residual | healthy RMS | fault/noise | "
               "margin 1-2 s after | delay | in alarm from 1 s after | alarms before |")
         print("|---|---|---|---|---|---|---|---|---|---|")
-        for input_name, u in INPUTS.items():
+        for input_name in a.inputs:
             healthy = os.path.join(tmp, f"{input_name}_healthy.csv")
-            simulate(a.bgc, healthy, a.seconds, u, 1)
+            simulate(plant, healthy, a.seconds, input_name, 1)
             healthy_data = read(healthy)
             levels = {name: fdt_level(g, healthy_data, a.draws) for name, g in generators}
-            for fault_name, fault in FAULTS.items():
+            for fault_name, factor in FAULTS.items():
                 record = os.path.join(tmp, f"{input_name}_{fault_name}.csv")
-                simulate(a.bgc, record, a.seconds, u, 2, fault.format(at=at))
+                simulate(plant, record, a.seconds, input_name, 2, [(fault_name, factor, at)])
                 for how, extra in [("bgc", []), ("bgc --realise direct", ["--realise", "direct"])]:
                     for name, t, r, alarm, level in bgc_residuals(a.bgc, record, healthy, extra):
                         report(f"{input_name} | {fault_name} | {how} | {name}", t, r, alarm, at,

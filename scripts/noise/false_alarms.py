@@ -9,7 +9,9 @@ Outside CI (tens of minutes). Records simulated by scipy (scripts/identify/bench
 not bgc), from rest, σ = 1e-4 rad/s on both encoders, 1 kHz; the plant's parameters drawn
 within ±3 % of the model's (`--draw`, 0: the model's own). The calibration record is the
 first 200 s of the trajectory with noise seed 1; every monitored record is the same 3,000-s
-trajectory (open loop: the input decides it) with noise seeds 100, 101, ... Records go to
+trajectory with noise seeds 100, 101, ... (the open-loop inputs decide it; in the closed
+loop, bench_plant.py's PI controller reads the plant, not the noisy encoders). Inputs: the
+open-loop square and sine, and the closed loop (`closed`). Records go to
 Parquet (pyarrow), residuals to CSV, read back with pyarrow.
 
 What a rate predicts: a calibration states the probability p that a healthy record as long
@@ -17,7 +19,7 @@ as the calibration's crosses a threshold (its `crossing` line); a 3,000-s record
 records, so N records predict about 15 N p episodes (fewer where one episode spans two).
 
 Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
-                       [--inputs square sine] [--rates 0 1/h 4/h] [--draw 7]
+                       [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7]
 """
 
 import argparse
@@ -75,7 +77,7 @@ def main():
     a.add_argument("--bgc", default=os.path.join(ROOT, "target", "release", "bgc"))
     a.add_argument("--records", type=int, default=20)
     a.add_argument("--seconds", type=float, default=3000.0)
-    a.add_argument("--inputs", nargs="+", default=["square", "sine"])
+    a.add_argument("--inputs", nargs="+", default=list(bench_plant.INPUTS))
     a.add_argument("--rates", nargs="+", default=["0", "1/h", "4/h"])
     a.add_argument("--draw", type=int, default=7)
     args = a.parse_args()

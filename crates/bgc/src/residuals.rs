@@ -14,7 +14,7 @@ use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
     calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
     Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Samples,
-    Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS,
+    Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
 };
 
 use crate::io;
@@ -81,9 +81,9 @@ pub(crate) struct ResidualArgs {
     /// (`start`): a fault that shows only while a signal moves then leaves them offset for
     /// good, but the noise they integrate grows with the record [default: with
     /// `--calibrate`, for each residual, the one of 250, 1000, 2500, 10000 and 25000
-    /// samples (at most a twentieth of the healthy record), or from the start where its
-    /// noise there is white plus a random walk, with the largest ratio of its length to its
-    /// noise; else 250].
+    /// samples and `--within` (at most a twentieth of the healthy record), or from the start
+    /// where its noise there is white plus a random walk, under which a fault moves it most
+    /// against its noise over the second half of `--within`; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
     /// How the signals' values and derivatives are estimated over the window:
@@ -152,6 +152,12 @@ pub(crate) struct ResidualArgs {
         requires = "calibrate"
     )]
     cusum: Option<f64>,
+    /// With `--calibrate`, the time after a fault by which it should show, in seconds of
+    /// the record's time: each integrated residual's integration is chosen by the margin a
+    /// fault gets over it under its threshold (a window of about that length, as a rule,
+    /// rather than from the start, whose threshold grows with the record).
+    #[arg(long, value_name = "SECONDS", default_value_t = WITHIN, requires = "calibrate")]
+    within: f64,
     /// Headroom over the calibrated quantile, as a fraction of it.
     #[arg(long, value_name = "M", default_value_t = 0.2)]
     margin: f64,
@@ -695,6 +701,7 @@ fn calibrated(
         keep_model: args.keep_model,
         thresholds: thresholds(c, &args.thresholds)?,
         cusum: args.cusum,
+        within: args.within,
     };
     let samples = Samples {
         time: &healthy.time,

@@ -18,7 +18,7 @@ mod walk;
 pub use calibrate::{
     calibrate, window_of, CalibrateError, Calibrated, Choices, Conditioning, CusumLevels,
     EstimatorKind, FalseAlarms, Samples, Singular, GAIN, INTEGRATIONS, MODULATING_DEFAULT,
-    REPLICAS, WINDOWS,
+    REPLICAS, WINDOWS, WITHIN,
 };
 pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};

@@ -156,8 +156,9 @@ fn estimator_kind(kind: &str) -> PyResult<EstimatorKind> {
 
 /// A healthy record to calibrate on, as Python hands it: its time, its columns (in the order
 /// of `model.signals()`), their names in the data, the false alarms allowed (`"1/h"`, or a
-/// share of samples), the margin, whether the model's values are kept, and the drift of a
-/// CUSUM beside each threshold (none without).
+/// share of samples), the margin, whether the model's values are kept, the drift of a
+/// CUSUM beside each threshold (none without), and the seconds within which a fault should
+/// show.
 pub(crate) type Healthy<'py> = (
     PyReadonlyArray1<'py, f64>,
     Vec<PyReadonlyArray1<'py, f64>>,
@@ -166,6 +167,7 @@ pub(crate) type Healthy<'py> = (
     f64,
     bool,
     Option<f64>,
+    f64,
 );
 
 /// What the estimator, integration and thresholds are, as given (no healthy record).
@@ -274,6 +276,7 @@ pub(crate) fn residuals<'py>(
             keep_model: healthy.5,
             thresholds: settings.thresholds.clone(),
             cusum: healthy.6,
+            within: healthy.7,
         };
         let chosen = calibrated(py, c, &program, &params, healthy, step, choices)?;
         settings.estimator = chosen.estimator;

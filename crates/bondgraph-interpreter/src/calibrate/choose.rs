@@ -8,7 +8,7 @@ use crate::calibrate::levels::thresholds;
 use crate::calibrate::samples::{rms, Healthy};
 use crate::fit::{Estimator, Integration};
 use crate::generator::Generator;
-use crate::walk::Walk;
+use crate::walk::{slope, Walk};
 
 /// The Savitzky–Golay windows `--calibrate` chooses from, shortest first.
 pub const WINDOWS: [usize; 6] = [11, 21, 51, 101, 201, 501];
@@ -155,46 +155,70 @@ fn describe(e: Estimator) -> String {
     }
 }
 
-/// Each integrated residual's integration: a window of [`INTEGRATIONS`] (at most a twentieth
-/// of the healthy record) or from the start, whichever has the largest ratio of its length to
-/// the residual's noise on it; and for those taken from the start, their noise's [`Walk`].
+/// The time after a fault by which calibration asks it to show, where the user states none,
+/// in seconds of the records' time: integrations are chosen by the margin a fault gets over
+/// the second half of it (from 1 s to 2 s after it, as `docs/noise.md` compares tools).
+pub const WITHIN: f64 = 2.0;
+
+/// The windows of integration calibration chooses from on a healthy record of `rows`
+/// samples for faults to show `within` samples after them: [`INTEGRATIONS`] and `within`
+/// itself, shortest first, each at most a twentieth of the record (the shortest always).
+pub(super) fn integration_lengths(rows: usize, within: usize) -> Vec<usize> {
+    let longest = (rows / 20).max(INTEGRATIONS[0]);
+    let mut lengths: Vec<usize> = INTEGRATIONS.to_vec();
+    lengths.push(within.max(INTEGRATIONS[0]));
+    lengths.sort_unstable();
+    lengths.dedup();
+    lengths.retain(|&n| n <= longest);
+    lengths
+}
+
+/// Each integrated residual's integration, chosen by the margin a fault gets under its
+/// threshold `within` samples after it: a window of [`INTEGRATIONS`] or of `within` samples
+/// (at most a twentieth of the healthy record), or from the start; and for those taken from
+/// the start, their noise's [`Walk`].
 ///
-/// A fault that moves a relation for as long as it lasts moves its integral in proportion to
-/// the length, while the noise grows as its square root or less, and a model error as the
-/// length itself. A longer window must gain a tenth to be chosen: it also takes longer to show
-/// a fault, and its noise is known from fewer independent stretches.
+/// A fault that moves a relation by `δ` for as long as it lasts moves its integral over a
+/// window of `n` samples by `δ min(n, τ)`, `τ` samples after it: over the second half of
+/// `within`, by `δ min(n, ¾ within)` at its middle. Against that, the residual's noise on the
+/// healthy record (its RMS, which holds the model's error integrated over the window as well
+/// as the noise's walk), or, from the start, its walk's deviation at the record's end plus
+/// the drift it shows there: a threshold from the start grows with the record, so that the
+/// longer the record monitored, the less a fault at its end moves it in thresholds (on the
+/// bench with a square input, `Re` × 1.5 moved ARR1 by 31 thresholds 1 to 2 s after it from
+/// the start, and by 148 over 2,500 samples). A longer window must gain a tenth to be
+/// chosen: its noise is known from fewer independent stretches.
 ///
-/// From the start counts as the whole record's length against the noise at its end, and is a
-/// candidate only where the residual's noise fits a [`Walk`]: its threshold then grows with
-/// the walk's deviation, so that it holds on a record of another seed or length. On a record
-/// too short to tell a walk from a drift it is never chosen (on the Table 3 bench's 3-s
-/// records, a constant threshold from one record gave 1,316 false alarms of 2,800 samples on
-/// another). Where it is (the bench's ARR2 is the derivative of the link's law, so from the
-/// start it is that law, with the twist integrated from the encoders), a fault that shows only
-/// while a signal moves keeps the residual offset for as long as the fault lasts.
-pub(super) fn longest_integration(
+/// From the start is a candidate only where the residual's noise fits a [`Walk`]; on a
+/// record too short to tell a walk from a drift it is never chosen (on the Table 3 bench's
+/// 3-s records, a constant threshold from one record gave 1,316 false alarms of 2,800
+/// samples on another).
+pub(super) fn best_integration(
     build: &dyn Fn(Integration) -> Result<Generator, CalibrateError>,
     healthy: &Healthy<'_>,
     integrated: &[bool],
     window: usize,
+    within: usize,
 ) -> Result<Vec<(Integration, Option<Walk>)>, CalibrateError> {
-    let rows = healthy.len();
-    let windows = (INTEGRATIONS.iter())
-        .filter(|&&n| n <= (rows / 20).max(INTEGRATIONS[0]))
-        .map(|&n| Integration::Window(n));
+    let windows = (integration_lengths(healthy.len(), within).into_iter()).map(Integration::Window);
     let candidates = windows.chain([Integration::Start]);
+    let shown = 0.75 * within.max(1) as f64;
     let mut best: Vec<Option<(f64, Integration, Option<Walk>)>> = vec![None; integrated.len()];
     for candidate in candidates {
         let series = healthy.residuals(build(candidate)?);
         for ((best, r), &integrated) in best.iter_mut().zip(&series).zip(integrated) {
             let (score, walk) = match candidate {
-                Integration::Window(n) => ((n as f64 / rms(r)).ln(), None),
+                Integration::Window(n) => ((n as f64).min(shown) / rms(r), None),
                 Integration::Start => match Walk::fit(r, window) {
-                    Some(w) => ((r.len() as f64 / w.deviation(r.len())).ln(), Some(w)),
+                    Some(w) => {
+                        let noise = w.deviation(r.len()) + slope(r, 0) * r.len() as f64;
+                        (shown / noise, Some(w))
+                    }
                     None => continue,
                 },
             };
-            if integrated && best.is_none_or(|(b, ..)| score > b + 0.1f64.ln_1p()) {
+            let better = |b: f64| score.ln() > b.ln() + 0.1f64.ln_1p();
+            if integrated && score.is_finite() && best.is_none_or(|(b, ..)| better(b)) {
                 *best = Some((score, candidate, walk));
             }
         }

@@ -11,6 +11,8 @@ pub enum CalibrateError {
     Margin(f64),
     /// The crossing probability or the share is not a probability below 1.
     Probability(f64),
+    /// The time within which a fault should show is not a positive number of seconds.
+    Within(f64),
 }
 
 impl std::fmt::Display for CalibrateError {
@@ -19,6 +21,9 @@ impl std::fmt::Display for CalibrateError {
             CalibrateError::Estimator(e) => f.write_str(e),
             CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number ≥ 0"),
             CalibrateError::Probability(p) => write!(f, "{p}: expected a probability in [0, 1)"),
+            CalibrateError::Within(w) => {
+                write!(f, "within {w} s: expected a positive number of seconds")
+            }
         }
     }
 }

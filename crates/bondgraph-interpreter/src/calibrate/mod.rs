@@ -21,7 +21,7 @@ use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
 use crate::walk::Walk;
 
-pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
+pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS, WITHIN};
 pub use error::CalibrateError;
 pub use rate::FalseAlarms;
 pub use replicas::COUNT as REPLICAS;
@@ -83,6 +83,10 @@ pub struct Choices {
     /// A CUSUM beside each threshold, with this drift (in deviations of the residual's
     /// noise) at least: the stated probability is then shared between the two tests.
     pub cusum: Option<f64>,
+    /// The time after a fault by which it should show, in seconds of the records' time
+    /// ([`WITHIN`] where the user states none): integrations are chosen by the margin a
+    /// fault gets then.
+    pub within: f64,
 }
 
 /// What a calibration chose.
@@ -126,6 +130,9 @@ pub fn calibrate(
 ) -> Result<Calibrated, CalibrateError> {
     if !(0.0..=f64::MAX).contains(&choices.margin) {
         return Err(CalibrateError::Margin(choices.margin));
+    }
+    if !(choices.within.is_finite() && choices.within > 0.0) {
+        return Err(CalibrateError::Within(choices.within));
     }
     for p in [choices.share, choices.crossing] {
         if !(0.0..1.0).contains(&p) {
@@ -439,8 +446,8 @@ impl Calibrating<'_> {
         })
     }
 
-    /// Each residual's integration (the one given, or where its length is largest against
-    /// its noise), and the walk of those taken from the start.
+    /// Each residual's integration (the one given, or the one under which a fault shows
+    /// most `within` after it), and the walk of those taken from the start.
     fn integrations(
         &mut self,
         estimator: Estimator,
@@ -456,11 +463,13 @@ impl Calibrating<'_> {
         if !which.contains(&true) {
             return Ok((vec![Integration::default(); n], vec![None; n]));
         }
-        let chosen = choose::longest_integration(
+        let within = (self.choices.within / self.healthy.samples.step).round() as usize;
+        let chosen = choose::best_integration(
             &|i| self.generator(estimator, &vec![i; n], &self.params),
             &self.healthy,
             &which,
             window_of(estimator),
+            within,
         )?;
         let (integration, walks): (Vec<Integration>, Vec<Option<Walk>>) =
             chosen.into_iter().unzip();
@@ -475,9 +484,15 @@ impl Calibrating<'_> {
             })
             .collect();
         self.notes.push(format!(
-            "integrated residuals taken where their length is largest against their noise (of \
-             {} samples, or from the start where its noise is white plus a random walk): {}",
-            INTEGRATIONS.map(|n| n.to_string()).join(", "),
+            "integrated residuals taken where a fault moves them most against their noise \
+             from {} s to {} s after it (over {} samples, or from the start where its noise is white \
+             plus a random walk): {}",
+            0.5 * self.choices.within,
+            self.choices.within,
+            (choose::integration_lengths(self.healthy.len(), within).iter())
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
             said.join(", ")
         ));
         Ok((integration, walks))

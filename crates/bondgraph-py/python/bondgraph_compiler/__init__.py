@@ -573,6 +573,7 @@ class Model:
         calibration: Any = None,
         keep_model: bool = False,
         cusum: Union[bool, float] = False,
+        within: float = 2.0,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -591,7 +592,9 @@ class Model:
         record's largest |residual| times 1 + `margin`. What it chose and why is in
         `Residuals.notes`. With `cusum` (``True``, or the drift K in deviations, 0.5 by
         default), a CUSUM beside each threshold for small persistent faults, as ``bgc
-        residuals --cusum K``. A residual without a threshold raises no alarm. `adaptive` adds
+        residuals --cusum K``. `within`: the seconds after a fault by which it should show
+        (``--within``): each integrated residual's integration is chosen by the margin a
+        fault gets then. A residual without a threshold raises no alarm. `adaptive` adds
         the bound from the parameters' stated uncertainties (`+- 5%`) at each sample; as
         ``bgc residuals --adaptive``, it evaluates the ARRs as written (``realise="direct"``),
         the form those bounds are derived for, whatever the model was compiled with.
@@ -645,7 +648,10 @@ class Model:
         if calibrate is not None:
             ht, hcols, hlabels = _columns(calibrate, self.signals, time, columns)
             drift = None if cusum is False else (0.5 if cusum is True else float(cusum))
-            healthy = (ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model), drift)
+            healthy = (
+                ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model), drift,
+                float(within),
+            )
         if adaptive:
             levels = [0.0 if level is None else level for level in levels]
         t, cols, labels = _columns(data, self.signals, time, columns)
