@@ -284,7 +284,6 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         cusum,
         ..
     } = chosen;
-    let data = settled(data, &data_name, &program, conditioning.as_ref(), estimator);
     let generator = |integration: &[Integration]| {
         let fit = Fit {
             step: data.step,
@@ -301,7 +300,17 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         Some(conditioning) => {
             let pair = (generator(&integration)?, generator(&integration)?);
             let raw: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
-            conditioning.singular(pair, &data.time, &raw, window)
+            let (singular, first) =
+                conditioning.undecided(&program, pair, &data.time, &raw, estimator);
+            if let Some(first) = first {
+                report::note(format!(
+                    "{data_name}: it starts unsettled (signals the estimators' polynomials do \
+                     not follow, a start-up): its first {first} rows, to {} s, have no \
+                     threshold and raise no alarm",
+                    io::seconds(data.time[first])
+                ));
+            }
+            singular
         }
         None => Singular::default(),
     };
@@ -456,32 +465,6 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
-}
-
-/// The record from where it has settled under `estimator`, as the calibration's
-/// `conditioning` tells it (see `bondgraph_interpreter::Conditioning::settled`), said.
-fn settled(
-    data: Data,
-    name: &str,
-    program: &Program,
-    conditioning: Option<&Conditioning>,
-    estimator: Estimator,
-) -> Data {
-    let Some(conditioning) = conditioning else {
-        return data;
-    };
-    let columns: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
-    match conditioning.settled(program, &columns, estimator) {
-        Some(first) => {
-            report::note(format!(
-                "{name}: it starts unsettled (signals the estimators' polynomials do not \
-                 follow, a start-up): its first {first} rows, to {} s, are left out",
-                io::seconds(data.time[first])
-            ));
-            data.skip(first)
-        }
-        None => data,
-    }
 }
 
 /// The record from `--from` on (all of it without), with at least `window` rows left.

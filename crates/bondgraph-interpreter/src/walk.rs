@@ -33,6 +33,9 @@ impl Walk {
     /// drifts (a model error integrated): a threshold from one record would then not hold on
     /// another.
     pub fn fit(r: &[f64], window: usize) -> Option<Walk> {
+        // A start-up left out is not a number: the walk is read after it.
+        let first = r.iter().position(|v| v.is_finite()).unwrap_or(r.len());
+        let r = &r[first..];
         let short = (2 * window.max(1)).max(r.len() / (4 * Self::STRETCHES));
         let long = 4 * short;
         if r.len() < Self::STRETCHES * long {

@@ -308,26 +308,21 @@ pub(crate) fn residuals<'py>(
     let generator = || {
         Generator::new(c, &program, &params, &fit).map_err(|e| PyValueError::new_err(e.to_string()))
     };
-    // As the CLI: a record that starts unsettled is taken from where it has settled, and
-    // where it is singular its residuals have no threshold.
-    let (time, data) = match &settings.conditioning {
-        Some(conditioning) => {
-            let first = (conditioning.settled(&program, &data, settings.estimator)).unwrap_or(0);
-            if first > 0 {
-                notes.push(format!(
-                    "the record starts unsettled (signals the estimators' polynomials do not \
-                     follow, a start-up): its first {first} samples, to {} s, are left out",
-                    time[first]
-                ));
-            }
-            let data: Vec<&[f64]> = data.iter().map(|c| &c[first..]).collect();
-            (&time[first..], data)
-        }
-        None => (time, data),
-    };
+    // As the CLI: a record that starts unsettled has no threshold until it has settled
+    // (its residuals evaluated from its start), nor where it is singular.
     if let Some(conditioning) = &settings.conditioning {
-        settings.singular =
-            conditioning.singular((generator()?, generator()?), time, &data, window);
+        let pair = (generator()?, generator()?);
+        let (singular, first) =
+            conditioning.undecided(&program, pair, time, &data, settings.estimator);
+        if let Some(first) = first {
+            notes.push(format!(
+                "the record starts unsettled (signals the estimators' polynomials do not \
+                 follow, a start-up): its first {first} samples, to {} s, have no threshold \
+                 and raise no alarm",
+                time[first]
+            ));
+        }
+        settings.singular = singular;
     }
     let generator = generator()?;
     let rows: Vec<(&str, Vec<u32>)> = (c.components.iter())

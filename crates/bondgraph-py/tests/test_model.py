@@ -66,6 +66,31 @@ def test_an_arr_is_a_sympy_expression_that_vanishes_on_the_models_trajectories()
     assert sympy.simplify(wrong.doit()) != 0
 
 
+def test_a_fraction_in_a_law_reaches_sympy_exactly():
+    """A law with the exponent 1/3, inverted and differentiated: the ARR's text and its sympy
+    form keep -2/3 and 1/3, not the doubles that an exact check finds wrong at 1e-16."""
+    sympy = pytest.importorskip("sympy")
+    model = bgc.compile(
+        "model rational\n"
+        'param a = 2 "area"\n'
+        'param pa = 1e5 "pre-charge"\n'
+        'param c = 0.01 "drain"\n'
+        'input U0 "flow"\n'
+        'Sf pump = U0 "pump"\n'
+        'C acc : q = a*(e/pa)^(1/3) "accumulator"\n'
+        'R out : f = c*e^(2/3)/3 "drain"\n'
+        'De p on j "pressure"\n'
+        "pump -> 0:j -> acc, out\n"
+    )
+    text = model.arrs[0].text
+    assert "(-2/3)" in text and "1/3" in text, text
+    assert "0.333" not in text and "0.666" not in text, text
+    e = model.arrs[0].sympy()
+    assert not e.atoms(sympy.Float), e
+    rationals = e.doit().atoms(sympy.Rational)
+    assert sympy.Rational(-2, 3) in rationals and sympy.Rational(2, 3) in rationals, rationals
+
+
 def test_a_notebook_shows_the_arrs_and_the_fsm():
     model = bgc.compile(BENCH)
     latex = model._repr_latex_()

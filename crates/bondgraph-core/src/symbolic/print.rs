@@ -12,12 +12,50 @@ pub struct Printer<'p, L: LeafKind, F> {
 }
 
 /// Binding strength of a printed node: 1 sums, 2 products, 3 unary minus, 4 powers, 5 atoms.
+/// A number printed as a fraction binds as a quotient.
 pub(crate) fn precedence<L: LeafKind>(node: Node<L>) -> u8 {
     match node {
         Node::Binary(op, ..) => op.precedence(),
         Node::Neg(_) => 3,
+        Node::Num(bits) if fraction(f64::from_bits(bits)).is_some() => 2,
         Node::Num(bits) if f64::from_bits(bits) < 0.0 => 3,
         _ => 5,
+    }
+}
+
+/// The largest denominator a number is printed over.
+const DENOMINATOR: u64 = 1000;
+
+/// How far from `p/q`, in units of the last place, a number may be and still be printed as
+/// `p/q`: what the arithmetic that made it (a power `(2/3)*(-1)`, `1 - 5/3`) leaves.
+const ULPS: f64 = 4.0;
+
+/// `x` as the fraction `p/q` (q from 2 to [`DENOMINATOR`], the smallest) that it is the
+/// double of, to a few units of the last place, where its decimal form is not short (at
+/// least 10 significant digits): `1/3`, not `0.3333333333333333`, and `-2/3`, not
+/// `-0.6666666666666667`, so that an exact reading of the output (a computer algebra check)
+/// finds the relation that was derived; `0.5` and `0.125` stay as they are.
+pub(crate) fn fraction(x: f64) -> Option<(i64, u64)> {
+    if !x.is_finite() || x == 0.0 || x.abs() > 1e6 {
+        return None;
+    }
+    let digits = format!("{:e}", x.abs());
+    let mantissa = digits.split('e').next().unwrap_or("");
+    if mantissa.chars().filter(char::is_ascii_digit).count() < 10 {
+        return None;
+    }
+    (2..=DENOMINATOR).find_map(|q| {
+        let p = (x * q as f64).round();
+        let close = (x - p / q as f64).abs() <= ULPS * f64::EPSILON * x.abs();
+        (close && p != 0.0).then_some((p as i64, q))
+    })
+}
+
+/// A number as the text prints it: a fraction where it is one (see [`fraction`]).
+fn number_text(x: f64) -> String {
+    match fraction(x) {
+        Some((p, q)) => format!("{p}/{q}"),
+        None => format!("{x}"),
     }
 }
 
@@ -41,9 +79,7 @@ impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
             out.push('(');
         }
         match node {
-            Node::Num(bits) => {
-                let _ = write!(out, "{}", f64::from_bits(bits));
-            }
+            Node::Num(bits) => out.push_str(&number_text(f64::from_bits(bits))),
             Node::Leaf(l) => out.push_str(&(self.name)(l)),
             Node::Neg(a) => {
                 out.push('-');
@@ -150,6 +186,11 @@ impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
         // A fraction groups its parts itself.
         let own = match node {
             Node::Binary(BinOp::Div, ..) => 5,
+            Node::Num(bits) => match fraction(f64::from_bits(bits)) {
+                Some((p, _)) if p < 0 => 3,
+                Some(_) => 5,
+                None => precedence(node),
+            },
             n => precedence(n),
         };
         let paren = own < outer;
@@ -157,9 +198,17 @@ impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
             out.push_str("\\left(");
         }
         match node {
-            Node::Num(bits) => {
-                let _ = write!(out, "{}", f64::from_bits(bits));
-            }
+            Node::Num(bits) => match fraction(f64::from_bits(bits)) {
+                Some((p, q)) if p < 0 => {
+                    let _ = write!(out, "-\\frac{{{}}}{{{q}}}", p.unsigned_abs());
+                }
+                Some((p, q)) => {
+                    let _ = write!(out, "\\frac{{{p}}}{{{q}}}");
+                }
+                None => {
+                    let _ = write!(out, "{}", f64::from_bits(bits));
+                }
+            },
             Node::Leaf(l) => out.push_str(&(self.name)(l)),
             Node::Neg(a) => {
                 out.push('-');
@@ -276,6 +325,36 @@ mod tests {
     use super::*;
     use crate::graph::ParamId;
     use crate::symbolic::Leaf;
+
+    /// Rational numbers print exactly, also one unit of the last place off (what `1 - 5/3`
+    /// leaves), and only where their decimal form is long; as operands they bind as the
+    /// quotients they are.
+    #[test]
+    fn rational_numbers_print_as_fractions_and_short_decimals_as_they_are() {
+        assert_eq!(fraction(1.0 / 3.0), Some((1, 3)));
+        assert_eq!(fraction(-0.6666666666666667), Some((-2, 3)));
+        assert_eq!(fraction(1.0 - 5.0 / 3.0), Some((-2, 3)));
+        assert_eq!(fraction(22.0 / 7.0), Some((22, 7)));
+        for short in [0.5, 0.125, -0.25, 1.5, 3.0, 0.1, 1e-3] {
+            assert_eq!(fraction(short), None, "{short}");
+        }
+        // Not a fraction of a small denominator: pi, e, a measured value.
+        for other in [std::f64::consts::PI, std::f64::consts::E, 0.123456789012] {
+            assert_eq!(fraction(other), None, "{other}");
+        }
+        let mut pool = Pool::default();
+        let x = pool.leaf(Leaf::Param(ParamId(0)));
+        let third = pool.num(1.0 / 3.0);
+        let minus_two_thirds = pool.num(-0.6666666666666667);
+        let product = pool.binary(BinOp::Mul, third, x);
+        let power = pool.binary(BinOp::Pow, x, minus_two_thirds);
+        let quotient = pool.binary(BinOp::Div, x, third);
+        let printer = Printer::new(&pool, |_| "x".to_string());
+        assert_eq!(printer.text(product), "1/3 * x");
+        assert_eq!(printer.text(power), "x ^ (-2/3)");
+        assert_eq!(printer.text(quotient), "x / (1/3)");
+        assert_eq!(printer.latex(power), "{x}^{-\\frac{2}{3}}");
+    }
 
     /// A canonical sum of many distinct terms is a left-nested chain as deep as it is long;
     /// printing it must not recurse that deep (a test thread has a small stack).

@@ -149,14 +149,15 @@ pub fn calibrate(
         .over(choices.window.unwrap_or(PROVISIONAL_WINDOW), choices.degree);
     let conditioned = !program.linear() && noisy;
     let mut settled = settle_on(program, healthy, &deviations, provisional);
-    let trimmed = trim(healthy, settled);
+    let start_up = |settled: Option<usize>| settled.map(|k| healthy.time[k]);
     let mut on = Calibrating {
         c,
         program,
         healthy: Healthy {
-            samples: &trimmed,
+            samples: healthy,
             singular: Singular {
                 spans: vec![Vec::new(); n],
+                start_up: start_up(settled),
             },
         },
         step,
@@ -167,17 +168,29 @@ pub fn calibrate(
     if conditioned {
         let default = vec![Integration::default(); n];
         on.healthy.singular = on.conditioning(provisional, &default, &deviations, &[])?.1;
+        on.healthy.singular.start_up_until(start_up(settled));
     }
     // Thresholds set on a model that is not the plant's measure the model's error, not the
-    // noise: the model is fitted to the healthy record first.
+    // noise: the model is fitted to the healthy record first, from where it has settled and
+    // is no longer singular.
     if !choices.keep_model {
-        let first = trimmed.time.get(window_of(provisional) / 2).copied();
-        let from = first.and_then(|t| on.healthy.singular.settled(t));
-        on.params = fitted::fit_model(c, program, params, &trimmed, from, &mut notes);
+        let first = healthy.time.get(window_of(provisional) / 2).copied();
+        let singular = first.and_then(|t| on.healthy.singular.settled(t));
+        let from = match (start_up(settled), singular) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        on.params = fitted::fit_model(c, program, params, healthy, from, &mut notes);
     }
     notes.append(&mut on.notes);
     on.notes = notes;
     let default = vec![choices.integration.unwrap_or_default(); n];
+    // While the estimator is chosen, the start-up reaches half the longest candidate window
+    // further: an estimate there reads unsettled samples (a window, compared on them, would
+    // be judged by the start-up, not by how it follows the signals).
+    let reach = choices.window.unwrap_or(WINDOWS[WINDOWS.len() - 1]) / 2;
+    let choosing = settled.map(|k| healthy.time[(k + reach).min(healthy.len() - 1)]);
+    on.healthy.singular.start_up_until(choosing);
     let estimator = on.estimator(&default)?;
     // The window chosen may be longer than the provisional one, and settle later.
     if let Some(later) = settle_on(program, healthy, &deviations, estimator) {
@@ -185,13 +198,14 @@ pub fn calibrate(
             settled = Some(later);
         }
     }
-    let trimmed = trim(healthy, settled);
-    on.healthy.samples = &trimmed;
+    on.healthy.singular.start_up_until(start_up(settled));
     if let Some(first) = settled {
         on.notes.push(format!(
             "it starts unsettled, with signals the estimators' polynomials do not follow (a \
-             start-up): its first {first} samples (to {} s) are left out, as they are of every \
-             record monitored with this calibration until it has settled",
+             start-up): its first {first} samples (to {} s) are left out of calibration, as \
+             they are of the decisions on every record monitored with this calibration until \
+             it has settled (its residuals are evaluated from the start: what they integrate \
+             is integrated from there)",
             healthy.time[first]
         ));
     }
@@ -209,6 +223,7 @@ pub fn calibrate(
         let (read, singular) =
             on.conditioning(estimator, &integration, &deviations, &from_start)?;
         on.healthy.singular = singular;
+        on.healthy.singular.start_up_until(start_up(settled));
         on.note_singular();
         conditioning = Some(read);
     }
@@ -243,16 +258,6 @@ fn settle_on(
         &differentiated,
         (estimator.window(), estimator.degree()),
     )
-}
-
-/// The samples from `first` on (all of them without).
-fn trim<'a>(samples: &Samples<'a>, first: Option<usize>) -> Samples<'a> {
-    let first = first.unwrap_or(0);
-    Samples {
-        time: &samples.time[first..],
-        columns: samples.columns.iter().map(|c| &c[first..]).collect(),
-        step: samples.step,
-    }
 }
 
 /// The estimator's window while the singular samples are looked for, before it is chosen.

@@ -84,11 +84,29 @@ pub(super) fn rms(r: &[f64]) -> f64 {
 pub struct Singular {
     /// One list of spans per residual.
     pub spans: Vec<Vec<(f64, f64)>>,
+    /// Where the record starts unsettled, the instant it has settled: before it no residual
+    /// is decided on (nor calibrated on), though it is evaluated, so that what the residuals
+    /// integrate from the record's start (a twist from two encoders) is integrated from there.
+    pub start_up: Option<f64>,
 }
 
 impl Singular {
-    /// Whether residual `k` is singular at `t`.
+    /// Leaves out everything before `end` (a start-up's, where there is one): the spans
+    /// within it are part of it.
+    pub fn start_up_until(&mut self, end: Option<f64>) {
+        self.start_up = end;
+        if let Some(end) = end {
+            for spans in &mut self.spans {
+                spans.retain(|&(_, to)| to >= end);
+            }
+        }
+    }
+
+    /// Whether residual `k` is singular at `t`, or `t` is in the start-up.
     pub fn contains(&self, k: usize, t: f64) -> bool {
+        if self.start_up.is_some_and(|end| t < end) {
+            return true;
+        }
         let Some(spans) = self.spans.get(k) else {
             return false;
         };

@@ -85,10 +85,28 @@ impl Conditioning {
         if self.typical.iter().all(Option::is_none) {
             return Singular {
                 spans: vec![Vec::new(); self.typical.len()],
+                start_up: None,
             };
         }
         let (at, local) = local_noise(pair, time, columns, &self.deviations, window);
         self.spans(&at, &local)
+    }
+
+    /// Where a monitored record is not decided on, as calibration leaves the healthy one
+    /// out: its start-up, until it has settled under `estimator` (see [`Self::settled`]), and
+    /// after it the spans where each residual is singular; with the first settled sample.
+    pub fn undecided(
+        &self,
+        program: &bondgraph_core::program::Program,
+        pair: (Generator, Generator),
+        time: &[f64],
+        columns: &[&[f64]],
+        estimator: crate::fit::Estimator,
+    ) -> (Singular, Option<usize>) {
+        let first = self.settled(program, columns, estimator);
+        let mut singular = self.singular(pair, time, columns, estimator.window());
+        singular.start_up_until(first.map(|k| time[k]));
+        (singular, first)
     }
 
     /// The spans where each residual's local sensitivity `local` (at the instants `at`) is
@@ -121,7 +139,10 @@ impl Conditioning {
                 }
             })
             .collect();
-        Singular { spans }
+        Singular {
+            spans,
+            start_up: None,
+        }
     }
 }
 
