@@ -313,7 +313,7 @@ fn a_storage_law_without_inverse_holds_its_co_energy_variable() {
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let text = stdout(&out);
     assert!(
-        text.contains("der(e_cap) = 0.3333333333333333 * (U - e_cap) / R1 / (e_cap ^ 2 * C1 + 0.3333333333333333 * C0)"),
+        text.contains("der(e_cap) = 1/3 * (U - e_cap) / R1 / (e_cap ^ 2 * C1 + 1/3 * C0)"),
         "{text}"
     );
     let verify = bgc_stdin(&["verify", "-"], VARACTOR.as_bytes());

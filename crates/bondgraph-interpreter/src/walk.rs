@@ -36,11 +36,11 @@ impl Walk {
         // A start-up left out is not a number: the walk is read after it.
         let first = r.iter().position(|v| v.is_finite()).unwrap_or(r.len());
         let r = &r[first..];
-        let short = (2 * window.max(1)).max(r.len() / (4 * Self::STRETCHES));
-        let long = 4 * short;
-        if r.len() < Self::STRETCHES * long {
+        if !Self::can_tell(r.len(), window) {
             return None;
         }
+        let short = (2 * window.max(1)).max(r.len() / (4 * Self::STRETCHES));
+        let long = 4 * short;
         let (a, b) = (mean_square_change(r, short), mean_square_change(r, long));
         let lags = (long / short) as f64;
         // A NaN (a residual that is not a number somewhere) is no walk either.
@@ -58,6 +58,14 @@ impl Walk {
             rate,
             drift: 0.0,
         })
+    }
+
+    /// Whether a record of `len` samples, read by estimators over `window` samples, is long
+    /// enough to tell a walk from a drift: [`Walk::STRETCHES`] stretches of the longer lag,
+    /// itself four times the shorter, which is past the estimators' correlation.
+    pub fn can_tell(len: usize, window: usize) -> bool {
+        let short = (2 * window.max(1)).max(len / (4 * Self::STRETCHES));
+        len >= Self::STRETCHES * 4 * short
     }
 
     /// The probability a healthy residual may cross its threshold anywhere on a record of

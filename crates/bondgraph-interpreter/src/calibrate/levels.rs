@@ -41,6 +41,14 @@ pub(super) fn thresholds(
             }
         }
     }
+    // A walk the draws were to measure and could not is none.
+    for w in walks.iter_mut() {
+        if w.is_some_and(|w| {
+            (w.floor + w.rate).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        }) {
+            *w = None;
+        }
+    }
     // A residual integrated from the start may drift (the model's error integrated): the
     // threshold allows for it, and the healthy record is read net of it.
     for ((w, r), error) in walks.iter_mut().zip(&raw).zip(&errors) {

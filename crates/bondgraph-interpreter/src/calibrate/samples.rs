@@ -126,9 +126,9 @@ impl Singular {
             .fold(None, |a: Option<f64>, t| Some(a.map_or(t, |a| a.max(t))))
     }
 
-    /// Whether no residual is singular anywhere.
+    /// Whether no residual is singular anywhere, nor left out in a start-up.
     pub fn is_empty(&self) -> bool {
-        self.spans.iter().all(Vec::is_empty)
+        self.start_up.is_none() && self.spans.iter().all(Vec::is_empty)
     }
 
     /// Each residual's spans as the notes give them: `0–0.31 s, 12.5–12.6 s`.
