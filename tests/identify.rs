@@ -209,6 +209,17 @@ fn bad_parameter_files_are_refused_where_they_are_wrong() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The estimator and the integration fixed, for tests of what comes after the calibration's
+/// search.
+const FIXED: [&str; 6] = [
+    "--estimator",
+    "savitzky-golay",
+    "--window",
+    "501",
+    "--integration-window",
+    "250",
+];
+
 #[test]
 fn calibration_fits_the_model_first_and_keep_model_keeps_its_values() {
     let dir = scratch("identify-calibrate");
@@ -220,21 +231,15 @@ fn calibration_fits_the_model_first_and_keep_model_keeps_its_values() {
         &["i", "y1"],
     );
     let run = |extra: &[&str]| {
-        // The estimator and the integration fixed: the test is of the fit, not of the
-        // search after it.
+        // The test is of the fit, not of the search after it.
         let mut args = vec![
             "residuals",
             "models/dc_motor.bg",
             &record,
             "--calibrate",
             &record,
-            "--estimator",
-            "savitzky-golay",
-            "--window",
-            "501",
-            "--integration-window",
-            "250",
         ];
+        args.extend(FIXED);
         args.extend(extra);
         let out = bgc(&args);
         assert_eq!(code(&out), 0, "{}", stderr(&out));
@@ -280,23 +285,11 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
         2,
     );
     let written = dir.join("residuals.csv").display().to_string();
-    // The estimator and the integration fixed: the test is of the size, not of the
-    // calibration's search.
-    let out = bgc(&[
-        "residuals",
-        model,
-        &faulty,
-        "--calibrate",
-        &healthy,
-        "--estimator",
-        "savitzky-golay",
-        "--window",
-        "501",
-        "--integration-window",
-        "250",
-        "-o",
-        &written,
-    ]);
+    // The test is of the size, not of the calibration's search.
+    let mut args = vec!["residuals", model, &faulty, "--calibrate", &healthy];
+    args.extend(FIXED);
+    args.extend(["-o", &written]);
+    let out = bgc(&args);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let said = stderr(&out);
     let sizes: Vec<&str> = said
