@@ -55,6 +55,8 @@ fn excitation(file: &str) -> Excitation {
             "initial q_cold = 5e5",
         ],
         "coulomb_friction.bg" => &["initial p_slide = 2.4"],
+        // The load turning at 1 rad/s: from rest its dry friction sticks.
+        "two_mass_friction.bg" => &["initial p_load = -0.05"],
         // Moving at 9 cm/s: a few tenths of a metre over the record.
         "positioning_axis.bg" => &["initial p_load = 8"],
         // At its working point (270 rad/s, 20 kPa): tests/pump.rs starts it from rest.
@@ -68,6 +70,8 @@ fn excitation(file: &str) -> Excitation {
     let inputs: &[&str] = match file {
         // Sliding throughout: where a Coulomb friction sticks, its sign() chatters.
         "coulomb_friction.bg" => &["input F = 60*t + 2*sin(3*t)"],
+        // Turning through its reversal without sticking, the shaft twisting at 40 rad/s.
+        "two_mass_friction.bg" => &["input T = 3*sin(t) + 0.5*sin(40*t)"],
         "positioning_axis.bg" => &["input tau = 30 + 5*sin(3*t)"],
         // A 200-V motor about its working point (270 rad/s, 20 kPa).
         "centrifugal_pump.bg" => &["input U0 = 180 + 20*sin(3*t)"],
@@ -101,6 +105,8 @@ fn excitation(file: &str) -> Excitation {
         // A 21 Hz shaft resonance. The shaft's internal damping moves ARR1 by a thousandth of
         // its stiffness' share here: only a tenfold change of it shows.
         "torque_sensor_drive.bg" => (0.1, 1.0, 10.0),
+        // The same with two encoders: the shaft's damping shows tenfold, not doubled.
+        "two_mass_friction.bg" => (1.0, 1.0, 10.0),
         // The gas spring and the valve: 2 s; a pump of half a litre per second.
         "gas_accumulator.bg" => (2.0, 0.5, 2.0),
         // A 3-minute tank.

@@ -314,6 +314,12 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         }
         None => Singular::default(),
     };
+    let memories = (Fit {
+        step: data.step,
+        estimator,
+        integration: integration.clone(),
+    })
+    .memories(&c.arrs);
     let mut generator = generator(&integration)?;
     let mut levels = levels;
     if args.adaptive {
@@ -360,7 +366,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         let roots = &roots;
         let writer = scope.spawn(move || {
             let mut out = head;
-            let mut named = Named::default();
+            let mut named = Named::remembering(memories);
             for chunk in receive {
                 chunk.write(&mut out, rows, &mut named, roots, sizes);
             }
@@ -948,6 +954,8 @@ impl Chunk {
 /// would cost more than the rest of the row.
 #[derive(Default)]
 struct Named {
+    /// Each residual's memory in samples (see `Episode::remembering`).
+    memory: Vec<usize>,
     alarms: Vec<bool>,
     cells: String,
     episode: Option<Episode>,
@@ -958,6 +966,14 @@ struct Named {
 }
 
 impl Named {
+    /// Names for residuals with these memories, in samples.
+    fn remembering(memory: Vec<usize>) -> Named {
+        Named {
+            memory,
+            ..Named::default()
+        }
+    }
+
     /// `,candidates,suspects,episode` for the alarms `on` at `t`.
     fn cells(&mut self, rows: &[(&str, Vec<u32>)], t: f64, on: &[bool], out: &mut String) {
         let fsm = || rows.iter().map(|(n, s)| (*n, Signature::new(on.len(), s)));
@@ -971,7 +987,9 @@ impl Named {
             self.alarms.extend_from_slice(on);
         }
         out.push_str(&self.cells);
-        let episode = self.episode.get_or_insert_with(|| Episode::new(on.len()));
+        let memory = &self.memory;
+        let episode =
+            (self.episode).get_or_insert_with(|| Episode::new(on.len()).remembering(memory));
         episode.push(on);
         if episode.started() {
             self.first.get_or_insert(t);
@@ -1015,12 +1033,22 @@ impl Named {
         let (Some(episode), Some(first)) = (&self.episode, self.first) else {
             return;
         };
-        let shares: Vec<String> = (c.arrs.iter().zip(episode.shares()))
-            .map(|(a, s)| format!("{} {:.1} %", a.name, 100.0 * s))
+        let shares: Vec<String> = (c.arrs.iter().enumerate())
+            .zip(episode.shares().iter().zip(episode.alarmed()))
+            .map(|((k, a), (s, all))| {
+                let memory = self.memory.get(k).copied().unwrap_or(0);
+                format!(
+                    "{} {:.1} % ({:.1} % in alarms longer than its memory, {memory} samples)",
+                    a.name,
+                    100.0 * all,
+                    100.0 * s
+                )
+            })
             .collect();
         report::note(format!(
-            "alarms from {first} s on: {} of the samples since (seen in alarm from \
-             {} %); the components by how well a single fault of each explains them:",
+            "alarms from {first} s on: {} of the samples since (seen in alarm from {} % in \
+             alarms longer than its memory: one instant's disturbance reaches no further); \
+             the components by how well a single fault of each explains them:",
             shares.join(", "),
             100.0 * Episode::SEEN
         ));

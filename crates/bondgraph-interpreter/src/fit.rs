@@ -118,3 +118,22 @@ pub struct Fit {
     /// Over what each integrated residual is taken (by residual; the default past the end).
     pub integration: Vec<Integration>,
 }
+
+impl Fit {
+    /// Each ARR's memory, in samples: how far one instant of a record reaches its residual
+    /// (the estimators' window, plus the window of a residual integrated over one). An
+    /// episode counts a residual's alarm once it outlasts that (`Episode::remembering`).
+    pub fn memories(&self, arrs: &[bondgraph_core::Arr]) -> Vec<usize> {
+        let window = self.estimator.window();
+        (arrs.iter().enumerate())
+            .map(|(k, a)| {
+                let integrated =
+                    matches!(a.realisation, bondgraph_core::Realisation::Integrated(_));
+                match self.integration.get(k).copied().unwrap_or_default() {
+                    Integration::Window(n) if integrated => window + n,
+                    _ => window,
+                }
+            })
+            .collect()
+    }
+}

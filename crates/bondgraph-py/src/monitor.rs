@@ -33,6 +33,8 @@ struct Settings {
     cusum: Vec<Option<CusumLevels>>,
     debounce: u32,
     adaptive: bool,
+    /// Each residual's memory, in samples (`Fit::memories`): what an episode waits for.
+    memories: Vec<usize>,
 }
 
 /// What one pass gives, flat, before it becomes numpy arrays.
@@ -258,6 +260,7 @@ pub(crate) fn residuals<'py>(
         cusum: vec![None; c.arrs.len()],
         debounce,
         adaptive,
+        memories: Vec::new(),
     };
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let mut notes = Vec::new();
@@ -305,6 +308,7 @@ pub(crate) fn residuals<'py>(
         estimator: settings.estimator,
         integration: settings.integration.clone(),
     };
+    settings.memories = fit.memories(&c.arrs);
     let generator = || {
         Generator::new(c, &program, &params, &fit).map_err(|e| PyValueError::new_err(e.to_string()))
     };
@@ -573,7 +577,7 @@ impl<'a> Watch<'a> {
             on: vec![false; m],
             last: None,
             known: HashMap::new(),
-            episode: Episode::new(m),
+            episode: Episode::new(m).remembering(&settings.memories),
             seen: vec![false; m],
             began: false,
         }
