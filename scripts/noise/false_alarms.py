@@ -16,7 +16,9 @@ Parquet (pyarrow), residuals to CSV, read back with pyarrow.
 
 What a rate predicts: a calibration states the probability p that a healthy record as long
 as the calibration's crosses a threshold (its `crossing` line); a 3,000-s record is 15 such
-records, so N records predict about 15 N p episodes (fewer where one episode spans two).
+records, so N records predict about 15 N p of its 200-s spans with a crossing (the `spans` column),
+and about as many episodes where a crossing is one run of alarm samples (more where it
+flickers about its threshold: each run counts as an episode).
 
 Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
                        [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7]
@@ -54,14 +56,17 @@ def noisy(clean, seed, rows):
 
 
 def episodes(path):
-    """The runs of samples with some alarm in a residual CSV, and the samples in alarm."""
+    """The runs of samples with some alarm in a residual CSV, the calibration-long spans
+    with any, and the samples in alarm."""
     table = pacsv.read_csv(path)
     alarms = [c for c in table.column_names if c.startswith("alarm_")]
     on = np.zeros(table.num_rows, dtype=bool)
     for c in alarms:
         on |= table[c].to_numpy() == 1
     rising = np.count_nonzero(on[1:] & ~on[:-1]) + int(on[0]) if on.size else 0
-    return rising, int(on.sum())
+    t = table["t"].to_numpy()
+    spans = np.unique(np.floor(t[on] / CALIBRATION_SECONDS)).size
+    return rising, spans, int(on.sum())
 
 
 def crossing(path):
@@ -83,7 +88,7 @@ def main():
     args = a.parse_args()
     params = bench_plant.draw(args.draw) if args.draw else dict(bench_plant.MODEL)
     print(f"plant: {' '.join(f'{k}={v:.5g}' for k, v in params.items())}")
-    print("input   rate   p per 200 s   predicted   episodes   records with any   samples")
+    print("input   rate   p per 200 s   predicted   spans   episodes   records with any   samples")
     with tempfile.TemporaryDirectory() as tmp:
         for input in args.inputs:
             clean = bench_plant.simulate(params, input, args.seconds, sigma=0.0)
@@ -97,7 +102,7 @@ def main():
                      "--false-alarm-rate", rate, "--save-calibration", kept[rate],
                      "-o", os.devnull],
                     check=True, capture_output=True)
-            counts = {rate: [0, 0, 0] for rate in args.rates}
+            counts = {rate: [0, 0, 0, 0] for rate in args.rates}
             for k in range(args.records):
                 record = os.path.join(tmp, "record.parquet")
                 write(record, *noisy(clean, 100 + k, len(clean[0])))
@@ -107,16 +112,17 @@ def main():
                         [args.bgc, "residuals", MODEL, record, "--calibration", kept[rate],
                          "--no-size", "-o", out],
                         check=True, capture_output=True)
-                    runs, samples = episodes(out)
+                    runs, spans, samples = episodes(out)
                     c = counts[rate]
                     c[0] += runs
-                    c[1] += runs > 0
-                    c[2] += samples
+                    c[1] += spans
+                    c[2] += runs > 0
+                    c[3] += samples
             for rate in args.rates:
                 p = crossing(kept[rate])
                 predicted = args.records * args.seconds / CALIBRATION_SECONDS * p
-                runs, records, samples = counts[rate]
-                print(f"{input:7} {rate:6} {p:11.3g} {predicted:11.2f} {runs:10} "
+                runs, spans, records, samples = counts[rate]
+                print(f"{input:7} {rate:6} {p:11.3g} {predicted:11.2f} {spans:7} {runs:10} "
                       f"{records:8} of {args.records}   {samples}", flush=True)
 
 
