@@ -557,3 +557,31 @@ fn a_parameter_read_through_another_law_marks_its_component() {
     let verify = bgc_stdin(&["verify", "-"], text.as_bytes());
     assert_eq!(code(&verify), 0, "{}", stdout(&verify));
 }
+
+/// A scenario's input that divides by what is 0 whatever the time (`(t-t)/(t-t)`) once ran
+/// as `U0 = 0`; a value that is not a finite number was printed as it came. Both are refused
+/// at the expression, with its line and column.
+#[test]
+fn a_scenario_dividing_by_zero_is_refused_where_it_is_written() {
+    for (statement, said, column) in [
+        ("input U0 = (t-t)/(t-t)", "a division by zero", 19),
+        ("input U0 = 2 + 0/0", "a division by zero", 18),
+        ("input U0 = sqrt(-1) * t", "`sqrt(-1)` is not a finite number", 12),
+    ] {
+        let out = bgc(&[
+            "simulate",
+            "models/dc_motor.bg",
+            "-e",
+            "duration 1",
+            "-e",
+            "step 0.01",
+            "-e",
+            statement,
+        ]);
+        let said_it = stderr(&out);
+        assert_eq!(code(&out), 1, "{statement}: {said_it}");
+        assert!(said_it.contains(said), "{statement}: {said_it}");
+        assert!(said_it.contains(&format!(":3:{column}")), "{statement}: {said_it}");
+        assert!(stdout(&out).is_empty(), "{statement}: printed a record");
+    }
+}

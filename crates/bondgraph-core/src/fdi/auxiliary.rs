@@ -58,7 +58,7 @@ pub(crate) fn differentiate(
     let mut top = vec![None; auxiliaries.len()];
     orders_read(pool, roots, &mut top);
     let mut simplifier = Simplifier::default();
-    let mut rule = Derivatives::new(known_signal_rule);
+    let mut rule = Derivatives::new(known_signal_rule).exact();
     // A signal's derivatives read only earlier ones: the last first, then what it read.
     for k in (0..auxiliaries.len()).rev() {
         let Some(n) = top[k] else { continue };

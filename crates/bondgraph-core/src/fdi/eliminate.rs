@@ -47,6 +47,10 @@ pub(crate) struct Eliminated {
     /// Torn unknowns (by index) that enter their relations nonlinearly after their value
     /// stopped being explicit: the relations that held them are dropped.
     pub problems: Vec<VarId>,
+    /// Torn unknowns whose relations would differentiate a `sign()` of a moving signal (a
+    /// dry friction's law, `abs`, `min` or `max` past their first derivative): its
+    /// derivative is an impulse at each zero crossing, not 0, so those relations are dropped.
+    pub non_smooth: Vec<VarId>,
     /// The auxiliary signals the relations may read ([`Leaf::Aux`] by index), with their
     /// definitions only.
     pub auxiliaries: Vec<Auxiliary>,
@@ -127,7 +131,7 @@ pub(crate) fn eliminate(
             holders_of.entry(w).or_default().insert(i);
         }
     }
-    let mut problems = Vec::new();
+    let (mut problems, mut non_smooth) = (Vec::new(), Vec::new());
     for t in torn {
         let u = t.var;
         let holders: Vec<usize> = holders_of
@@ -136,7 +140,10 @@ pub(crate) fn eliminate(
             .into_iter()
             .filter(|&i| items[i].as_ref().is_some_and(|it| it.torn.contains(&u)))
             .collect();
-        if !e.eliminate_one(&mut items, &holders, u) {
+        let eliminated = e.eliminate_one(&mut items, &holders, u);
+        if e.derivatives.take_non_smooth() {
+            non_smooth.push(u);
+        } else if !eliminated {
             problems.push(u);
         }
         e.simplifier.forget_polynomials();
@@ -161,6 +168,7 @@ pub(crate) fn eliminate(
     Eliminated {
         relations,
         problems,
+        non_smooth,
         auxiliaries: e.auxiliaries,
     }
 }
@@ -171,7 +179,7 @@ impl<'p> Eliminator<'p> {
             pool,
             factors: Vec::new(),
             simplifier: Simplifier::default(),
-            derivatives: Derivatives::new(known_signal_rule as Rule),
+            derivatives: Derivatives::new(known_signal_rule as Rule).exact(),
             auxiliaries: Vec::new(),
         }
     }

@@ -269,7 +269,7 @@ fn product(exprs: &mut Exprs, c: Expr, x: Split, top: u32) -> Option<Split> {
     if reads_derivative {
         return None;
     }
-    let rate_of_c = Derivatives::new(time_rate).of(exprs, c)?;
+    let rate_of_c = Derivatives::new(time_rate).exact().of(exprs, c)?;
     let drift = exprs.mul(rate_of_c, level);
     let rate = match x.rate {
         Some(r) => {

@@ -2,7 +2,7 @@
 
 use super::hash::FastMap;
 
-use super::pool::{ExprId, Leaf, LeafKind, Node, Pool};
+use super::pool::{children, ExprId, Leaf, LeafKind, Node, Pool};
 use crate::expr::{BinOp, Func};
 
 /// Time derivatives, memoised so a shared subexpression is differentiated once.
@@ -12,10 +12,19 @@ use crate::expr::{BinOp, Func};
 /// equation. `leaf` returns `None` for a leaf it cannot differentiate.
 pub struct Derivatives<L: LeafKind, F> {
     memo: FastMap<ExprId<L>, ExprId<L>>,
+    /// With [`Self::exact`]: for each node differentiated, the arguments `x` of the `sign(x)`
+    /// whose jumps its derivative leaves out (an impulse `2 δ(x) x'` times what multiplies
+    /// the sign there, unless that vanishes where `x` does). Empty lists are not kept.
+    jumps: FastMap<ExprId<L>, Vec<ExprId<L>>>,
     leaf: F,
     /// With respect to time, `d/dt int(a) = a`; for a partial derivative with respect to a
     /// leaf, `∂ int(a) = int(∂a)`.
     partial: bool,
+    /// Whether a time derivative through `sign()` of a moving argument is refused rather
+    /// than taken as 0 (see [`Self::exact`]).
+    exact: bool,
+    /// Whether one was refused (see [`Self::take_non_smooth`]).
+    non_smooth: bool,
 }
 
 impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L, F> {
@@ -23,9 +32,23 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
     pub fn new(leaf: F) -> Self {
         Derivatives {
             memo: FastMap::default(),
+            jumps: FastMap::default(),
             leaf,
             partial: false,
+            exact: false,
+            non_smooth: false,
         }
+    }
+
+    /// The same rule, refusing (`None`) a time derivative through `sign()` of an argument
+    /// that moves: it is an impulse where the argument crosses zero, not 0, and a relation
+    /// differentiated through it would lose the jump (a dry friction's `2 Fc` at each
+    /// reversal). Where the derivative is a slope (a Newton step's, a sensitivity) 0 is right
+    /// almost everywhere, and that is the default.
+    #[must_use]
+    pub fn exact(mut self) -> Self {
+        self.exact = true;
+        self
     }
 
     /// Partial derivatives: `leaf` gives each leaf's (1 for the variable, 0 for the others),
@@ -33,9 +56,19 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
     pub fn partial(leaf: F) -> Self {
         Derivatives {
             memo: FastMap::default(),
+            jumps: FastMap::default(),
             leaf,
             partial: true,
+            exact: false,
+            non_smooth: false,
         }
+    }
+
+    /// Whether a derivative was refused since the last call because it went through
+    /// `sign()` of a moving argument (directly, or through `abs`, `min` or `max` past their
+    /// first derivative); the flag is cleared.
+    pub fn take_non_smooth(&mut self) -> bool {
+        std::mem::take(&mut self.non_smooth)
     }
 
     /// d/dt of a leaf under the rule.
@@ -43,14 +76,86 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
         (self.leaf)(pool, leaf)
     }
 
-    /// d/dt of `root`, or `None` if a leaf has no derivative under the rule.
+    /// d/dt of `root`, or `None` if a leaf has no derivative under the rule, or, [`Self::exact`],
+    /// if it would go through `sign()` of an argument that moves (then
+    /// [`Self::take_non_smooth`] says so).
     pub fn of(&mut self, pool: &mut Pool<L>, root: ExprId<L>) -> Option<ExprId<L>> {
+        let (d, jumps) = self.with_jumps(pool, root)?;
+        if !jumps.is_empty() {
+            self.refuse();
+            return None;
+        }
+        Some(d)
+    }
+
+    /// Records a derivative refused for the jumps of a `sign()` (see [`Self::take_non_smooth`]).
+    pub fn refuse(&mut self) {
+        self.non_smooth = true;
+    }
+
+    /// d/dt of `root` as [`Self::of`], with the arguments of the `sign()`s whose jumps it
+    /// leaves out instead of a refusal (empty unless [`Self::exact`]): for a caller that
+    /// knows what multiplies `root` (a polynomial's other factors), which may vanish there.
+    pub fn with_jumps(
+        &mut self,
+        pool: &mut Pool<L>,
+        root: ExprId<L>,
+    ) -> Option<(ExprId<L>, Vec<ExprId<L>>)> {
         // Only nodes not yet differentiated are visited.
         for id in pool.reachable_unless(root, |id| self.memo.contains_key(&id)) {
             let d = self.node(pool, id)?;
             self.memo.insert(id, d);
+            if self.exact {
+                let jumps = self.jumps_of(pool, id);
+                if !jumps.is_empty() {
+                    self.jumps.insert(id, jumps);
+                }
+            }
         }
-        self.memo.get(&root).copied()
+        let d = self.memo.get(&root).copied()?;
+        Some((d, self.jumps.get(&root).cloned().unwrap_or_default()))
+    }
+
+    /// The `sign()` arguments whose jumps the derivative of `id` leaves out, from its
+    /// children's (already differentiated): a `sign(x)` of a moving `x` adds `x`; a product
+    /// drops a factor's `x` where the other factor vanishes at `x = 0` (`sign(x)·√|x|`, an
+    /// orifice's law, is continuous there, and its derivative holds no impulse).
+    fn jumps_of(&self, p: &Pool<L>, id: ExprId<L>) -> Vec<ExprId<L>> {
+        let of = |x: ExprId<L>| self.jumps.get(&x).cloned().unwrap_or_default();
+        let mut out = match p.node(id) {
+            Node::Num(_) | Node::Leaf(_) | Node::Int(_) => Vec::new(),
+            Node::Call1(Func::Sign, a) => {
+                let moving = self
+                    .memo
+                    .get(&a)
+                    .is_some_and(|&da| p.as_num(da) != Some(0.0));
+                let mut j = of(a);
+                if moving {
+                    j.push(a);
+                }
+                j
+            }
+            Node::Binary(BinOp::Mul, a, b) => {
+                let mut j: Vec<_> = (of(a).into_iter())
+                    .filter(|&x| !vanishes(p, b, x))
+                    .collect();
+                j.extend(of(b).into_iter().filter(|&x| !vanishes(p, a, x)));
+                j
+            }
+            Node::Binary(BinOp::Pow, a, b) => {
+                // c a^(c-1) a': with c > 1 the factor vanishes where a does.
+                let steep = p.as_num(b).is_some_and(|c| c > 1.0);
+                let mut j: Vec<_> = (of(a).into_iter())
+                    .filter(|&x| !(steep && vanishes(p, a, x)))
+                    .collect();
+                j.extend(of(b));
+                j
+            }
+            node => children(node).flat_map(of).collect(),
+        };
+        out.sort_unstable();
+        out.dedup();
+        out
     }
 
     fn node(&mut self, p: &mut Pool<L>, id: ExprId<L>) -> Option<ExprId<L>> {
@@ -94,6 +199,21 @@ impl<L: LeafKind, F: FnMut(&mut Pool<L>, L) -> Option<ExprId<L>>> Derivatives<L,
             }
             Node::Int(a) => a,
         })
+    }
+}
+
+/// Whether `v` is 0 wherever `x` is: `x` itself, or a factor, power, `abs`, `sqrt` or
+/// `sign` of it (structurally: the pool shares equal subexpressions).
+pub(crate) fn vanishes<L: LeafKind>(p: &Pool<L>, v: ExprId<L>, x: ExprId<L>) -> bool {
+    if v == x {
+        return true;
+    }
+    match p.node(v) {
+        Node::Neg(u) | Node::Call1(Func::Abs | Func::Sqrt | Func::Sign, u) => vanishes(p, u, x),
+        Node::Binary(BinOp::Mul, a, b) => vanishes(p, a, x) || vanishes(p, b, x),
+        Node::Binary(BinOp::Div, a, _) => vanishes(p, a, x),
+        Node::Binary(BinOp::Pow, a, c) => p.as_num(c).is_some_and(|c| c > 0.0) && vanishes(p, a, x),
+        _ => false,
     }
 }
 
@@ -268,5 +388,45 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// Exact time derivatives refuse `sign()` of a moving signal (a dry friction's law: its
+    /// derivative is an impulse at each reversal), and its products with what vanishes
+    /// there pass (an orifice's `sign(x)·√|x|` is continuous): `abs` once, not twice.
+    #[test]
+    fn exact_derivatives_refuse_the_jumps_of_sign_only() {
+        let mut p = Pool::default();
+        let x = p.leaf(Leaf::Input(InputId(0), 0));
+        let fc = p.num(1.5);
+        let s = p.call(Func::Sign, &[x]);
+        let friction = p.mul(fc, s);
+        let a = p.call(Func::Abs, &[x]);
+        let root = p.call(Func::Sqrt, &[a]);
+        let orifice = p.mul(s, root);
+        let cube = {
+            let third = p.num(1.0 / 3.0);
+            let r = p.pow(a, third);
+            p.mul(s, r)
+        };
+        let t = p.leaf(Leaf::Time);
+        let still = p.call(Func::Sign, &[t]);
+        let constant = p.sub(t, t);
+        let frozen = p.call(Func::Sign, &[constant]);
+        let mut exact = Derivatives::new(known_signal_rule).exact();
+        assert!(exact.of(&mut p, friction).is_none());
+        assert!(exact.take_non_smooth());
+        assert!(!exact.take_non_smooth(), "the flag is cleared once read");
+        assert!(exact.of(&mut p, orifice).is_some());
+        assert!(exact.of(&mut p, cube).is_some());
+        assert!(exact.of(&mut p, frozen).is_some());
+        assert!(exact.of(&mut p, still).is_none(), "sign(t) jumps at t = 0");
+        let slope = exact.of(&mut p, a).expect("|x|' = sign(x) x'");
+        assert!(exact.of(&mut p, slope).is_none(), "|x|'' holds the impulse");
+        let mut loose = Derivatives::new(known_signal_rule);
+        assert!(
+            loose.of(&mut p, friction).is_some(),
+            "a slope: 0 almost everywhere"
+        );
+        assert!(!loose.take_non_smooth());
     }
 }

@@ -378,23 +378,25 @@ impl Simplifier {
         p: &Polynomial,
         derivatives: &mut super::Derivatives<Leaf, F>,
     ) -> Option<Polynomial> {
-        let mut of_atom: FastMap<ExprId, Rc<Poly>> = FastMap::default();
+        type Atom = (Rc<Poly>, Rc<[ExprId]>);
+        let mut of_atom: FastMap<ExprId, Atom> = FastMap::default();
         let mut out = Vec::new();
         for (m, &c) in p.0.iter() {
             for (i, &(a, e)) in m.iter().enumerate() {
-                let da = match of_atom.get(&a) {
-                    Some(da) => Rc::clone(da),
+                let (da, jumps) = match of_atom.get(&a) {
+                    Some((da, jumps)) => (Rc::clone(da), Rc::clone(jumps)),
                     None => {
-                        let d = match pool.node(a) {
-                            Node::Leaf(l) => derivatives.of_leaf(pool, l)?,
-                            _ => derivatives.of(pool, a)?,
+                        let (d, jumps) = match pool.node(a) {
+                            Node::Leaf(l) => (derivatives.of_leaf(pool, l)?, Vec::new()),
+                            _ => derivatives.with_jumps(pool, a)?,
                         };
                         let da = self.poly(pool, d);
-                        of_atom.insert(a, Rc::clone(&da));
-                        da
+                        let jumps: Rc<[ExprId]> = jumps.into();
+                        of_atom.insert(a, (Rc::clone(&da), Rc::clone(&jumps)));
+                        (da, jumps)
                     }
                 };
-                if da.is_empty() {
+                if da.is_empty() && jumps.is_empty() {
                     continue;
                 }
                 // c·e·a^(e−1)·(the other atoms)·da
@@ -403,6 +405,16 @@ impl Simplifier {
                     rest.remove(i);
                 } else {
                     rest[i].1 = e - 1;
+                }
+                // The impulse of a jump times the other factors: none where one vanishes.
+                let held =
+                    |x: ExprId| (rest.iter()).any(|&(b, _)| super::derive::vanishes(pool, b, x));
+                if !jumps.iter().all(|&x| held(x)) {
+                    derivatives.refuse();
+                    return None;
+                }
+                if da.is_empty() {
+                    continue;
                 }
                 let mut terms = da.iter();
                 if let (Some((dm, dc)), None) = (terms.next(), terms.next()) {

@@ -54,6 +54,7 @@ fn parse_statement(text: &str, offset: usize) -> Result<ast::Statement, Vec<Diag
     };
     let mut builder = Builder {
         offset,
+        text,
         errors: Vec::new(),
     };
     let kind = statement
@@ -87,6 +88,7 @@ pub fn parse_expr(text: &str, offset: usize) -> Result<AstExpr, Vec<Diagnostic>>
     };
     let mut builder = Builder {
         offset,
+        text,
         errors: Vec::new(),
     };
     let expr = builder.expr(pair);
@@ -157,12 +159,14 @@ fn too_complex(text: &str, offset: usize) -> Option<Diagnostic> {
 }
 
 /// Turns pairs into syntax nodes, collecting the errors the grammar cannot express.
-struct Builder {
+struct Builder<'t> {
     offset: usize,
+    /// The statement's text, which starts at byte `offset` of its file.
+    text: &'t str,
     errors: Vec<Diagnostic>,
 }
 
-impl Builder {
+impl Builder<'_> {
     fn span(&self, pair: &Pair<'_, Rule>) -> Span {
         let s = pair.as_span();
         Span::new(s.start(), s.end()).shifted(self.offset)
@@ -381,14 +385,23 @@ impl Builder {
 
     fn expr_pairs(&mut self, pairs: Pairs<'_, Rule>, pratt: &PrattParser<Rule>) -> AstExpr {
         // The closures below all need `self`; a RefCell lets them share it for one parse.
+        // Each node carries its span, so that a value the language refuses is located.
         let this = std::cell::RefCell::new(self);
-        pratt
-            .map_primary(|p| this.borrow_mut().primary(p, pratt))
-            .map_prefix(|op, x| match op.as_rule() {
-                Rule::neg => Expr::Neg(Box::new(x)),
-                _ => x,
+        let (expr, _) = pratt
+            .map_primary(|p| {
+                let span = this.borrow().span(&p);
+                let text = p.as_str().to_string();
+                let e = this.borrow_mut().primary(p, pratt);
+                this.borrow_mut().finite(e, span, &text)
             })
-            .map_infix(|a, op, b| {
+            .map_prefix(|op, (x, span)| {
+                let span = Span::new(this.borrow().span(&op).start, span.end);
+                match op.as_rule() {
+                    Rule::neg => (Expr::Neg(Box::new(x)), span),
+                    _ => (x, span),
+                }
+            })
+            .map_infix(|(a, left), op, (b, right)| {
                 let op = match op.as_rule() {
                     Rule::add => BinOp::Add,
                     Rule::sub => BinOp::Sub,
@@ -396,9 +409,51 @@ impl Builder {
                     Rule::div => BinOp::Div,
                     _ => BinOp::Pow,
                 };
-                Expr::binary(op, a, b)
+                let span = Span::new(left.start, right.end);
+                let mut this = this.borrow_mut();
+                if op == BinOp::Div && identically_zero(&b) {
+                    this.errors.push(
+                        Diagnostic::error(Code::BadValue, right, "a division by zero")
+                            .with_label("this denominator is 0 whatever its signals' values")
+                            .with_help(
+                                "the language has no infinite value: divide by what is not zero",
+                            ),
+                    );
+                    return (Expr::Num(1.0), span);
+                }
+                let text = this.text_of(span);
+                this.finite(Expr::binary(op, a, b), span, &text)
             })
-            .parse(pairs)
+            .parse(pairs);
+        expr
+    }
+
+    /// The model's text under `span` (empty if the builder does not hold it).
+    fn text_of(&self, span: Span) -> String {
+        let start = span.start.saturating_sub(self.offset);
+        let end = span.end.saturating_sub(self.offset);
+        self.text.get(start..end).unwrap_or("").trim().to_string()
+    }
+
+    /// `e` as it is, unless it reads no signal and its value is not a finite number (`log(0)`,
+    /// `0^-1`, `exp(1000)`): then an error at `span`, and 1 in its place so that what holds
+    /// it is not refused again.
+    fn finite(&mut self, e: AstExpr, span: Span, text: &str) -> (AstExpr, Span) {
+        match constant(&e) {
+            Some(v) if !v.is_finite() => {
+                self.errors.push(
+                    Diagnostic::error(
+                        Code::BadValue,
+                        span,
+                        format!("`{text}` is not a finite number"),
+                    )
+                    .with_label(format!("this is {v}"))
+                    .with_help("the language has no infinite or undefined value"),
+                );
+                (Expr::Num(1.0), span)
+            }
+            _ => (e, span),
+        }
     }
 
     fn primary(&mut self, pair: Pair<'_, Rule>, pratt: &PrattParser<Rule>) -> AstExpr {
@@ -502,6 +557,48 @@ impl Builder {
         );
         Expr::Num(0.0)
     }
+}
+
+/// The value of an expression that reads no signal (numbers and functions of them).
+fn constant(e: &AstExpr) -> Option<f64> {
+    Some(match e {
+        Expr::Num(x) => *x,
+        Expr::Leaf(_) | Expr::Der(..) | Expr::Int(_) => return None,
+        Expr::Neg(a) => -constant(a)?,
+        Expr::Binary(op, a, b) => op.apply(constant(a)?, constant(b)?),
+        Expr::Call(f, args) => {
+            let args: Option<Vec<f64>> = args.iter().map(constant).collect();
+            f.apply(&args?)
+        }
+    })
+}
+
+/// Whether `e` is 0 whatever its names stand for (`0`, `fe - fe`, `(t - t)*x`): 0 at three
+/// assignments of values to its names, none of them special. A function of the names that
+/// is not identically 0 vanishes at all three only by a coincidence of measure zero.
+fn identically_zero(e: &AstExpr) -> bool {
+    (1..=3u64).all(|k| at(e, k) == Some(0.0))
+}
+
+/// `e` with each name worth a value drawn from its name and `k`, in [0.7, 1.9]; `der` and
+/// `int` of an expression as the expression.
+fn at(e: &AstExpr, k: u64) -> Option<f64> {
+    Some(match e {
+        Expr::Num(x) => *x,
+        Expr::Leaf(id) => {
+            let h = (id.name.bytes()).fold(0xcbf2_9ce4_8422_2325u64 ^ k, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            });
+            0.7 + 1.2 * ((h >> 11) as f64 / (1u64 << 53) as f64)
+        }
+        Expr::Der(a, _) | Expr::Int(a) => at(a, k)?,
+        Expr::Neg(a) => -at(a, k)?,
+        Expr::Binary(op, a, b) => op.apply(at(a, k)?, at(b, k)?),
+        Expr::Call(f, args) => {
+            let args: Option<Vec<f64>> = args.iter().map(|a| at(a, k)).collect();
+            f.apply(&args?)
+        }
+    })
 }
 
 fn pratt() -> &'static PrattParser<Rule> {
