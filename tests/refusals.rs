@@ -566,7 +566,11 @@ fn a_scenario_dividing_by_zero_is_refused_where_it_is_written() {
     for (statement, said, column) in [
         ("input U0 = (t-t)/(t-t)", "a division by zero", 19),
         ("input U0 = 2 + 0/0", "a division by zero", 18),
-        ("input U0 = sqrt(-1) * t", "`sqrt(-1)` is not a finite number", 12),
+        (
+            "input U0 = sqrt(-1) * t",
+            "`sqrt(-1)` is not a finite number",
+            12,
+        ),
     ] {
         let out = bgc(&[
             "simulate",
@@ -581,7 +585,10 @@ fn a_scenario_dividing_by_zero_is_refused_where_it_is_written() {
         let said_it = stderr(&out);
         assert_eq!(code(&out), 1, "{statement}: {said_it}");
         assert!(said_it.contains(said), "{statement}: {said_it}");
-        assert!(said_it.contains(&format!(":3:{column}")), "{statement}: {said_it}");
+        assert!(
+            said_it.contains(&format!(":3:{column}")),
+            "{statement}: {said_it}"
+        );
         assert!(stdout(&out).is_empty(), "{statement}: printed a record");
     }
 }
