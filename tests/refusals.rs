@@ -592,3 +592,155 @@ fn a_scenario_dividing_by_zero_is_refused_where_it_is_written() {
         assert!(stdout(&out).is_empty(), "{statement}: printed a record");
     }
 }
+
+/// Names, units and error columns past 65,535 characters once made `format!` panic (exit
+/// 101, "Formatting argument out of range") in `check`, `--emit text`, `verify` and the
+/// renderer of diagnostics: now a long name is written whole, unaligned, and a diagnostic on
+/// a line too long to quote keeps its message and `file:line:col`.
+#[test]
+fn names_and_columns_past_65535_characters_are_written_not_panicked_on() {
+    let text = std::fs::read_to_string(root().join("models/dc_motor.bg")).expect("model");
+    let long = format!("R{}", "e".repeat(70_000));
+    let unit = "V".repeat(70_000);
+    let element = format!("R{}", "m".repeat(70_000));
+    let model = (text.replace(
+        "param Re = 0.3 [Ohm]",
+        &format!("param {long} = 0.3 [{unit}]"),
+    ))
+    .replace("R  Rm    = Re", &format!("R  {element} = {long}"))
+    .replace("-> Rm, Lm", &format!("-> {element}, Lm"));
+    let dir = scratch("long-names");
+    let path = dir.join("long.bg");
+    std::fs::write(&path, &model).expect("write");
+    let file = path.display().to_string();
+    for (args, name) in [
+        (vec!["check", file.as_str()], &long),
+        (vec![file.as_str(), "--emit", "text"], &long),
+        (vec!["verify", file.as_str(), "--steps", "200"], &element),
+    ] {
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{args:?}: {}", stderr(&out));
+        assert!(
+            stdout(&out).contains(name.as_str()),
+            "{args:?}: the name is written whole"
+        );
+    }
+    let bad = format!("{}\nSe oops = nowhere\n", text.trim_end())
+        .replace("Se oops", &format!("{}Se oops", " ".repeat(70_000)));
+    std::fs::write(&path, bad).expect("write");
+    let out = bgc(&["check", &file]);
+    assert_eq!(code(&out), 1, "{}", stderr(&out));
+    assert!(stderr(&out).contains("long.bg:"), "{}", stderr(&out));
+    assert!(stderr(&out).len() < 10_000, "the long line is not quoted");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Numeric options that can verify or calibrate nothing are usage errors, said before any
+/// work: `--steps 99999999999` once ran for more than ten minutes, `--steps 0`, `--step nan`
+/// and scales of `inf` or `1e308` gave false verification failures, and `--margin 1e308`
+/// wrote `inf` thresholds with exit 0.
+#[test]
+fn numeric_options_out_of_their_range_are_usage_errors() {
+    for (option, value, said) in [
+        ("--steps", "0", "steps must be 1 to"),
+        ("--steps", "99999999999", "steps must be 1 to"),
+        ("--step", "nan", "step must be a finite number"),
+        ("--step=-0.001", "", "step must be a finite number"),
+        ("--input-scale", "inf", "input scale must be a number in"),
+        ("--state-scale", "1e308", "state scale must be a number in"),
+    ] {
+        let mut args = vec!["verify", "models/dc_motor.bg", option];
+        args.extend([value].into_iter().filter(|v| !v.is_empty()));
+        let out = bgc(&args);
+        assert_eq!(code(&out), 2, "{option} {value}: {}", stderr(&out));
+        assert!(
+            stderr(&out).contains(said),
+            "{option} {value}: {}",
+            stderr(&out)
+        );
+        assert!(stdout(&out).is_empty(), "{option} {value}: printed a table");
+    }
+    let dir = scratch("margin");
+    let record = dir.join("r.csv").display().to_string();
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        "-e",
+        "duration 1",
+        "-e",
+        "step 0.001",
+        "-e",
+        "input U0 = 1 - cos(3*t)",
+        "-e",
+        "noise y1 1e-3",
+        "-e",
+        "noise i 1e-3",
+        "-o",
+        &record,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let out = bgc(&[
+        "residuals",
+        "models/dc_motor.bg",
+        &record,
+        "--calibrate",
+        &record,
+        "--margin",
+        "1e308",
+    ]);
+    assert_eq!(code(&out), 2, "{}", stderr(&out));
+    assert!(stderr(&out).contains("margin 1e308"), "{}", stderr(&out));
+    assert!(
+        !stdout(&out).contains("inf"),
+        "an infinite threshold was written"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Floods of diagnostics are bounded: a group bond of 100 sources into 100 resistors (each
+/// of its 200 errors pointing at every bond of the line) printed 14 MB, and 20,000 unused
+/// parameters 20,000 warnings. Now at most 50 of each kind in full, 8 places each, then a
+/// count of the rest.
+#[test]
+fn a_flood_of_diagnostics_is_cut_to_what_a_reader_reads() {
+    let dir = scratch("flood");
+    let names = |prefix: &str| (0..100).map(|k| format!("{prefix}{k}")).collect::<Vec<_>>();
+    let (sources, resistors) = (names("s"), names("r"));
+    let mut flood = String::from("model flood\ninput U\n");
+    for s in &sources {
+        flood.push_str(&format!("Se {s} = U\n"));
+    }
+    for r in &resistors {
+        flood.push_str(&format!("R {r} = 1\n"));
+    }
+    flood.push_str(&format!(
+        "{} -> {}\n",
+        sources.join(", "),
+        resistors.join(", ")
+    ));
+    let mut unused = String::from("model unused\ninput U\n");
+    for k in 0..20_000 {
+        unused.push_str(&format!("param p{k} = 1\n"));
+    }
+    unused.push_str("Se s = U\nR r = 1\ns -> r\n");
+    for (name, text, said) in [
+        ("flood.bg", flood, "and 150 more errors"),
+        ("unused.bg", unused, "and 19950 more warnings"),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).expect("write");
+        let out = bgc(&["check", &path.display().to_string()]);
+        let report = stderr(&out);
+        assert!(
+            report.contains(said),
+            "{name}: {}",
+            &report[report.len().saturating_sub(500)..]
+        );
+        assert!(
+            report.len() < 1_000_000,
+            "{name}: {} bytes of diagnostics",
+            report.len()
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

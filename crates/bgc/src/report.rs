@@ -71,7 +71,10 @@ pub(crate) fn note(message: impl fmt::Display) {
 }
 
 fn say(said: Said) {
-    eprintln!("{:?}", miette::Report::new(said));
+    use std::io::Write as _;
+    // In one piece: the renderer writes a report in many small parts.
+    let text = format!("{:?}\n", miette::Report::new(said));
+    let _ = std::io::stderr().lock().write_all(text.as_bytes());
 }
 
 /// A command's own error or warning, with no source to point into.
@@ -159,28 +162,71 @@ fn not_text(e: &std::string::FromUtf8Error) -> (String, Diagnostics) {
     (text, diagnostics)
 }
 
-/// Prints each diagnostic against `text` (named `name`), then a count of the errors.
+/// How many diagnostics of a kind are printed in full: past it, a count. A generated or
+/// damaged model can hold thousands of errors (a group bond of 100 sources into 100
+/// resistors gave 14 MB of them); the first ones say what is wrong.
+pub(crate) const MOST_SHOWN: usize = 50;
+
+/// How many places besides its own one diagnostic points at.
+const MOST_LABELS: usize = 8;
+
+/// Prints each diagnostic against `text` (named `name`), in order, at most
+/// [`MOST_SHOWN`] of each severity, then a count of those left out and of the errors. The
+/// source is shared and its lines indexed once, and each report is written in one piece:
+/// many diagnostics on a large file cost what they print, not the file's size each.
 pub(crate) fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
+    use std::io::Write as _;
+    let source: std::sync::Arc<str> = std::sync::Arc::from(text);
+    let lines = diagnostic::LineIndex::new(text);
+    let mut out = String::new();
+    let mut shown = [0usize; 2];
     for d in diagnostics.iter() {
+        let kind = usize::from(d.severity == Severity::Warning);
+        shown[kind] += 1;
+        if shown[kind] > MOST_SHOWN {
+            continue;
+        }
+        let mut d = d.clone();
+        // One error pointing at every bond of a long group line quoted each of them.
+        if d.notes.len() > MOST_LABELS {
+            let left = d.notes.len() - MOST_LABELS;
+            d.notes.truncate(MOST_LABELS);
+            let more = format!("and {left} more place{} like these", plural(left));
+            d.help = Some(match d.help.take() {
+                Some(help) => format!("{help}\n{more}"),
+                None => more,
+            });
+        }
         let report = Report {
-            diagnostic: d.clone(),
-            source: NamedSource::new(name, text.to_string()),
+            at: lines.line_col(text, d.span.start).to_string(),
+            diagnostic: d,
+            source: NamedSource::new(name, std::sync::Arc::clone(&source)),
         };
-        eprintln!("{:?}", miette::Report::new(report));
+        out.push_str(&format!("{:?}\n", miette::Report::new(report)));
     }
     let errors = diagnostics.error_count();
     let warnings = diagnostics.len() - errors;
+    for (count, what) in [(errors, "error"), (warnings, "warning")] {
+        if count > MOST_SHOWN {
+            let left = count - MOST_SHOWN;
+            out.push_str(&format!(
+                "bgc: {name}: and {left} more {what}{}\n",
+                plural(left)
+            ));
+        }
+    }
     if errors > 0 {
-        eprintln!(
-            "bgc: {name}: {errors} error{}{}",
+        out.push_str(&format!(
+            "bgc: {name}: {errors} error{}{}\n",
             plural(errors),
             if warnings > 0 {
                 format!(", {warnings} warning{}", plural(warnings))
             } else {
                 String::new()
             }
-        );
+        ));
     }
+    let _ = std::io::stderr().lock().write_all(out.as_bytes());
 }
 
 fn plural(n: usize) -> &'static str {
@@ -193,8 +239,10 @@ fn plural(n: usize) -> &'static str {
 
 /// One core diagnostic with the source it points into.
 struct Report {
+    /// Where it points, as `line:col`.
+    at: String,
     diagnostic: Diagnostic,
-    source: NamedSource<String>,
+    source: NamedSource<std::sync::Arc<str>>,
 }
 
 impl fmt::Debug for Report {
@@ -205,18 +253,41 @@ impl fmt::Debug for Report {
 
 impl fmt::Display for Report {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let lc = diagnostic::LineIndex::new(self.source.inner())
-            .line_col(self.source.inner(), self.diagnostic.span.start);
         write!(
             f,
-            "{}:{lc}: {}",
+            "{}:{}: {}",
             self.source.name(),
+            self.at,
             self.diagnostic.message
         )
     }
 }
 
 impl std::error::Error for Report {}
+
+/// The longest line a diagnostic quotes: past it, the message and its `file:line:col` only.
+/// A snippet of a longer line helps no reader, and the renderer cannot lay out columns past
+/// 65,535 (it panicked there).
+const WIDEST_QUOTED_LINE: usize = 4_000;
+
+impl Report {
+    /// Whether a line the diagnostic points into is too long to quote.
+    fn too_wide(&self) -> bool {
+        let text = self.source.inner().as_bytes();
+        let d = &self.diagnostic;
+        (std::iter::once(d.span).chain(d.notes.iter().map(|n| n.span))).any(|span| {
+            let at = span.start.min(text.len());
+            let start = text[..at]
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |k| k + 1);
+            let end = (text[at..].iter())
+                .position(|&b| b == b'\n')
+                .map_or(text.len(), |k| at + k);
+            end - start > WIDEST_QUOTED_LINE
+        })
+    }
+}
 
 fn source_span(span: Span) -> SourceSpan {
     SourceSpan::new(span.start.into(), span.len())
@@ -242,10 +313,13 @@ impl miette::Diagnostic for Report {
     }
 
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
-        Some(&self.source)
+        (!self.too_wide()).then_some(&self.source as &dyn miette::SourceCode)
     }
 
     fn labels(&self) -> Option<Box<dyn Iterator<Item = LabeledSpan> + '_>> {
+        if self.too_wide() {
+            return None;
+        }
         let d = &self.diagnostic;
         let label = (!d.label.is_empty()).then(|| d.label.clone());
         let primary = LabeledSpan::new_primary_with_span(label, source_span(d.span));

@@ -6,6 +6,8 @@ use std::fmt::Write as _;
 use bondgraph_core::{Compiled, NodeClass};
 use bondgraph_sim::Verification;
 
+use bondgraph_codegen::text::WIDEST_COLUMN;
+
 /// The summary of a model: counts by kind, then parameters and inputs.
 pub(crate) fn check(c: &Compiled) -> String {
     let mut by_kind: BTreeMap<&str, usize> = BTreeMap::new();
@@ -33,9 +35,15 @@ pub(crate) fn check(c: &Compiled) -> String {
         .values()
         .map(|p| p.name.len())
         .max()
-        .unwrap_or(0);
+        .unwrap_or(0)
+        .min(WIDEST_COLUMN);
     let values: Vec<String> = c.parameters.values().map(|p| p.value.to_string()).collect();
-    let value_width = values.iter().map(String::len).max().unwrap_or(0);
+    let value_width = values
+        .iter()
+        .map(String::len)
+        .max()
+        .unwrap_or(0)
+        .min(WIDEST_COLUMN);
     let units: Vec<String> = c
         .parameters
         .values()
@@ -46,7 +54,12 @@ pub(crate) fn check(c: &Compiled) -> String {
                 .unwrap_or_default()
         })
         .collect();
-    let unit_width = units.iter().map(String::len).max().unwrap_or(0);
+    let unit_width = units
+        .iter()
+        .map(String::len)
+        .max()
+        .unwrap_or(0)
+        .min(WIDEST_COLUMN);
     for ((p, value), unit) in c.parameters.values().zip(&values).zip(&units) {
         let line = format!(
             "  {:<name_width$} = {value:<value_width$}  {unit:<unit_width$}  {}",
@@ -101,7 +114,7 @@ pub(crate) fn verification(c: &Compiled, v: &Verification) -> String {
         .map(|k| k.name.len())
         .max()
         .unwrap_or(0)
-        .max(9);
+        .clamp(9, WIDEST_COLUMN);
     let _ = writeln!(
         out,
         "FSM entries under a fault of each component (relative |residual|)"

@@ -42,6 +42,14 @@ pub(crate) struct VerifyArgs {
 
 /// Runs `bgc verify`: exit 1 when any check fails.
 pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
+    let options = VerifyOptions {
+        input_scale: args.input_scale,
+        state_scale: args.state_scale,
+        steps: args.steps,
+        step: args.step,
+        ..VerifyOptions::default()
+    };
+    options.check().map_err(report::usage)?;
     let c = io::compile_with(
         &args.model,
         args.values.path(),
@@ -50,13 +58,6 @@ pub(crate) fn run(args: VerifyArgs) -> Result<(), Failure> {
         (args.choice.set(), args.choice.realise()),
     )?;
     io::succeeded(&c)?;
-    let options = VerifyOptions {
-        input_scale: args.input_scale,
-        state_scale: args.state_scale,
-        steps: args.steps,
-        step: args.step,
-        ..VerifyOptions::default()
-    };
     // One simulation per fault: minutes on a large model, so the bar says how far it is (on
     // a terminal; indicatif draws nothing otherwise).
     let bar = ProgressBar::new(c.components.len() as u64);

@@ -10,6 +10,10 @@ use bondgraph_core::{
 use crate::names;
 use crate::shared::Shared;
 
+/// The widest a column is padded to: a longer name is written whole, unaligned (a width past
+/// 65,535 is beyond what `format!` pads, and aligning it would help no reader).
+pub const WIDEST_COLUMN: usize = 200;
+
 /// The causality report of every mode that was run (what `bgc causality` prints).
 pub fn causality(c: &Compiled) -> String {
     let mut out = String::new();
@@ -252,7 +256,8 @@ fn isolability(out: &mut String, c: &Compiled) {
         .values()
         .map(|r| r.name.len())
         .max()
-        .unwrap_or(0);
+        .unwrap_or(0)
+        .min(WIDEST_COLUMN);
     let handles: Vec<_> = c.components.iter().map(|(h, _)| h).collect();
     let mut header = format!("  {:<width$}", "");
     for h in &handles {
@@ -269,7 +274,7 @@ fn isolability(out: &mut String, c: &Compiled) {
             } else {
                 "0"
             };
-            let w = c.components[b].name.len();
+            let w = c.components[b].name.len().min(WIDEST_COLUMN);
             let _ = write!(line, " {cell:>w$}");
         }
         let _ = writeln!(out, "{line}");
@@ -446,7 +451,7 @@ fn fsm_table(out: &mut String, c: &Compiled) {
         .map(|r| r.name.len())
         .max()
         .unwrap_or(0)
-        .max("component".len());
+        .clamp("component".len(), WIDEST_COLUMN);
     let columns: Vec<usize> = c.arrs.iter().map(|a| a.name.len().max(3)).collect();
     let mut header = format!("  {:<width$}  {:<5}  Db  Ib", "component", "kind");
     for (arr, w) in c.arrs.iter().zip(&columns) {
@@ -493,7 +498,8 @@ fn shared_parameters(out: &mut String, c: &Compiled) {
         .iter()
         .map(|s| c.parameters[s.parameter].name.len())
         .max()
-        .unwrap_or(0);
+        .unwrap_or(0)
+        .min(WIDEST_COLUMN);
     for s in &shared {
         let components: Vec<&str> = s
             .components
@@ -523,7 +529,7 @@ fn fsm_rows(out: &mut String, c: &Compiled) {
         .map(|r| r.name.len())
         .max()
         .unwrap_or(0)
-        .max("component".len());
+        .clamp("component".len(), WIDEST_COLUMN);
     let _ = writeln!(
         out,
         "  ({} ARRs: each component with the ARRs it shows in)",

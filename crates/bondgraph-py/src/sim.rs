@@ -48,24 +48,15 @@ pub(crate) fn verify<'py>(
     state_scale: f64,
     runs: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    for (name, v) in [("input_scale", input_scale), ("state_scale", state_scale)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "{name} must be a finite number > 0, not {v}"
-            )));
-        }
-    }
-    if runs == 0 {
-        return Err(pyo3::exceptions::PyValueError::new_err(
-            "runs must be at least 1",
-        ));
-    }
     let options = VerifyOptions {
         input_scale,
         state_scale,
         runs,
         ..VerifyOptions::default()
     };
+    options
+        .check()
+        .map_err(pyo3::exceptions::PyValueError::new_err)?;
     let c = &model.compiled;
     let v = py
         .detach(|| bondgraph_sim::verify(c, &options))

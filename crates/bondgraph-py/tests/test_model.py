@@ -162,8 +162,14 @@ def test_verify_gives_the_clis_verdicts():
     assert list(arrs.columns) == ["arr", "worst", "pass"] and len(entries) == len(checked.entries)
     cli = bgc_cli("verify", str(ROOT / "models" / "dc_motor.bg"))
     assert "FAIL" not in cli
-    with pytest.raises(ValueError, match=r"state_scale must be a finite number > 0"):
+    # The CLI's validation, in its words: a scale of 0 or 1e308 verifies nothing, and a
+    # billion runs once aborted the interpreter.
+    with pytest.raises(ValueError, match=r"state scale must be a number in"):
         model.verify(state_scale=0.0)
+    with pytest.raises(ValueError, match=r"input scale must be a number in"):
+        model.verify(input_scale=1e308)
+    with pytest.raises(ValueError, match=r"runs must be 1 to 1000"):
+        model.verify(runs=10**9)
 
 
 def test_a_model_pickles_as_its_text_and_compiles_again():

@@ -76,6 +76,55 @@ impl Default for VerifyOptions {
     }
 }
 
+impl VerifyOptions {
+    /// Most RK4 steps of one run, and most runs: a check of a relation needs a few thousand
+    /// steps, and a count past these bounds is a typo that would run for hours.
+    pub const MAX_STEPS: usize = 1_000_000;
+    /// See [`VerifyOptions::MAX_STEPS`].
+    pub const MAX_RUNS: usize = 1_000;
+    /// Largest input or state scale: past it, the model's terms overflow a double and every
+    /// relation would fail for the arithmetic, not for the model.
+    pub const MAX_SCALE: f64 = 1e12;
+
+    /// Whether the options can verify anything, else what is wrong with the first that
+    /// cannot (in the CLI's and Python's words alike: `steps`, `input scale`…).
+    pub fn check(&self) -> Result<(), String> {
+        let scale = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 && v <= Self::MAX_SCALE {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{name} must be a number in (0, {:e}], not {v}",
+                    Self::MAX_SCALE
+                ))
+            }
+        };
+        scale("input scale", self.input_scale)?;
+        scale("state scale", self.state_scale)?;
+        if !(1..=Self::MAX_STEPS).contains(&self.steps) {
+            return Err(format!(
+                "steps must be 1 to {}, not {}",
+                Self::MAX_STEPS,
+                self.steps
+            ));
+        }
+        if !(1..=Self::MAX_RUNS).contains(&self.runs) {
+            return Err(format!(
+                "runs must be 1 to {}, not {}",
+                Self::MAX_RUNS,
+                self.runs
+            ));
+        }
+        if !(self.step.is_finite() && self.step > 0.0) {
+            return Err(format!(
+                "step must be a finite number of seconds > 0, not {}",
+                self.step
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Why a model cannot be verified at all.
 #[derive(Clone, Debug, PartialEq)]
 pub enum VerifyError {

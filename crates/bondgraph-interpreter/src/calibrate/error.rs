@@ -7,7 +7,7 @@ use bondgraph::EstimatorError;
 pub enum CalibrateError {
     /// An estimator could not be built for the record's step.
     Estimator(String),
-    /// The margin is not a non-negative number.
+    /// The margin is not a number in [0, 1e6].
     Margin(f64),
     /// The crossing probability or the share is not a probability below 1.
     Probability(f64),
@@ -19,7 +19,10 @@ impl std::fmt::Display for CalibrateError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             CalibrateError::Estimator(e) => f.write_str(e),
-            CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number ≥ 0"),
+            CalibrateError::Margin(m) if m.abs() >= 1e15 => {
+                write!(f, "margin {m:e}: expected a number from 0 to 1e6")
+            }
+            CalibrateError::Margin(m) => write!(f, "margin {m}: expected a number from 0 to 1e6"),
             CalibrateError::Probability(p) => write!(f, "{p}: expected a probability in [0, 1)"),
             CalibrateError::Within(w) => {
                 write!(f, "within {w} s: expected a positive number of seconds")

@@ -128,7 +128,8 @@ pub fn calibrate(
     step: f64,
     choices: &Choices,
 ) -> Result<Calibrated, CalibrateError> {
-    if !(0.0..=f64::MAX).contains(&choices.margin) {
+    // Past a millionfold margin a threshold says nothing, and 1e308 made it infinite.
+    if !(0.0..=1e6).contains(&choices.margin) {
         return Err(CalibrateError::Margin(choices.margin));
     }
     if !(choices.within.is_finite() && choices.within > 0.0) {
