@@ -151,31 +151,21 @@ fn from_causal(model: &BondGraph, mut causal: Causal, with_problems: bool) -> Di
     } else {
         Vec::new()
     };
-    for u in eliminated.non_smooth.into_iter().filter(|_| with_problems) {
-        let var = causal.system.vars[u.index()];
-        problems.push(report::at_nodes(
-            model,
-            Severity::Warning,
-            Code::NoArr,
-            &var.nodes(model),
-            format!(
-                "{} is known only through a law with sign() (or abs, min, max) that the relations would differentiate past its jumps: d/dt sign(x) is an impulse where x crosses zero, not 0, so they are not reported",
-                var.describe(model)
-            ),
-        ));
-    }
-    for u in eliminated.problems.into_iter().filter(|_| with_problems) {
-        let var = causal.system.vars[u.index()];
-        problems.push(report::at_nodes(
-            model,
-            Severity::Warning,
-            Code::NoArr,
-            &var.nodes(model),
-            format!(
-                "{} enters the relations that hold it nonlinearly, once its value is no longer explicit: they are not reported",
-                var.describe(model)
-            ),
-        ));
+    let why = [
+        (eliminated.non_smooth, "is known only through a law with sign() (or abs, min, max) that the relations would differentiate past its jumps: d/dt sign(x) is an impulse where x crosses zero, not 0, so they are not reported"),
+        (eliminated.problems, "enters the relations that hold it nonlinearly, once its value is no longer explicit: they are not reported"),
+    ];
+    for (vars, reason) in why.into_iter().filter(|_| with_problems) {
+        for u in vars {
+            let var = causal.system.vars[u.index()];
+            problems.push(report::at_nodes(
+                model,
+                Severity::Warning,
+                Code::NoArr,
+                &var.nodes(model),
+                format!("{} {reason}", var.describe(model)),
+            ));
+        }
     }
     Diagnosis {
         causal,
