@@ -153,29 +153,12 @@ pub(crate) fn tidy_time(t: f64, step: f64) -> f64 {
     }
 }
 
-/// Writes `text` to a file beside `path`, then renames it: a reader never sees half a file,
-/// and a failed write leaves what was there. A link is written through (the file it names is
-/// replaced, not the link), and what is not a file (`/dev/null`, a named pipe) is written in
-/// place: renaming over it would replace a device with a file.
-fn atomically(path: &Path, text: &str) -> std::io::Result<()> {
-    let path = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    if std::fs::metadata(&path).is_ok_and(|m| !m.is_file()) {
-        return std::fs::write(&path, text);
-    }
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".bgc-part");
-    let part = path.with_file_name(name);
-    std::fs::write(&part, text)?;
-    std::fs::rename(&part, &path).inspect_err(|_| {
-        let _ = std::fs::remove_file(&part);
-    })
-}
-
-/// Writes `text` to `path` (atomically) or standard output.
+/// Writes `text` to `path` (whole or not at all: [`crate::output`]) or standard output.
 pub(crate) fn write(path: Option<&Path>, text: &str) -> Result<(), Failure> {
     use std::io::Write as _;
     let result = match path {
-        Some(path) => atomically(path, text).map_err(|e| (path.display().to_string(), e)),
+        Some(path) => crate::output::replace(path, text.as_bytes())
+            .map_err(|e| (path.display().to_string(), e)),
         None => std::io::stdout()
             .lock()
             .write_all(text.as_bytes())

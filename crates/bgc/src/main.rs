@@ -15,6 +15,7 @@ mod emit;
 mod identify;
 mod io;
 mod options;
+mod output;
 mod parquet_record;
 mod plot;
 mod record;

@@ -33,15 +33,29 @@ pub(crate) struct Panel<'a> {
 /// Draws `panels` over `time` into the SVG file `path`, one under the other.
 pub(crate) fn draw(path: &Path, time: &[f64], panels: &[Panel<'_>]) -> Result<(), String> {
     check_path(path)?;
-    let height = PANEL * panels.len().max(1) as u32;
-    let root = SVGBackend::new(path, (1000, height)).into_drawing_area();
     let failed = |e: &dyn std::fmt::Display| format!("`{}`: {e}", path.display());
-    root.fill(&WHITE).map_err(|e| failed(&e))?;
-    let areas = root.split_evenly((panels.len().max(1), 1));
-    for (area, panel) in areas.iter().zip(panels) {
-        draw_panel(area, time, panel).map_err(|e| failed(&e))?;
+    let svg = render(time, panels).map_err(|e| failed(&e))?;
+    crate::output::replace(path, svg.as_bytes()).map_err(|e| failed(&e))
+}
+
+/// The SVG text of `panels` over `time`: drawn in memory, so that the file is written whole
+/// or not at all, as every file bgc writes.
+fn render(
+    time: &[f64],
+    panels: &[Panel<'_>],
+) -> Result<String, DrawingAreaErrorKind<std::io::Error>> {
+    let height = PANEL * panels.len().max(1) as u32;
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, height)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let areas = root.split_evenly((panels.len().max(1), 1));
+        for (area, panel) in areas.iter().zip(panels) {
+            draw_panel(area, time, panel)?;
+        }
+        root.present()?;
     }
-    root.present().map_err(|e| failed(&e))
+    Ok(svg)
 }
 
 /// Whether a plot can be written at `path`: an `.svg` name in a directory that exists. Checked
