@@ -1,8 +1,6 @@
 //! Options that more than one command takes: which residuals, how they are realised, how
 //! expressions are simplified.
 
-use std::time::Duration;
-
 use bondgraph_core::{Limits, Realise, ResidualSet};
 use clap::ValueEnum;
 
@@ -114,30 +112,31 @@ pub(crate) struct SimplifyArgs {
     #[arg(long, value_name = "N", default_value_t = Limits::default().budget)]
     egg_budget: usize,
 
-    /// Wall-clock limit for one expression's search, in seconds. Reaching it stops bgc with
-    /// an error: the clock never decides what is printed, only counts do.
-    #[arg(long, value_name = "SECONDS", default_value_t = Limits::default().time.as_secs_f64())]
-    egg_seconds: f64,
+    /// No longer used: accepted so that scripts that pass it still run, with a warning. The
+    /// search stops by the counts above only, so that what is printed never depends on the
+    /// machine's speed or load.
+    #[arg(long, value_name = "SECONDS", hide = true)]
+    egg_seconds: Option<String>,
 }
 
 impl SimplifyArgs {
-    /// The limits asked for, or why they make no sense.
+    /// The limits asked for.
     pub(crate) fn limits(&self) -> Result<Option<Limits>, Failure> {
+        if self.egg_seconds.is_some() {
+            report::warn(
+                "--egg-seconds is no longer used: the simplifier stops by counts only \
+                 (--egg-nodes, --egg-iterations, --egg-rounds, --egg-budget), so that the \
+                 output does not depend on the machine's speed or load",
+            );
+        }
         if self.canonical {
             return Ok(None);
         }
-        let time = Duration::try_from_secs_f64(self.egg_seconds).map_err(|_| {
-            report::usage(format!(
-                "--egg-seconds wants a non-negative number of seconds, not `{}`",
-                self.egg_seconds
-            ))
-        })?;
         Ok(Some(Limits {
             nodes: self.egg_nodes,
             iterations: self.egg_iterations,
             rounds: self.egg_rounds,
             budget: self.egg_budget,
-            time,
         }))
     }
 }

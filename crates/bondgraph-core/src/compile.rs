@@ -1,6 +1,6 @@
 //! The front door: a model's text in, the product and every diagnostic out.
 
-use crate::diagnostic::{Code, Diagnostic, Diagnostics, Span};
+use crate::diagnostic::{Code, Diagnostic, Diagnostics};
 use crate::display::Unsimplified;
 use crate::fdi::ResidualSet;
 use crate::graph::{first_too_large, load, MAX_EXPANDED};
@@ -112,27 +112,7 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
     }
     let mut unsimplified = Vec::new();
     if let Some(limits) = options.simplify {
-        let s = analysis.simplify(limits);
-        unsimplified = s.skipped;
-        if s.timed_out {
-            diagnostics.push(
-                Diagnostic::error(
-                    Code::TooLarge,
-                    Span::default(),
-                    "writing the equations in their simplest form took longer than the time limit",
-                )
-                .with_help(
-                    "raise the limit (`--egg-seconds`), lower `--egg-nodes`, or use `--canonical`; \
-                     the limit only ever stops the run, it never changes what is printed",
-                ),
-            );
-            // Nothing half-rewritten is shown: the outcome does not depend on the clock.
-            let compiled = build(&model, None, text, file_name, diagnostics);
-            return Ok(Output {
-                compiled,
-                unsimplified: Vec::new(),
-            });
-        }
+        unsimplified = analysis.simplify(limits).skipped;
     }
     let mut compiled = build(&model, Some(&analysis), text, file_name, diagnostics);
     if options.realise == Realise::Lowest {

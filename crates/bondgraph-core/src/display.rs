@@ -17,13 +17,10 @@ pub struct Unsimplified {
     pub stop: Stop,
 }
 
-/// How simplification went: what was left canonical, and whether the clock aborted it.
+/// How simplification went: what was left canonical.
 pub(crate) struct Simplified {
     /// Expressions left in canonical form by a count limit.
     pub skipped: Vec<Unsimplified>,
-    /// Whether the wall clock stopped a search (which one is not said: it depends on the
-    /// machine's speed, and what is printed must not).
-    pub timed_out: bool,
 }
 
 impl Analysis<'_> {
@@ -71,21 +68,17 @@ impl Analysis<'_> {
     /// Rewrites every expression the emitters show (ARRs first, then state equations and
     /// detector outputs) into the cheapest form egg finds within `limits`. The FSM and the
     /// derivations are already done on the canonical forms; only how each is written changes.
-    /// Only counts decide the forms; the clock can only abort the whole run.
+    /// Only counts decide the forms, never the clock.
     pub(crate) fn simplify(&mut self, limits: Limits) -> Simplified {
         let rewriter = Rewriter::new(limits);
         let mut spent = 0usize;
         let mut skipped = Vec::new();
-        let mut timed_out = false;
         let mut simplifier = Simplifier::default();
         let mut state_simplifier = Simplifier::default();
         let mut choose = |pool: &mut Pool,
                           simplifier: &mut Simplifier,
                           root: ExprId,
                           what: &dyn Fn() -> String| {
-            if timed_out {
-                return root;
-            }
             if spent >= limits.budget {
                 skipped.push(Unsimplified {
                     what: what(),
@@ -101,22 +94,20 @@ impl Analysis<'_> {
             let together = simplifier.together(pool, root);
             let rational = simplifier.rational(pool, root).unwrap_or(root);
             for start in [together, rational] {
-                if start == root || r.stop == Stop::TimeLimit {
+                if start == root {
                     continue;
                 }
                 let t = rewriter.cheapest(pool, start);
                 spent = spent.saturating_add(t.nodes);
-                if t.stop == Stop::TimeLimit || t.after < r.after {
+                if t.after < r.after {
                     r = t;
                 }
             }
-            match r.stop {
-                Stop::TimeLimit => timed_out = true,
-                Stop::TooLarge => skipped.push(Unsimplified {
+            if r.stop == Stop::TooLarge {
+                skipped.push(Unsimplified {
                     what: what(),
                     stop: r.stop,
-                }),
-                _ => {}
+                });
             }
             r.expr
         };
@@ -159,6 +150,6 @@ impl Analysis<'_> {
                 format!("the output {name}")
             });
         }
-        Simplified { skipped, timed_out }
+        Simplified { skipped }
     }
 }

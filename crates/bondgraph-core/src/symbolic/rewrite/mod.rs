@@ -6,15 +6,13 @@
 //! a person writes an equation, so before an expression is shown it goes through an
 //! e-graph: `rules` regroups it (factors, common denominators, like terms, constants),
 //! and the cost function of `cost` picks the form with the fewest symbols. The search stops at
-//! explicit limits; its result is used only when it is strictly cheaper than the
-//! canonical form, and never when it was cut short by the clock, so the output does not
-//! depend on the speed of the machine.
+//! explicit limits, all of them counts (e-nodes, iterations, rounds, a budget for the
+//! model), never seconds: the same model gets the same forms on every machine and under any
+//! load. Its result is used only when it is strictly cheaper than the canonical form.
 
 mod cost;
 mod language;
 mod rules;
-
-use std::time::{Duration, Instant};
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -35,8 +33,6 @@ pub struct Limits {
     pub iterations: usize,
     /// E-graphs grown one after the other, each from the best form of the one before.
     pub rounds: usize,
-    /// Wall-clock time for all rounds, a safety net only: a search it stops is discarded.
-    pub time: Duration,
     /// E-nodes for all the expressions of one model together, so that a model of thousands
     /// of expressions is written in bounded time; later expressions are shown as they are.
     pub budget: usize,
@@ -48,7 +44,6 @@ impl Default for Limits {
             nodes: 5_000,
             iterations: 30,
             rounds: 4,
-            time: Duration::from_secs(10),
             budget: 2_000_000,
         }
     }
@@ -63,8 +58,6 @@ pub enum Stop {
     NodeLimit,
     /// The iteration limit was reached.
     IterationLimit,
-    /// The time limit was reached; the canonical form was kept.
-    TimeLimit,
     /// The expression alone exceeds the node limit; it was not tried.
     TooLarge,
     /// Earlier expressions of the model spent the e-node budget; it was not tried.
@@ -93,7 +86,7 @@ pub(crate) struct Rewriter {
     /// Rounds already run, by their input: the search depends on the e-graph expression
     /// alone (atoms are numbered in the order they are met), so an expression of the same
     /// shape as one seen before (the ARRs of the stages of a chain) gets the same form at
-    /// no cost. Rounds the clock stopped are not kept.
+    /// no cost.
     seen: RefCell<HashMap<RecExpr<Math>, Seen>>,
 }
 
@@ -122,20 +115,14 @@ impl Rewriter {
     /// form, so a node limit that stops one round early (commutativity and associativity fill
     /// it fast) does not stop the regrouping. Rounds end when one saturates or gains nothing.
     pub(crate) fn cheapest(&self, pool: &mut Pool, root: ExprId) -> Rewritten {
-        let start = Instant::now();
         let before = length(pool, root);
         let mut best = root;
         let mut stop = Stop::Saturated;
         let mut nodes = 0usize;
         for _ in 0..self.limits.rounds.max(1) {
-            let time = self.limits.time.saturating_sub(start.elapsed());
-            let round = self.round(pool, best, time);
+            let round = self.round(pool, best);
             stop = round.stop;
             nodes = nodes.saturating_add(round.nodes);
-            if stop == Stop::TimeLimit {
-                best = root;
-                break;
-            }
             let improved = round.expr != best;
             best = round.expr;
             if !improved || stop == Stop::Saturated {
@@ -157,7 +144,7 @@ impl Rewriter {
 
     /// One e-graph: `root` and what the rules reach from it within the limits, and its
     /// shortest form if that is shorter than `root`.
-    fn round(&self, pool: &mut Pool, root: ExprId, time: Duration) -> Round {
+    fn round(&self, pool: &mut Pool, root: ExprId) -> Round {
         let (expr, atoms) = to_egg(pool, root);
         if expr.len() > self.limits.nodes {
             return Round::unchanged(root, Stop::TooLarge, 0);
@@ -173,10 +160,8 @@ impl Rewriter {
                 nodes: 0,
             };
         }
-        let seen = self.search(&expr, time);
-        if seen.stop != Stop::TimeLimit {
-            self.seen.borrow_mut().insert(expr, seen.clone());
-        }
+        let seen = self.search(&expr);
+        self.seen.borrow_mut().insert(expr, seen.clone());
         Round {
             expr: seen
                 .best
@@ -188,17 +173,20 @@ impl Rewriter {
     }
 
     /// The e-graph of `expr` within the limits, and its shortest form if shorter.
-    fn search(&self, expr: &RecExpr<Math>, time: Duration) -> Seen {
+    fn search(&self, expr: &RecExpr<Math>) -> Seen {
         let runner = Runner::<Math, ConstantFold, ()>::default()
             .with_node_limit(self.limits.nodes)
             .with_iter_limit(self.limits.iterations)
-            .with_time_limit(time)
+            // egg stops at 5 s by default: a search stopped by the clock would make the
+            // output depend on the machine's speed and load. The node limit is checked after
+            // each rule's matches are applied, and egg's scheduler bans a rule whose matches
+            // explode, so the counts bound the work.
+            .with_time_limit(std::time::Duration::MAX)
             .with_expr(expr)
             .run(&self.rules);
         let stop = match runner.stop_reason {
             Some(StopReason::NodeLimit(_)) => Stop::NodeLimit,
             Some(StopReason::IterationLimit(_)) => Stop::IterationLimit,
-            Some(StopReason::TimeLimit(_)) => Stop::TimeLimit,
             _ => Stop::Saturated,
         };
         let nodes = runner.egraph.total_number_of_nodes();
@@ -358,22 +346,25 @@ mod tests {
     }
 
     #[test]
-    fn limits_are_kept_and_a_search_cut_by_the_clock_is_discarded() {
+    fn limits_are_kept_and_are_counts_only() {
         let source = "(+ (* a (* b c)) (+ (* a (* b d)) (+ (* a (* c d)) (* b (* c d)))))";
         let mut pool = Pool::default();
         let e = parse(&mut pool, source);
-        let tight = |nodes, iterations, time| Limits {
+        let tight = |nodes, iterations| Limits {
             nodes,
             iterations,
-            time,
             ..Limits::default()
         };
-        let r = Rewriter::new(tight(3, 30, Duration::from_secs(10))).cheapest(&mut pool, e);
+        let r = Rewriter::new(tight(3, 30)).cheapest(&mut pool, e);
         assert_eq!((r.stop, r.expr), (Stop::TooLarge, e));
-        let r = Rewriter::new(tight(5_000, 1, Duration::from_secs(10))).cheapest(&mut pool, e);
+        let r = Rewriter::new(tight(5_000, 1)).cheapest(&mut pool, e);
         assert_eq!(r.stop, Stop::IterationLimit);
-        let r = Rewriter::new(tight(5_000, 30, Duration::ZERO)).cheapest(&mut pool, e);
-        assert_eq!((r.stop, r.expr), (Stop::TimeLimit, e));
+        // The same search twice, in fresh rewriters, builds the same e-graph: nothing but
+        // the counts decides where it stops.
+        let once = Rewriter::new(tight(200, 30)).cheapest(&mut pool, e);
+        let again = Rewriter::new(tight(200, 30)).cheapest(&mut pool, e);
+        assert!(once.nodes > 200, "a round stopped at the node limit");
+        assert_eq!(once, again);
     }
 
     /// A small deterministic generator, so the property test is the same on every run.
