@@ -179,12 +179,8 @@ fn twenty_runs_of_the_bench_are_byte_identical_under_any_limits() {
         (&["--egg-rounds", "1", "--egg-budget", "3000"], 3),
     ];
     let emitters = ["text", "json", "latex", "state", "dot", "rust"];
-    let defaults: Vec<_> = emitters
-        .iter()
-        .map(|e| bgc(&["models/backlash_bench.bg", "--emit", e]))
-        .collect();
     for (extra, runs) in limits {
-        for (emit, default) in emitters.iter().zip(&defaults) {
+        for emit in emitters {
             let mut args = vec!["models/backlash_bench.bg", "--emit", emit];
             args.extend_from_slice(extra);
             let first = bgc(&args);
