@@ -180,6 +180,35 @@ def test_parquet_from_pandas_and_polars_gives_the_csvs_residuals(bench, record, 
         assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
 
 
+def test_a_damaged_parquet_page_is_refused_where_the_file_has_checksums(record, tmp_path):
+    """One flipped bit in a value: with page checksums (pyarrow's `write_page_checksum`) the
+    file is refused with what is wrong; without, Parquet has nothing to tell it by, and the
+    value is read as written (docs/simulation.md says so)."""
+    import subprocess
+
+    from conftest import cli_path
+
+    pytest.importorskip("pyarrow")
+    head = record.head(2000)
+    value = head["y1"].to_numpy()[1000].tobytes()
+    for checksums in (True, False):
+        path = tmp_path / f"checksums_{checksums}.parquet"
+        head.to_parquet(path, index=False, compression=None, use_dictionary=False,
+                        write_page_checksum=checksums)
+        raw = bytearray(path.read_bytes())
+        at = raw.find(value)
+        assert at > 0
+        raw[at + 3] ^= 0x10
+        path.write_bytes(bytes(raw))
+        done = subprocess.run([cli_path(), "residuals", str(BENCH), str(path)],
+                              cwd=ROOT, capture_output=True, text=True)
+        if checksums:
+            assert done.returncode == 1, done.stderr
+            assert "checksum" in done.stderr and "Parquet" in done.stderr, done.stderr
+        else:
+            assert done.returncode == 0, done.stderr
+
+
 def test_unaligned_and_strided_columns_are_taken(bench, record):
     """Columns that are views into other memory (every other row, a byte off alignment, as
     Arrow buffers moved between processes can be) give the residuals of the same values."""
