@@ -1,5 +1,8 @@
 //! The front door: a model's text in, the product and every diagnostic out.
 
+use crate::causality::equations::{
+    first_oversized_derivative, Holder, Oversized, MOST_DERIVATIVE_NODES,
+};
 use crate::diagnostic::{Code, Diagnostic, Diagnostics};
 use crate::display::Unsimplified;
 use crate::fdi::ResidualSet;
@@ -95,6 +98,12 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
         );
         diagnostics.sort();
     }
+    if options.derive != Derive::Nothing && !diagnostics.has_errors() {
+        if let Some(o) = first_oversized_derivative(&model) {
+            diagnostics.push(oversized(&model, o));
+            diagnostics.sort();
+        }
+    }
     if options.derive == Derive::Nothing || diagnostics.has_errors() {
         let compiled = build(&model, None, text, file_name, diagnostics);
         return Ok(Output {
@@ -128,4 +137,31 @@ pub fn compile(source: &str, file_name: &str, options: &Options) -> Result<Outpu
 /// is not part of what the user wrote. Diagnostics' spans refer to the text without it.
 pub fn without_bom(source: &str) -> &str {
     source.strip_prefix('\u{FEFF}').unwrap_or(source)
+}
+
+/// The error for a `der()` whose differentiation passes bgc's bound.
+fn oversized(model: &crate::graph::BondGraph, o: Oversized) -> Diagnostic {
+    let (span, whose) = match o.holder {
+        Holder::Let(l) => {
+            let decl = &model.lets[l.index()];
+            (decl.span, format!("`{}`", decl.name))
+        }
+        Holder::Element(n) => {
+            let node = model.node(n);
+            (node.span, format!("`{}`'s law", node.name))
+        }
+    };
+    Diagnostic::error(
+        Code::TooLarge,
+        span,
+        format!(
+            "the `der(…, {})` in {whose} passes bgc's bound of {MOST_DERIVATIVE_NODES} expression nodes at order {}: it is not differentiated further",
+            o.asked, o.reached
+        ),
+    )
+    .with_label("this derivative grows too large")
+    .with_help(
+        "each order of a product of functions is more than twice as large as the one before; \
+         measure the derivative, or write a lower order with a `let` for the signal",
+    )
 }

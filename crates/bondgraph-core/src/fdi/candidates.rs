@@ -38,18 +38,6 @@ pub const MAX_DERIVATIONS: usize = 32;
 /// The ARRs of the whole model are kept whatever their size.
 pub const MAX_CANDIDATE_SIZE: u64 = 20_000;
 
-/// The size of `root` written out as a tree.
-fn written_size(pool: &crate::symbolic::Pool, root: crate::symbolic::ExprId) -> u64 {
-    let mut size: HashMap<crate::symbolic::ExprId, u64> = HashMap::new();
-    pool.visit_reachable(&[root], |id, node| {
-        let s = crate::symbolic::children(node)
-            .map(|c| size.get(&c).copied().unwrap_or(0))
-            .fold(1u64, u64::saturating_add);
-        size.insert(id, s);
-    });
-    size.get(&root).copied().unwrap_or(0)
-}
-
 /// Which residuals the product carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum ResidualSet {
@@ -286,7 +274,7 @@ impl Found {
         };
         let rows = arr_rows_indexed(model, d, components, &self.index);
         for (arr, rows) in rows.into_iter().enumerate() {
-            if written_size(&d.causal.system.pool, d.arrs[arr].residual) > MAX_CANDIDATE_SIZE {
+            if d.causal.system.pool.written_size(d.arrs[arr].residual) > MAX_CANDIDATE_SIZE {
                 continue;
             }
             out.written.push(arr);

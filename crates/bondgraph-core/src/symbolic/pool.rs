@@ -389,6 +389,19 @@ impl<L: LeafKind> Pool<L> {
         order
     }
 
+    /// The size of `root` written out as a tree, as the emitters print it: a DAG with much
+    /// sharing (the derivatives of a product) can stand for a tree no one can print.
+    pub fn written_size(&self, root: ExprId<L>) -> u64 {
+        let mut size: FastMap<ExprId<L>, u64> = FastMap::default();
+        self.visit_reachable(&[root], |id, node| {
+            let s = children(node)
+                .map(|c| size.get(&c).copied().unwrap_or(0))
+                .fold(1u64, u64::saturating_add);
+            size.insert(id, s);
+        });
+        size.get(&root).copied().unwrap_or(0)
+    }
+
     /// Every leaf reachable from `root`, in id order.
     pub fn leaves(&self, root: ExprId<L>) -> Vec<L> {
         let mut out = Vec::new();
