@@ -440,6 +440,57 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Signals near the largest double (a record in the wrong unit, by 10^306): the adaptive
+/// bound and the residuals overflow. Each such cell is left empty with a warning that says
+/// why, never `inf` or `NaN` with exit 0 (the thresholds were written as `inf`).
+#[test]
+fn an_overflowing_bound_or_residual_is_an_empty_cell_and_says_why() {
+    let dir = scratch("overflow");
+    let plain = dir.join("plain.csv");
+    simulate_bench(
+        &["scenarios/paper_section5_healthy.scn", "--duration", "1"],
+        &plain.display().to_string(),
+    );
+    let text = std::fs::read_to_string(&plain).expect("record");
+    let mut huge = String::new();
+    for (k, line) in text.lines().enumerate() {
+        let cells: Vec<String> = line
+            .split(',')
+            .enumerate()
+            .map(|(j, c)| match (k, j) {
+                (0, _) | (_, 0) => c.to_string(),
+                _ => format!("{:e}", c.parse::<f64>().expect("a number") * 1e306),
+            })
+            .collect();
+        huge.push_str(&cells.join(","));
+        huge.push('\n');
+    }
+    let record = dir.join("huge.csv");
+    std::fs::write(&record, huge).expect("written");
+    let out = bgc(&[
+        "residuals",
+        BENCH,
+        &record.display().to_string(),
+        "--adaptive",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let written = stdout(&out).to_lowercase();
+    assert!(
+        !written.contains("inf") && !written.contains("nan"),
+        "{written}"
+    );
+    let err = stderr(&out);
+    assert!(
+        err.contains("ARR1's threshold is not a finite number at"),
+        "{err}"
+    );
+    assert!(
+        err.contains("passes the largest number a double holds"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The paper's section 6 as docs/paper_reproduction.md runs it: with the initial dead zone
 /// no residual alarms; with the important one ARR2 alarms almost throughout, naming the link
 /// and its dead zone, and ARR1 never does.

@@ -355,7 +355,10 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         .collect();
     let mut unsolved: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
     // Per residual, the estimates where it is not a number for another reason than a root.
-    let mut singular: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
+    // (A residual that overflows is told apart from one that is not a number.)
+    let mut singular: std::collections::BTreeMap<(usize, bool), (usize, f64)> = Default::default();
+    // Per residual, the estimates where its threshold overflowed.
+    let mut unbounded: std::collections::BTreeMap<usize, (usize, f64)> = Default::default();
     // The rows are computed here and written as text by a second thread, chunk by chunk:
     // writing numbers costs about what computing them does.
     let out = std::thread::scope(|scope| {
@@ -389,7 +392,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     // Where the relation is singular the noise decides it: no threshold.
                     let singular = singular_spans.contains(k, e_at);
                     let level = l.filter(|_| !singular);
-                    *now = level.map(|l| walk.map_or(l, |w| w.threshold(l, estimates)) + b);
+                    let threshold =
+                        level.map(|l| walk.map_or(l, |w| w.threshold(l, estimates)) + b);
+                    // A bound that overflows (signals near the largest double) is no threshold.
+                    *now = threshold.filter(|t| t.is_finite());
+                    if threshold.is_some() && now.is_none() {
+                        let at = io::tidy_time(e_at, data.step);
+                        unbounded.entry(k).or_insert((0, at)).0 += 1;
+                    }
                     // A residual that is not a number says nothing: no alarm, and its
                     // debounce goes on from where it was.
                     *on = match (alarm.as_mut(), *now) {
@@ -403,7 +413,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                 let at = io::tidy_time(e_at, data.step);
                 for (k, r) in residuals.iter().enumerate() {
                     if !r.is_finite() && e_unsolved.is_none() {
-                        let entry = singular.entry(k).or_insert((0, at));
+                        let entry = singular.entry((k, r.is_infinite())).or_insert((0, at));
                         entry.0 += 1;
                     }
                 }
@@ -447,11 +457,25 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             report::warn(format!("{data_name}: `{name}` has no root at {count} estimates (the first at t = {first}): the residuals that read it are empty cells there, and the `unsolved` column names it"));
         }
     }
-    for (k, (count, first)) in &singular {
+    for ((k, overflow), (count, first)) in &singular {
+        let why = if *overflow {
+            "its value passes the largest number a double holds (about 1.8e308: signals too large \
+             for their products and powers)"
+        } else {
+            "its relation is singular there (a division by a signal at zero, a law outside its \
+             domain)"
+        };
         report::warn(format!(
-            "{data_name}: {} is not a number at {count} estimates (the first at t = {first}): \
-             its relation is singular there (a division by a signal at zero, a law outside its \
-             domain); those cells are empty and raise no alarm",
+            "{data_name}: {} is not a finite number at {count} estimates (the first at t = {first}): \
+             {why}; those cells are empty and raise no alarm",
+            c.arrs[*k].name
+        ));
+    }
+    for (k, (count, first)) in &unbounded {
+        report::warn(format!(
+            "{data_name}: {}'s threshold is not a finite number at {count} estimates (the first at \
+             t = {first}): its bound from the parameters' uncertainties passes the largest number \
+             a double holds; those cells are empty and raise no alarm",
             c.arrs[*k].name
         ));
     }

@@ -609,9 +609,17 @@ impl Watch<'_> {
                 let singular = self.settings.singular.contains(k, e.at()[j]);
                 let grown = |l: f64| walk.map_or(l, |w| w.threshold(l, first + j));
                 let now = level.filter(|_| !singular).map(|l| grown(l) + b);
-                pass.residuals[at] = r;
+                // A bound that overflows (signals near the largest double) is no threshold.
+                let overflowed = now.is_some_and(|l| !l.is_finite());
+                let now = now.filter(|l| l.is_finite());
+                // As the CLI leaves its cell empty: an overflowed residual is missing.
+                pass.residuals[at] = if r.is_finite() { r } else { f64::NAN };
                 if let Levels::Moving(levels) = &mut pass.levels {
-                    levels[at] = now.unwrap_or(if singular { f64::NAN } else { 0.0 });
+                    levels[at] = now.unwrap_or(if singular || overflowed {
+                        f64::NAN
+                    } else {
+                        0.0
+                    });
                 }
                 // A residual that is not a number raises no alarm; its debounce goes on.
                 pass.alarms[at] = match (alarm.as_mut(), now) {

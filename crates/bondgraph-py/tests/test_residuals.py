@@ -69,6 +69,19 @@ def test_adaptive_thresholds_are_the_clis_and_fixed_ones_one_row(bench, record, 
     assert fixed.thresholds.strides[0] == 0
 
 
+def test_an_overflowing_bound_is_a_missing_threshold_not_inf(bench, record):
+    """Signals near the largest double: the adaptive bound and some residuals overflow. They
+    are missing (NaN), as the CLI leaves their cells empty, never inf; no alarm is raised there."""
+    huge = record.head(3000).copy()
+    for name in huge.columns:
+        if name != "t":
+            huge[name] = huge[name] * 1e306
+    run = bench.residuals(huge, thresholds=0.05, adaptive=True)
+    assert not np.isinf(run.thresholds).any() and not np.isinf(run.values).any()
+    assert np.isnan(run.thresholds).any()
+    assert not run.alarms[np.isnan(run.thresholds)].any()
+
+
 def test_pandas_polars_and_dicts_give_the_same_residuals(bench, record):
     polars = pytest.importorskip("polars")
     levels = {"ARR1": 0.5, "ARR2": 0.05}
