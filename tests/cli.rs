@@ -376,6 +376,49 @@ fn simulate_writes_the_same_csv_every_time() {
     );
 }
 
+/// A run that stops says where its cause is written: an input whose expression has no value
+/// is located at the scenario's line that defines it (it was "`U0` is not a finite number at
+/// t = 0 s" against the model's file), and a state whose derivative is not a number at the
+/// start is named (the solver said "more than 1000000 steps" or "Initial step size (0.0)
+/// cannot be zero").
+#[test]
+fn a_run_that_stops_points_at_its_cause() {
+    let dir = scratch("cli-stops");
+    let scenario = dir.join("log.scn");
+    std::fs::write(
+        &scenario,
+        "duration 1\n# the supply\ninput U0 = 12 + log(t)\n",
+    )
+    .expect("w");
+    let out = bgc(&[
+        "simulate",
+        "models/dc_motor.bg",
+        &scenario.display().to_string(),
+    ]);
+    assert_eq!(code(&out), 1);
+    let err = stderr(&out);
+    assert!(
+        err.contains("log.scn:3:7: `U0` is not a finite number at t = 0 s"),
+        "{err}"
+    );
+    assert!(err.contains("defined here"), "{err}");
+    let model = dir.join("sinc.bg");
+    std::fs::write(
+        &model,
+        "model sinc\nparam R1 = 10\nparam L1 = 0.1\nSe src = sin(t)/t\nR res = R1\n\
+         I ind = L1\nDf i on loop\nsrc -> 1:loop -> res, ind\n",
+    )
+    .expect("w");
+    let out = bgc(&["simulate", &model.display().to_string(), "-e", "duration 1"]);
+    assert_eq!(code(&out), 1);
+    let err = stderr(&out);
+    assert!(
+        err.contains("`der(p_ind)` is not a finite number at t = 0 s"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Every duration and step the command line gives is checked as a scenario's are: no
 /// infinite, zero, negative or NaN value, no step longer than the duration, no run of more
 /// than `MAX_SAMPLES` samples (a mistyped `--duration 1e9` once asked for 8 TB). Each is an

@@ -94,7 +94,7 @@ pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
                 bar.set_position((done * 1000.0) as u64);
             }
         })
-        .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+        .map_err(|e| stopped(&simulation, &e, (&name, &text), &c.file_name))?;
     if let Some(bar) = bar {
         bar.finish_and_clear();
     }
@@ -104,6 +104,28 @@ pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
         plot(path, &trajectory, &c, &scenario.fault_onsets())?;
     }
     Ok(())
+}
+
+/// Reports why the run stopped: at the scenario's line when its cause is written there (an
+/// input whose expression is not a number), else against the model.
+fn stopped(
+    simulation: &Simulation,
+    e: &bondgraph_sim::SimulationError,
+    (name, text): (&str, &str),
+    model: &str,
+) -> Failure {
+    use bondgraph_core::diagnostic::{Code, Diagnostic, Diagnostics};
+    let Some(span) = simulation.locate(e) else {
+        return report::refused(format!("{model}: {e}"));
+    };
+    let mut d = Diagnostics::default();
+    d.push(
+        Diagnostic::error(Code::BadValue, span, e.to_string())
+            .with_label("defined here")
+            .with_help("its expression has no finite value there: a division by zero, log or sqrt outside their domain, an overflow"),
+    );
+    report::print(name, text, &d);
+    Failure::Invalid
 }
 
 /// The recorded signals (not the states), one panel each, titled with their unit and

@@ -24,9 +24,21 @@ pub(crate) fn simulate<'py>(
         scenario.ok_or_else(|| errors::located::<ScenarioError>(py, file, text, &diagnostics))?;
     let simulation = Simulation::new(&model.compiled, &scenario)
         .map_err(|d| errors::located::<ScenarioError>(py, file, text, &d))?;
-    let trajectory = py
-        .detach(|| simulation.run(|_| {}))
-        .map_err(|e| SimulationError::new_err(format!("{}: {e}", model.file)))?;
+    let trajectory = py.detach(|| simulation.run(|_| {})).map_err(|e| {
+        // Where the cause is written in the scenario (an input with no value), it is located.
+        match simulation.locate(&e) {
+            Some(span) => {
+                let mut d = bondgraph_core::diagnostic::Diagnostics::default();
+                d.push(bondgraph_core::diagnostic::Diagnostic::error(
+                    bondgraph_core::diagnostic::Code::BadValue,
+                    span,
+                    e.to_string(),
+                ));
+                errors::located::<SimulationError>(py, file, text, &d)
+            }
+            None => SimulationError::new_err(format!("{}: {e}", model.file)),
+        }
+    })?;
     let rows = trajectory.values.first().map_or(0, Vec::len);
     let columns = trajectory.columns.len();
     let mut flat = Vec::with_capacity(rows * columns);

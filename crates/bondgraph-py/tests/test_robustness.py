@@ -67,3 +67,12 @@ def test_random_records_raise_data_errors_or_run():
             model.residuals(data, thresholds=1.0, window=int(rng.choice([3, 5, 11, 12])))
         except (bgc.DataError, ValueError):
             pass
+
+
+def test_an_input_with_no_value_is_located_at_its_scenario_line():
+    """`log(t)` at t = 0: the run stops with the scenario's line and column, as the CLI says."""
+    model = bgc.compile(ROOT / "models" / "dc_motor.bg")
+    with pytest.raises(bgc.SimulationError) as e:
+        model.simulate("duration 1\n# the supply\ninput U0 = 12 + log(t)\n")
+    assert "<scenario>:3:7" in str(e.value) and "`U0` is not a finite number" in str(e.value)
+    assert e.value.diagnostics[0]["line"] == 3

@@ -233,6 +233,7 @@ pub(crate) fn run(
             next += 1;
         }
         points.push(cut);
+        starts_finite(&rhs, start, &y)?;
         let solution = solve(&rhs, scenario, start, cut, y.clone(), &points);
         // A failed trial step the solver recovered from by a shorter one is no failure.
         if let (Err(_), Some((at, residual))) = (&solution, rhs.failed.take()) {
@@ -255,6 +256,28 @@ pub(crate) fn run(
         progress(cut / end);
     }
     Ok(out)
+}
+
+/// Whether every state's derivative at `t` in state `y` is a finite number, as the solver
+/// needs to choose its first step: where one is not, the solver only said "Initial step size
+/// (0.0) cannot be zero". Says which state's derivative is not.
+fn starts_finite(rhs: &Rhs<'_>, t: f64, y: &[f64]) -> Result<(), SimulationError> {
+    let mut dydt = vec![0.0; y.len()];
+    rhs.diff(t, &y.to_vec(), &mut dydt);
+    if let Some((at, residual)) = rhs.failed.take() {
+        return Err(SimulationError::NoLoopSolution {
+            at,
+            unknowns: rhs.plant.loop_names.clone(),
+            residual,
+        });
+    }
+    match dydt.iter().position(|d| !d.is_finite()) {
+        Some(k) => Err(SimulationError::NotFinite {
+            at: t,
+            signal: format!("der({})", rhs.plant.state_names[k]),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// The solution at given times inside each step (dense output), and at the end of the piece
@@ -398,7 +421,12 @@ fn reason(e: &SolverError<f64, Vec<f64>>) -> String {
             "the model is stiff: use `solver implicit` or `solver auto`".to_string()
         }
         SolverError::LinearAlgebra { msg, .. } => format!("a singular Newton matrix ({msg})"),
-        SolverError::BadInput { msg } => msg.clone(),
+        // Its wording ("Invalid input: Initial step size (0.0) cannot be zero") names the
+        // solver's settings, which bgc chose: what a user can act on is the model's state.
+        SolverError::BadInput { .. } => "it could not choose a step from there: the state's \
+            derivatives are too large or change too fast (a state that diverges, a division by \
+            a signal near zero)"
+            .to_string(),
         _ => "an internal error of the solver".to_string(),
     }
 }

@@ -1,7 +1,7 @@
 //! Simulation: the model's state equations integrated under a scenario (inputs, closed
 //! loops, faults, noise) into sampled signals.
 
-use bondgraph_core::diagnostic::Diagnostics;
+use bondgraph_core::diagnostic::{Diagnostics, Span};
 use bondgraph_core::Compiled;
 
 use crate::plant;
@@ -23,6 +23,19 @@ impl Simulation {
             plant: plant::build(c, scenario)?,
             scenario: scenario.clone(),
         })
+    }
+
+    /// Where in the scenario's text the cause of `e` is written, if it is there: the line
+    /// that defines an input or `let` that is not a finite number.
+    pub fn locate(&self, e: &SimulationError) -> Option<Span> {
+        let SimulationError::NotFinite { signal, .. } = e else {
+            return None;
+        };
+        let defined = self.scenario.inputs.iter().chain(&self.scenario.lets);
+        defined
+            .map(|(name, _)| name)
+            .find(|name| name.name == *signal)
+            .map(|name| name.span)
     }
 
     /// Integrates over the scenario's duration; `progress` hears the fraction done as it goes.
