@@ -376,6 +376,42 @@ fn simulate_writes_the_same_csv_every_time() {
     );
 }
 
+/// Past 30 ARRs the FSM is written by row, by default, in JSON (each row's `arrs`, with a note
+/// saying so) and in LaTeX (a column of ARR names, not one column per ARR): the dense forms
+/// grow with the square of the model (203 MB and 264 MB at 10,000 stages; at 50,000 the JSON
+/// did not fit in 16 GB). `--fsm dense` still writes the dense JSON.
+#[test]
+fn a_large_models_fsm_is_written_by_row() {
+    let dir = scratch("cli-sparse");
+    let model = dir.join("chain.bg");
+    std::fs::write(&model, bondgraph_core::generate::mass_spring_chain(160, 5)).expect("w");
+    let path = model.display().to_string();
+    let auto = bgc(&[&path, "--emit", "json", "--canonical"]);
+    assert_eq!(code(&auto), 0, "{}", stderr(&auto));
+    assert!(
+        stderr(&auto).contains("the FSM is written sparse"),
+        "{}",
+        stderr(&auto)
+    );
+    let json: serde_json::Value = serde_json::from_str(&stdout(&auto)).expect("JSON");
+    let row = &json["fsm"]["rows"][0];
+    assert!(
+        row.get("signature").is_none() && row["arrs"].is_array(),
+        "{row}"
+    );
+    let dense = bgc(&[&path, "--emit", "json", "--canonical", "--fsm", "dense"]);
+    assert!(!stderr(&dense).contains("the FSM is written sparse"));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&dense)).expect("JSON");
+    assert_eq!(
+        json["fsm"]["rows"][0]["signature"].as_array().map(Vec::len),
+        Some(32)
+    );
+    let latex = stdout(&bgc(&[&path, "--emit", "latex", "--canonical"]));
+    assert!(latex.contains("\\begin{tabular}{lcclcc}"), "{latex}");
+    assert!(latex.contains("ARRs are too many for a column each"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A run that stops says where its cause is written: an input whose expression has no value
 /// is located at the scenario's line that defines it (it was "`U0` is not a finite number at
 /// t = 0 s" against the model's file), and a state whose derivative is not a number at the

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::path::PathBuf;
 
-use bondgraph_core::{Derive, ResidualSet};
+use bondgraph_core::{Compiled, Derive, ResidualSet};
 use clap::ValueEnum;
 
 use crate::io;
@@ -23,8 +23,9 @@ pub(crate) struct EmitArgs {
     standalone: bool,
 
     /// With `--emit json`: the FSM's rows as a `signature` of 0 and 1 per ARR (dense), or as
-    /// the names of the ARRs each shows in (sparse, for large models).
-    #[arg(long, value_enum, value_name = "FORM", default_value = "dense")]
+    /// the names of the ARRs each shows in (sparse); `auto`, dense up to 30 ARRs and sparse
+    /// above, keeps the file growing with the model, not with its square.
+    #[arg(long, value_enum, value_name = "FORM", default_value = "auto")]
     fsm: FsmArg,
 
     /// Write the output to FILE instead of standard output.
@@ -60,10 +61,32 @@ enum Target {
 /// How the JSON writes the FSM.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum FsmArg {
+    /// Dense up to 30 ARRs, sparse above (said on standard error).
+    Auto,
     /// One 0 or 1 per ARR in each row.
     Dense,
     /// The ARRs each row shows in.
     Sparse,
+}
+
+/// The form the JSON's FSM is written in; `auto` going sparse is said.
+fn fsm_form(c: &Compiled, asked: FsmArg) -> bondgraph_codegen::json::FsmForm {
+    use bondgraph_codegen::json::FsmForm;
+    let form = match asked {
+        FsmArg::Auto => FsmForm::Auto,
+        FsmArg::Dense => FsmForm::Dense,
+        FsmArg::Sparse => FsmForm::Sparse,
+    };
+    let resolved = form.resolve(c);
+    if form == FsmForm::Auto && resolved == FsmForm::Sparse {
+        report::note(format!(
+            "the FSM is written sparse (each row's \"arrs\", not a \"signature\"): {} ARRs are \
+             more than {}; --fsm dense writes it dense",
+            c.arrs.len(),
+            bondgraph_codegen::text::DENSE_FSM_LIMIT
+        ));
+    }
+    resolved
 }
 
 /// Writes `model` as `args` ask.
@@ -71,7 +94,7 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
     if args.standalone && args.emit != Target::Latex {
         return Err(report::usage("--standalone applies to --emit latex only"));
     }
-    if args.fsm == FsmArg::Sparse && args.emit != Target::Json {
+    if args.fsm != FsmArg::Auto && args.emit != Target::Json {
         return Err(report::usage("--fsm applies to --emit json only"));
     }
     // A drawing needs the ARRs only to fill components by fault class, which
@@ -94,13 +117,7 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
     )?;
     let text = match args.emit {
         Target::Text => bondgraph_codegen::text::emit(&c),
-        Target::Json => bondgraph_codegen::json::emit_with(
-            &c,
-            match args.fsm {
-                FsmArg::Dense => bondgraph_codegen::json::FsmForm::Dense,
-                FsmArg::Sparse => bondgraph_codegen::json::FsmForm::Sparse,
-            },
-        ),
+        Target::Json => bondgraph_codegen::json::emit_with(&c, fsm_form(&c, args.fsm)),
         Target::Latex => bondgraph_codegen::latex::emit(&c, args.standalone),
         Target::State => bondgraph_codegen::text::state(&c),
         Target::Dot => bondgraph_codegen::dot::emit(&c),

@@ -10,6 +10,7 @@ use bondgraph_core::{
 };
 
 use crate::names;
+use crate::text::DENSE_FSM_LIMIT;
 
 /// A JSON string literal.
 fn string(s: &str) -> String {
@@ -45,21 +46,38 @@ fn list(items: impl IntoIterator<Item = String>) -> String {
 /// How the fault signature matrix is written.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum FsmForm {
-    /// Each row's `signature`: one 0 or 1 per ARR.
+    /// Dense up to [`DENSE_FSM_LIMIT`] ARRs, sparse above: see [`FsmForm::resolve`].
     #[default]
+    Auto,
+    /// Each row's `signature`: one 0 or 1 per ARR.
     Dense,
     /// Each row's `arrs`: the names of the ARRs it shows in (for models with many ARRs:
-    /// the dense matrix of a 10,000-stage chain is most of a 199 MB file).
+    /// the dense matrix of a 10,000-stage chain is most of a 203 MB file, and at 50,000
+    /// stages it does not fit in memory).
     Sparse,
 }
 
-/// The product as JSON, with the FSM in its dense form.
+impl FsmForm {
+    /// The form `c`'s FSM is written in: [`FsmForm::Auto`] is dense up to
+    /// [`DENSE_FSM_LIMIT`] ARRs, sparse above, so that the file grows with the model, not with
+    /// its square.
+    pub fn resolve(self, c: &Compiled) -> FsmForm {
+        match self {
+            FsmForm::Auto if c.arrs.len() > DENSE_FSM_LIMIT => FsmForm::Sparse,
+            FsmForm::Auto => FsmForm::Dense,
+            other => other,
+        }
+    }
+}
+
+/// The product as JSON, with the FSM dense up to [`DENSE_FSM_LIMIT`] ARRs, sparse above.
 pub fn emit(c: &Compiled) -> String {
-    emit_with(c, FsmForm::Dense)
+    emit_with(c, FsmForm::Auto)
 }
 
 /// The product as JSON, with the FSM in the form asked for.
 pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
+    let form = form.resolve(c);
     let mut out = String::from("{\n");
     let _ = writeln!(out, "  \"model\": {},", string(&c.name));
     let params: Vec<String> = c
@@ -241,7 +259,7 @@ fn fsm(out: &mut String, c: &Compiled, form: FsmForm) {
         .values()
         .map(|r| {
             let marks = match form {
-                FsmForm::Dense => format!(
+                FsmForm::Dense | FsmForm::Auto => format!(
                     "\"signature\": {}",
                     list(r.signature(c.arrs.len()).into_iter().map(bit))
                 ),

@@ -335,6 +335,9 @@ fn broken(head: &str, terms: &[(bool, String)], tail: &str) -> String {
 /// The FSM as the paper's Table 2, with each component's fault class: with these ARRs, and
 /// with every residual the model's equations allow (a table note says which is which).
 fn fsm(out: &mut String, c: &Compiled) {
+    if c.arrs.len() > crate::text::DENSE_FSM_LIMIT {
+        return fsm_rows(out, c);
+    }
     let cols = "l".to_string() + &"c".repeat(4 + c.arrs.len());
     let _ = writeln!(
         out,
@@ -373,6 +376,46 @@ fn fsm(out: &mut String, c: &Compiled) {
     let _ = writeln!(
         out,
         "\\hline\n\\end{{tabular}}\n\\par\\smallskip{{\\footnotesize Class: the {} fault classes these ARRs tell apart; Class$^*$: the {} that residuals of the model's other equation sets could; --: undetectable.\\par}}",
+        c.isolability.selected.classes.len(),
+        c.isolability.possible.classes.len()
+    );
+}
+
+/// The FSM of a model with more ARRs than [`crate::text::DENSE_FSM_LIMIT`]: each row with
+/// the ARRs it shows in, so that the table grows with the model (a dense one of a
+/// 50,000-stage chain was 6.4 GB of cells no one reads).
+fn fsm_rows(out: &mut String, c: &Compiled) {
+    let _ = writeln!(
+        out,
+        "% Fault signature matrix, by row: {} ARRs are too many for a column each\n\\begin{{tabular}}{{lcclcc}}\n\\hline\nComponent & $D_b$ & $I_b$ & ARRs & Class & Class$^*$ \\\\\n\\hline",
+        c.arrs.len()
+    );
+    let bit = |b: bool| if b { "1" } else { "0" };
+    let class = |k: &bondgraph_core::FaultClasses, h| {
+        k.class_of(h)
+            .map_or("--".to_string(), |n| (n + 1).to_string())
+    };
+    for (h, row) in c.components.iter() {
+        let arrs: Vec<String> = row.marks.iter().map(|&k| escape(&c.arrs[k].name)).collect();
+        let _ = writeln!(
+            out,
+            "{} ({}) & {} & {} & {} & {} & {} \\\\",
+            escape(&row.name),
+            escape(row.kind.name()),
+            bit(row.detectable),
+            bit(row.isolable),
+            if arrs.is_empty() {
+                "--".to_string()
+            } else {
+                arrs.join(", ")
+            },
+            class(&c.isolability.selected, h),
+            class(&c.isolability.possible, h)
+        );
+    }
+    let _ = writeln!(
+        out,
+        "\\hline\n\\end{{tabular}}\n\\par\\smallskip{{\\footnotesize ARRs: those each component's fault shows in. Class: the {} fault classes these ARRs tell apart; Class$^*$: the {} that residuals of the model's other equation sets could; --: undetectable.\\par}}",
         c.isolability.selected.classes.len(),
         c.isolability.possible.classes.len()
     );
