@@ -764,7 +764,7 @@ fn a_singular_relation_writes_no_nan_and_calibrates_on_the_rest() {
     }
     assert!(empty > 400, "{empty}");
     assert!(
-        stderr(&out).contains("ARR1 is not a number at"),
+        stderr(&out).contains("ARR1 is not a finite number at"),
         "{}",
         stderr(&out)
     );

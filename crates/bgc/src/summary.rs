@@ -60,9 +60,16 @@ pub(crate) fn check(c: &Compiled) -> String {
         .max()
         .unwrap_or(0)
         .min(WIDEST_COLUMN);
-    for ((p, value), unit) in c.parameters.values().zip(&values).zip(&units) {
+    let known: Vec<String> = c.parameters.values().map(uncertainty).collect();
+    let known_width = known.iter().map(String::len).max().unwrap_or(0);
+    for (((p, value), unit), known) in c.parameters.values().zip(&values).zip(&units).zip(&known) {
+        // The column of uncertainties is there only when a parameter has one.
+        let known = match known_width {
+            0 => String::new(),
+            w => format!("{known:<w$}  "),
+        };
         let line = format!(
-            "  {:<name_width$} = {value:<value_width$}  {unit:<unit_width$}  {}",
+            "  {:<name_width$} = {value:<value_width$}  {unit:<unit_width$}  {known}{}",
             p.name,
             p.description.as_deref().unwrap_or("")
         );
@@ -71,6 +78,18 @@ pub(crate) fn check(c: &Compiled) -> String {
     let inputs: Vec<&str> = c.inputs.values().map(|i| i.name.as_str()).collect();
     let _ = writeln!(out, "inputs ({}) {}", inputs.len(), inputs.join(" "));
     out
+}
+
+/// A parameter's `+- x%` as the model can write it: a share of its value, else the half-width
+/// in its unit; empty when none is given.
+fn uncertainty(p: &bondgraph_core::Parameter) -> String {
+    // To 9 significant digits, as Display writes them (`5`, not `5.000000000000001`).
+    let short = |x: f64| format!("{x:.8e}").parse::<f64>().unwrap_or(x);
+    match p.uncertainty {
+        Some(u) if p.value != 0.0 => format!("+- {}%", short(100.0 * u / p.value.abs())),
+        Some(u) => format!("+- {}", short(u)),
+        None => String::new(),
+    }
 }
 
 /// A relative residual as the table prints it: `not finite` where the residual left the

@@ -3,11 +3,15 @@
 //! Signal bonds to detectors are drawn dashed with a full arrow, as activated bonds are in the
 //! literature. Given a causality, each power bond also gets its causal stroke, at the end that
 //! receives the effort. With ARRs, each element and detector is filled with the colour of its
-//! fault class (the components the ARRs cannot tell apart share one; a colour scheme of 9,
-//! repeated past 9 classes, the class number in the tooltip), and what no ARR detects is left
-//! unfilled in grey. Output depends only on the model, so it is stable from run to run.
+//! fault class (the components the ARRs cannot tell apart share one; the first 8 colours of
+//! the `pastel19` scheme, repeated past 8 classes, the class number in the tooltip: its 9th is
+//! the light grey of what is undetectable), and what no ARR detects is left unfilled in grey. Output depends only on the model, so it is stable from run to run.
 
 use std::fmt::Write as _;
+
+/// Colours of `pastel19` the fault classes take in turn: the scheme's 9th, `#f2f2f2`, is a
+/// grey that reads as "undetectable".
+const CLASS_COLOURS: usize = 8;
 
 use bondgraph_core::{Compiled, NodeClass, Stroke};
 
@@ -34,7 +38,10 @@ pub fn emit(c: &Compiled) -> String {
         let fill = match classes.get(node.name.as_str()) {
             Some(Some(k)) if !matches!(node.class, NodeClass::Junction(_)) => {
                 let _ = write!(tooltip, " (fault class {})", k + 1);
-                format!(", style=filled, fillcolor=\"/pastel19/{}\"", k % 9 + 1)
+                format!(
+                    ", style=filled, fillcolor=\"/pastel19/{}\"",
+                    k % CLASS_COLOURS + 1
+                )
             }
             Some(None) if !matches!(node.class, NodeClass::Junction(_)) => {
                 tooltip.push_str(" (no ARR detects it)");
@@ -185,6 +192,21 @@ mod tests {
         // Without ARRs, nothing is filled.
         let plain = emit(&compile(text, Derive::StateEquations));
         assert!(!plain.contains("fillcolor"), "{plain}");
+    }
+
+    /// A chain whose every mass is measured has more than 8 classes: none takes the grey of
+    /// the undetectable (`pastel19`'s 9th colour), class 9 takes the first colour again.
+    #[test]
+    fn no_class_is_filled_with_the_grey_of_the_undetectable() {
+        let text = bondgraph_core::generate::mass_spring_chain_varied(12, 1);
+        let dot = emit(&compile(&text, Derive::Everything));
+        assert!(dot.contains("(fault class 9)"), "{dot}");
+        assert!(!dot.contains("/pastel19/9"), "{dot}");
+        let nine = dot
+            .lines()
+            .find(|l| l.contains("(fault class 9)"))
+            .expect("class 9");
+        assert!(nine.contains("/pastel19/1\""), "{nine}");
     }
 
     #[test]
