@@ -349,9 +349,9 @@ fn fsm(out: &mut String, c: &Compiled) {
     }
     header.push_str(" & Class & Class$^*$");
     let _ = writeln!(out, "{header} \\\\\n\\hline");
-    let class = |k: &bondgraph_core::FaultClasses, h| {
-        k.class_of(h)
-            .map_or("--".to_string(), |n| (n + 1).to_string())
+    let (selected, possible) = classes(c);
+    let class = |k: &[Option<usize>], h: bondgraph_core::Handle<bondgraph_core::Component>| {
+        k[h.index()].map_or("--".to_string(), |n| (n + 1).to_string())
     };
     for (h, row) in c.components.iter() {
         let bit = |b: bool| if b { "1" } else { "0" };
@@ -365,12 +365,7 @@ fn fsm(out: &mut String, c: &Compiled) {
         for s in row.signature(c.arrs.len()) {
             let _ = write!(line, " & {}", bit(s));
         }
-        let _ = write!(
-            line,
-            " & {} & {}",
-            class(&c.isolability.selected, h),
-            class(&c.isolability.possible, h)
-        );
+        let _ = write!(line, " & {} & {}", class(&selected, h), class(&possible, h));
         let _ = writeln!(out, "{line} \\\\");
     }
     let _ = writeln!(
@@ -391,9 +386,9 @@ fn fsm_rows(out: &mut String, c: &Compiled) {
         c.arrs.len()
     );
     let bit = |b: bool| if b { "1" } else { "0" };
-    let class = |k: &bondgraph_core::FaultClasses, h| {
-        k.class_of(h)
-            .map_or("--".to_string(), |n| (n + 1).to_string())
+    let (selected, possible) = classes(c);
+    let class = |k: &[Option<usize>], h: bondgraph_core::Handle<bondgraph_core::Component>| {
+        k[h.index()].map_or("--".to_string(), |n| (n + 1).to_string())
     };
     for (h, row) in c.components.iter() {
         let arrs: Vec<String> = row.marks.iter().map(|&k| escape(&c.arrs[k].name)).collect();
@@ -409,8 +404,8 @@ fn fsm_rows(out: &mut String, c: &Compiled) {
             } else {
                 arrs.join(", ")
             },
-            class(&c.isolability.selected, h),
-            class(&c.isolability.possible, h)
+            class(&selected, h),
+            class(&possible, h)
         );
     }
     let _ = writeln!(
@@ -419,6 +414,15 @@ fn fsm_rows(out: &mut String, c: &Compiled) {
         c.isolability.selected.classes.len(),
         c.isolability.possible.classes.len()
     );
+}
+
+/// Each component's class with the chosen ARRs and with every residual, by handle index.
+fn classes(c: &Compiled) -> (Vec<Option<usize>>, Vec<Option<usize>>) {
+    let n = c.components.len();
+    (
+        c.isolability.selected.by_component(n),
+        c.isolability.possible.by_component(n),
+    )
 }
 
 /// Text safe in LaTeX's text mode.
