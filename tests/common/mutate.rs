@@ -28,7 +28,7 @@ impl Rng {
 pub(crate) fn mutate(text: &[u8], rng: &mut Rng) -> (Vec<u8>, &'static str) {
     let lines: Vec<&[u8]> = text.split_inclusive(|&b| b == b'\n').collect();
     let mut lines: Vec<Vec<u8>> = lines.into_iter().map(<[u8]>::to_vec).collect();
-    let what = match rng.below(8) {
+    let what = match rng.below(10) {
         0 => {
             lines.remove(rng.below(lines.len()));
             "deleted a line"
@@ -61,6 +61,7 @@ pub(crate) fn mutate(text: &[u8], rng: &mut Rng) -> (Vec<u8>, &'static str) {
             out.splice(at..at, noise);
             return (out, "inserted random bytes");
         }
+        8 | 9 => return (hostile(text, rng), "replaced a token with a hostile one"),
         _ => {
             // A printable character from the language's alphabet, where it may not belong.
             let alphabet = b"()[]{}=:,->< 01#\"\n*^/+.e_xyzRCI";
@@ -71,6 +72,54 @@ pub(crate) fn mutate(text: &[u8], rng: &mut Rng) -> (Vec<u8>, &'static str) {
         }
     };
     (lines.concat(), what)
+}
+
+/// What the campaign of [13/14] found wrong output or crashes with, each once: a token of
+/// `text` replaced by one of them, or one appended to a token (`x` becomes `x/0`).
+const HOSTILE: [&str; 16] = [
+    "/0",
+    "/(t-t)",
+    "*0/0",
+    "log(0)",
+    "sqrt(-1)",
+    "exp(1000)",
+    "1e308*10",
+    "0^-1",
+    "der(sin(t)*cos(t)*exp(t)*tanh(t)*atan(t)*log(t+2)*sqrt(t+1)*abs(t), 16)",
+    "der(t, 17)",
+    "*sign(t)",
+    "*abs(t)",
+    "((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((((1))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))))",
+    "1e-320",
+    "-0",
+    "\u{feff}",
+];
+
+/// `text` with one token replaced by, or followed by, a hostile piece; or one name made
+/// 70,000 characters long (past the 65,535 columns a formatter once panicked at).
+fn hostile(text: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let starts: Vec<usize> = (0..text.len())
+        .filter(|&i| {
+            !text[i].is_ascii_whitespace() && (i == 0 || text[i - 1].is_ascii_whitespace())
+        })
+        .collect();
+    if starts.is_empty() {
+        return text.to_vec();
+    }
+    let at = starts[rng.below(starts.len())];
+    let end = (at..text.len())
+        .find(|&i| text[i].is_ascii_whitespace())
+        .unwrap_or(text.len());
+    let piece: Vec<u8> = match rng.below(HOSTILE.len() + 1) {
+        k if k == HOSTILE.len() => {
+            let mut long = text[at..end].to_vec();
+            long.extend(std::iter::repeat_n(b'x', 70_000));
+            long
+        }
+        k if rng.below(2) == 0 => HOSTILE[k].as_bytes().to_vec(),
+        k => [&text[at..end], HOSTILE[k].as_bytes()].concat(),
+    };
+    [&text[..at], &piece[..], &text[end..]].concat()
 }
 
 fn swap_tokens(text: &[u8], rng: &mut Rng) -> Vec<u8> {
