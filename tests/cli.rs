@@ -412,6 +412,45 @@ fn a_large_models_fsm_is_written_by_row() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The textbook quadratic loss `e = kl*f*abs(f)` (and `sign(f)*f^2`) is read the other way in
+/// closed form, as `kl*sign(f)*abs(f)^2` was: the tank drained through it simulates from
+/// rest. It was held as a nonlinear loop whose Newton step divides by the flow, 0 at rest, and
+/// the run failed with "check the laws' signs, or shorten `step`".
+#[test]
+fn a_textbook_quadratic_loss_is_inverted_and_simulates_from_rest() {
+    let dir = scratch("cli-loss");
+    let base = std::fs::read_to_string(root().join("models/orifice_tank.bg")).expect("model");
+    for law in ["e = kl*f*abs(f)", "e = sign(f)*f^2*kl"] {
+        let text = base
+            .replace("R  drain : f = c*sqrt(e)", &format!("R  drain : {law}"))
+            .replace(
+                "param c   = 1.5e-6 [m^3/s/Pa^0.5]    \"orifice coefficient\"",
+                "param kl = 4e11",
+            );
+        assert!(text.contains(law) && text.contains("param kl"), "{text}");
+        let model = dir.join("tank.bg");
+        std::fs::write(&model, &text).expect("w");
+        let path = model.display().to_string();
+        let out = bgc(&[&path, "--emit", "state"]);
+        assert_eq!(code(&out), 0, "{law}: {}", stderr(&out));
+        assert!(
+            !stdout(&out).contains("solved numerically"),
+            "{law}: {}",
+            stdout(&out)
+        );
+        let run = bgc(&[
+            "simulate",
+            &path,
+            "-e",
+            "duration 5",
+            "-e",
+            "input Qin = 1e-3",
+        ]);
+        assert_eq!(code(&run), 0, "{law}: {}", stderr(&run));
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A run that stops says where its cause is written: an input whose expression has no value
 /// is located at the scenario's line that defines it (it was "`U0` is not a finite number at
 /// t = 0 s" against the model's file), and a state whose derivative is not a number at the

@@ -90,14 +90,106 @@ fn draw_panel(
         time.last().copied().unwrap_or(1.0),
     );
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
-    let mut low = panel.values.iter().copied().fold(f64::INFINITY, f64::min);
-    let mut high = panel
+    let (low, high, clipped) = value_range(panel);
+    let mesh = Mesh::new(low, high);
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption(panel, clipped), ("sans-serif", 15))
+        .margin(8)
+        // Room for the last time label, centred on the right edge.
+        .margin_right(28)
+        // Room for the tick labels and, below them, `t [s]`.
+        .x_label_area_size(44)
+        .y_label_area_size(78)
+        .build_cartesian_2d(t0..t1, mesh.low..mesh.high)?;
+    chart
+        .configure_mesh()
+        .x_desc("t [s]")
+        .y_labels(mesh.labels)
+        .y_label_formatter(&|v| mesh.label(*v))
+        .light_line_style(WHITE)
+        .draw()?;
+    let (low, high) = (mesh.low, mesh.high);
+    for &at in panel.marks.iter().filter(|&&at| (t0..=t1).contains(&at)) {
+        let style = BLACK.mix(0.6).stroke_width(1);
+        chart.draw_series(std::iter::once(PathElement::new(
+            [(at, low), (at, high)],
+            style,
+        )))?;
+    }
+    if let Some(alarm) = panel.alarm {
+        let shade = RED.mix(0.15).filled();
+        chart.draw_series(
+            intervals(time, alarm)
+                .into_iter()
+                .map(|(a, b)| Rectangle::new([(a, low), (b, high)], shade)),
+        )?;
+    }
+    // Values out of view are drawn at the edge, so that a clipped transient still shows.
+    let clip = |v: f64| v.clamp(low, high);
+    if let Some(th) = panel.threshold {
+        let style = RED.stroke_width(1);
+        let upper: Vec<f64> = th.iter().map(|&v| clip(v)).collect();
+        let lower: Vec<f64> = th.iter().map(|&v| clip(-v)).collect();
+        chart.draw_series(LineSeries::new(reduce(time, &upper), style))?;
+        chart.draw_series(LineSeries::new(reduce(time, &lower), style))?;
+    }
+    let values: Vec<f64> = panel.values.iter().map(|&v| clip(v)).collect();
+    chart.draw_series(LineSeries::new(reduce(time, &values), BLUE.stroke_width(1)))?;
+    Ok(())
+}
+
+/// A panel's title: its name, the key to its colours where there is more than one series
+/// (in the title, where it hides no data), whether any alarm was raised, and what is out of
+/// view.
+fn caption(panel: &Panel<'_>, clipped: Option<f64>) -> String {
+    let mut out = panel.name.to_string();
+    if panel.threshold.is_some() || panel.alarm.is_some() {
+        out.push_str(" — residual (blue), ± threshold (red), alarm (shaded)");
+    }
+    if let Some(alarm) = panel.alarm {
+        if !alarm.iter().any(|&a| a) {
+            out.push_str(": no alarm");
+        }
+    }
+    if let Some(extreme) = clipped {
+        out.push_str(&format!(
+            " (values up to {} drawn at the edge)",
+            short(extreme)
+        ));
+    }
+    out
+}
+
+/// The range a panel shows, and the largest |value| left out of it. A residual panel is
+/// scaled to what it holds most of the time and to its threshold: a start-up transient of
+/// ±100,000 would hide a residual of ±0.1 and its threshold; what lies beyond is drawn at
+/// the edge and said in the title. Other panels show all their values.
+fn value_range(panel: &Panel<'_>) -> (f64, f64, Option<f64>) {
+    let finite: Vec<f64> = panel
         .values
         .iter()
         .copied()
-        .fold(f64::NEG_INFINITY, f64::max);
+        .filter(|v| v.is_finite())
+        .collect();
+    let extreme = finite.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let (mut low, mut high) = match panel.threshold {
+        Some(_) => robust(&finite),
+        None => (
+            finite.iter().copied().fold(f64::INFINITY, f64::min),
+            finite.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ),
+    };
     if let Some(th) = panel.threshold {
-        let top = th.iter().copied().fold(0.0, f64::max);
+        let top = th
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        // Past ten times its threshold a residual is in alarm whatever its value: what is
+        // beyond is drawn at the edge.
+        if top > 0.0 {
+            (low, high) = (low.max(-10.0 * top), high.min(10.0 * top));
+        }
         low = low.min(-top);
         high = high.max(top);
     }
@@ -112,63 +204,73 @@ fn draw_panel(
         0.05 * high.abs().max(1.0)
     };
     let (low, high) = (low - pad, high + pad);
-    let mut chart = ChartBuilder::on(area)
-        .caption(panel.name, ("sans-serif", 16))
-        .margin(8)
-        // Room for the last time label, centred on the right edge.
-        .margin_right(28)
-        // Room for the tick labels and, below them, `t [s]`.
-        .x_label_area_size(44)
-        .y_label_area_size(70)
-        .build_cartesian_2d(t0..t1, low..high)?;
-    chart
-        .configure_mesh()
-        .x_desc("t [s]")
-        .light_line_style(WHITE)
-        .draw()?;
-    for &at in panel.marks.iter().filter(|&&at| (t0..=t1).contains(&at)) {
-        let style = BLACK.mix(0.6).stroke_width(1);
-        chart.draw_series(std::iter::once(PathElement::new(
-            [(at, low), (at, high)],
-            style,
-        )))?;
+    let clipped = (extreme > high.abs().max(low.abs())).then_some(extreme);
+    (low, high, clipped)
+}
+
+/// The range of the middle 98 % of `values`, widened by half again: what a residual holds
+/// apart from its start-up and its largest spikes.
+fn robust(values: &[f64]) -> (f64, f64) {
+    if values.is_empty() {
+        return (f64::INFINITY, f64::NEG_INFINITY);
     }
-    if let Some(alarm) = panel.alarm {
-        let shade = RED.mix(0.15).filled();
-        chart
-            .draw_series(
-                intervals(time, alarm)
-                    .into_iter()
-                    .map(|(a, b)| Rectangle::new([(a, low), (b, high)], shade)),
-            )?
-            .label("alarm")
-            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], shade));
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
+    let (lo, hi) = (at(0.01), at(0.99));
+    let half = 0.25 * (hi - lo);
+    (lo - half, hi + half)
+}
+
+/// The y axis: its range and labels, each written with the digits its spacing needs, so
+/// that no two read the same (`0.0` three times for ticks 0.01 apart).
+struct Mesh {
+    low: f64,
+    high: f64,
+    labels: usize,
+    digits: usize,
+    scientific: bool,
+}
+
+impl Mesh {
+    fn new(low: f64, high: f64) -> Mesh {
+        let labels = 6;
+        let step = (high - low) / labels as f64;
+        let magnitude = high.abs().max(low.abs());
+        let scientific = magnitude >= 1e5 || (magnitude > 0.0 && magnitude < 1e-3);
+        let digits = if scientific {
+            // Enough significant digits that ticks `step` apart differ.
+            ((magnitude / step).log10().ceil().max(1.0) as usize).min(6)
+        } else {
+            ((-step.log10()).ceil().max(0.0) as usize + 1).min(9)
+        };
+        Mesh {
+            low,
+            high,
+            labels,
+            digits,
+            scientific,
+        }
     }
-    if let Some(th) = panel.threshold {
-        let style = RED.stroke_width(1);
-        chart
-            .draw_series(LineSeries::new(reduce(time, th), style))?
-            .label("± threshold")
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], style));
-        let negative: Vec<f64> = th.iter().map(|v| -v).collect();
-        chart.draw_series(LineSeries::new(reduce(time, &negative), style))?;
+
+    fn label(&self, v: f64) -> String {
+        // `-0.000` reads as a value of its own.
+        let v = if v.abs() < (self.high - self.low) * 1e-12 {
+            0.0
+        } else {
+            v
+        };
+        if self.scientific {
+            format!("{v:.*e}", self.digits)
+        } else {
+            format!("{v:.*}", self.digits)
+        }
     }
-    let line = BLUE.stroke_width(1);
-    let series = chart.draw_series(LineSeries::new(reduce(time, panel.values), line))?;
-    // A legend only where there is more than the series to tell apart.
-    if panel.threshold.is_some() || panel.alarm.is_some() {
-        series
-            .label("residual")
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], line));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.3))
-            .label_font(("sans-serif", 12))
-            .draw()?;
-    }
-    Ok(())
+}
+
+/// A number for a title, to 3 significant digits.
+fn short(x: f64) -> String {
+    format!("{x:.2e}")
 }
 
 /// The time intervals where `on` holds.
@@ -269,6 +371,56 @@ mod tests {
             .collect();
         assert!(labels.len() >= 3, "{labels:?}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The text of every `<text>` element of `svg`.
+    fn texts(svg: &str) -> Vec<String> {
+        svg.split("</text>")
+            .filter_map(|s| s.rsplit('>').next())
+            .map(|s| s.trim().to_string())
+            .collect()
+    }
+
+    /// A residual of ±0.1 under a start-up transient of ±100,000: the panel is scaled to
+    /// the residual and its threshold, the transient is drawn at the edge and said in the
+    /// title, the y labels all differ, the key is in the title (no legend box over the data),
+    /// and a run without alarm says so.
+    #[test]
+    fn a_residual_panel_is_scaled_to_its_threshold_and_says_what_it_leaves_out() {
+        let time: Vec<f64> = (0..2000).map(|k| f64::from(k) * 0.01).collect();
+        let mut values: Vec<f64> = time.iter().map(|t| 0.1 * (3.0 * t).sin()).collect();
+        values[..20].iter_mut().for_each(|v| *v = 1e5);
+        let threshold = vec![0.2; time.len()];
+        let alarm = vec![false; time.len()];
+        let panel = Panel {
+            name: "ARR1",
+            values: &values,
+            threshold: Some(&threshold),
+            alarm: Some(&alarm),
+            marks: &[],
+        };
+        let svg = render(&time, &[panel]).expect("drawn");
+        let texts = texts(&svg);
+        let title = texts
+            .iter()
+            .find(|t| t.starts_with("ARR1"))
+            .expect("a title");
+        assert!(title.contains("no alarm"), "{title}");
+        assert!(
+            title.contains("values up to 1.00e5 drawn at the edge"),
+            "{title}"
+        );
+        assert!(title.contains("± threshold (red)"), "{title}");
+        let labels: Vec<f64> = texts.iter().filter_map(|t| t.parse().ok()).collect();
+        let (lo, hi) = labels
+            .iter()
+            .fold((0.0f64, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(hi < 100.0 && lo > -1.0, "scaled to the residual: {texts:?}");
+        let distinct: std::collections::BTreeSet<&String> =
+            texts.iter().filter(|t| t.parse::<f64>().is_ok()).collect();
+        let all = texts.iter().filter(|t| t.parse::<f64>().is_ok()).count();
+        assert_eq!(distinct.len(), all, "a label repeats: {texts:?}");
+        assert!(!svg.contains(">residual<"), "a legend box over the data");
     }
 
     #[test]

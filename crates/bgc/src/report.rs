@@ -89,7 +89,7 @@ impl Said {
         Said {
             severity,
             code,
-            message: message.to_string(),
+            message: short_words(&message.to_string()),
         }
     }
 }
@@ -186,7 +186,7 @@ pub(crate) fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
         if shown[kind] > MOST_SHOWN {
             continue;
         }
-        let mut d = d.clone();
+        let mut d = shortened(d);
         // One error pointing at every bond of a long group line quoted each of them.
         if d.notes.len() > MOST_LABELS {
             let left = d.notes.len() - MOST_LABELS;
@@ -227,6 +227,53 @@ pub(crate) fn print(name: &str, text: &str, diagnostics: &Diagnostics) {
         ));
     }
     let _ = std::io::stderr().lock().write_all(out.as_bytes());
+}
+
+/// The longest name a diagnostic repeats whole: a 70,000-character name was written out
+/// three times per error (in the message, its label and its help).
+const LONGEST_NAME: usize = 200;
+
+/// `d` with every word longer than [`LONGEST_NAME`] cut to its start, its end and its length.
+fn shortened(d: &Diagnostic) -> Diagnostic {
+    let mut d = d.clone();
+    d.message = short_words(&d.message);
+    d.help = d.help.as_deref().map(short_words);
+    d.label = short_words(&d.label);
+    for note in &mut d.notes {
+        note.message = short_words(&note.message);
+    }
+    d
+}
+
+/// `text` with each run of letters, digits and `_` longer than [`LONGEST_NAME`] written as
+/// its first 60 characters, `…`, its last 20 and its length.
+fn short_words(text: &str) -> String {
+    if text.len() <= LONGEST_NAME {
+        return text.to_string();
+    }
+    let mut out = String::with_capacity(text.len().min(4 * LONGEST_NAME));
+    let mut word = String::new();
+    let flush = |word: &mut String, out: &mut String| {
+        let n = word.chars().count();
+        if n > LONGEST_NAME {
+            let head: String = word.chars().take(60).collect();
+            let tail: String = word.chars().skip(n - 20).collect();
+            out.push_str(&format!("{head}…{tail} ({n} characters)"));
+        } else {
+            out.push_str(word);
+        }
+        word.clear();
+    };
+    for c in text.chars() {
+        if c.is_alphanumeric() || c == '_' {
+            word.push(c);
+        } else {
+            flush(&mut word, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut word, &mut out);
+    out
 }
 
 fn plural(n: usize) -> &'static str {

@@ -96,9 +96,10 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
                 };
                 let mut lines = vec![writer.equation(&head, arr.expr, tail)];
                 if let Realisation::Integrated(i) = &arr.realisation {
-                    // The residual is `F(t) - F(t0) + int A`: printed as the two parts.
+                    // The residual is `F(t) - F(t0) + int A`: printed as the two parts, in
+                    // calligraphic letters, which no model name is written in.
                     let head = format!(
-                        "  \\text{{integrated}}\\quad & \\mathrm{{{}}} = \\dot F + A,\\ F = ",
+                        "  \\text{{integrated}}\\quad & \\mathrm{{{}}} = \\dot{{\\mathcal{{F}}}} + \\mathcal{{A}},\\ \\mathcal{{F}} = ",
                         arr.name
                     );
                     lines.push(format!(
@@ -107,7 +108,7 @@ pub fn emit(c: &Compiled, standalone: bool) -> String {
                     ));
                     lines.push(format!(
                         "{} \\nonumber",
-                        writer.equation("  & A = ", i.rate, "")
+                        writer.equation("  & \\mathcal{A} = ", i.rate, "")
                     ));
                 }
                 for &a in &arr.auxiliaries {

@@ -310,11 +310,15 @@ fn realisation(out: &mut String, write: &dyn Fn(bondgraph_core::Expr) -> String,
         }
         Realisation::Direct => {}
         Realisation::Integrated(i) => {
+            // `NAME.level` and `NAME.rate`: a dotted name is no model's (`F` was also the
+            // input of `models/coulomb_friction.bg`).
+            let name = &arr.name;
             let _ = writeln!(
                 out,
                 "    realised by integration, derivatives up to order {order}: the residual is \
-                 F(t) - F(t0) + int(A) over [t0, t], where ARR = A + der(F) and\n      \
-                 F = {}\n      A = {}",
+                 {name}.level(t) - {name}.level(t0) + int({name}.rate) over [t0, t], where \
+                 {name} = {name}.rate + der({name}.level) and\n      \
+                 {name}.level = {}\n      {name}.rate = {}",
                 write(i.level),
                 write(i.rate)
             );

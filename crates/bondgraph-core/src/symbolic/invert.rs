@@ -87,7 +87,10 @@ pub(crate) fn invert(pool: &mut Pool, f: ExprId, x: Leaf, y: ExprId) -> Option<I
             // A divisor made of parameters only is a condition on the model, not on where the
             // inverse holds: a law that divides by a zero parameter is not the law written.
             None if c.bound == Bound::NonZero && constant(inverter.pool, c.expr) => {}
-            // `(abs(f)/c)^2 >= 0` holds whatever f and c: not a condition worth stating.
+            // `(abs(f)/c)^2 >= 0` holds whatever f and c, and `abs(e)/kl >= 0` whatever e once
+            // kl is positive: what is left is the sign of parameters, a condition on the model
+            // (a loss coefficient written negative), as a divisor of parameters is. Stated, it
+            // read as a tautology (`abs(e) / kl >= 0 and (abs(e) / kl) ^ 0.5 >= 0`).
             None if c.bound == Bound::NonNegative && nonnegative(inverter.pool, c.expr) => {}
             None if !domain.contains(&c) => domain.push(c),
             None => {}
@@ -107,12 +110,15 @@ fn constant(pool: &Pool, e: ExprId) -> bool {
 fn nonnegative(pool: &Pool, e: ExprId) -> bool {
     match pool.node(e) {
         Node::Num(bits) => f64::from_bits(bits) >= 0.0,
+        // The sign of parameters is the model's to get right (see `invert`).
+        Node::Leaf(Leaf::Param(_)) => true,
         Node::Call1(Func::Abs | Func::Sqrt | Func::Exp, _) => true,
         Node::Binary(BinOp::Pow, a, k) => {
-            let even = pool
+            // A principal root (`^0.5`) is non-negative wherever it is a number.
+            let even_or_root = pool
                 .as_num(k)
-                .is_some_and(|k| k.fract() == 0.0 && (k as i64) % 2 == 0);
-            even || nonnegative(pool, a)
+                .is_some_and(|k| k.fract() != 0.0 || (k as i64) % 2 == 0);
+            even_or_root || nonnegative(pool, a)
         }
         Node::Binary(BinOp::Mul | BinOp::Div | BinOp::Add, a, b) => {
             nonnegative(pool, a) && nonnegative(pool, b)
@@ -304,6 +310,13 @@ impl Inverter<'_> {
         if let Some(v) = self.odd(f, x, y) {
             return Some(v);
         }
+        // The textbook forms of an odd law, `k·u·|u|` and `k·sign(u)·u²`: the same law as
+        // `k·sign(u)·|u|²`, which `odd` solves.
+        if let Some(g) = self.signed_power(f, x) {
+            if let Some(v) = self.odd(g, x, y) {
+                return Some(v);
+            }
+        }
         let target = self.pool.leaf(x);
         // The affine test samples three points, which a piecewise law (`max(x, 0)`) passes:
         // only sums, products and quotients of `x` may be affine or linear-fractional.
@@ -365,6 +378,96 @@ impl Inverter<'_> {
             return self.solve(u, x, u_value);
         }
         None
+    }
+
+    /// `f` written as `rest·sign(u)·|u|^p` when it is a product (and quotient) of `rest`,
+    /// free of `x`, and of factors `u`, `|u|`, `sign(u)` and `u^k`, `|u|^k` for numbers `k`,
+    /// with `u` holding `x` and the signs odd in number: `u = sign(u)·|u|` and
+    /// `u^k = |u|^k` for an even `k`. `None` for anything else (an even law has no inverse
+    /// that knows the sign, and `u^0.5` is not odd).
+    fn signed_power(&mut self, f: ExprId, x: Leaf) -> Option<ExprId> {
+        let target = self.pool.leaf(x);
+        let mut factors = Vec::new();
+        self.factors(f, 1.0, &mut factors);
+        let mut u = None;
+        let (mut signs, mut power, mut holding) = (0i64, 0.0f64, 0usize);
+        let mut others = Vec::new();
+        for (e, k) in factors {
+            if !self.holds(e, target) {
+                others.push((e, k));
+                continue;
+            }
+            holding += 1;
+            let (base, exponent) = match self.pool.node(e) {
+                Node::Binary(BinOp::Pow, b, n) => (b, self.pool.as_num(n)?),
+                _ => (e, 1.0),
+            };
+            let (inner, is_abs, is_sign) = match self.pool.node(base) {
+                Node::Call1(Func::Abs, a) => (a, true, false),
+                Node::Call1(Func::Sign, a) => (a, false, true),
+                _ => (base, false, false),
+            };
+            if *u.get_or_insert(inner) != inner || exponent.fract() != 0.0 && !is_abs {
+                return None;
+            }
+            let times = exponent * k;
+            if is_sign {
+                signs += times as i64;
+            } else {
+                power += times;
+                if !is_abs {
+                    signs += times as i64;
+                }
+            }
+        }
+        let u = u?;
+        // One factor holding `x` is no product of powers of `u` to gather (and gathering it
+        // would give back `sign(u)·|u|`, whose `u` is the same factor again).
+        if holding < 2 || signs.rem_euclid(2) == 0 || power == 0.0 {
+            return None;
+        }
+        let p = &mut *self.pool;
+        let (mut num, mut den): (Option<ExprId>, Option<ExprId>) = (None, None);
+        for (e, k) in others {
+            let side = if k > 0.0 { &mut num } else { &mut den };
+            *side = Some(match *side {
+                None => e,
+                Some(r) => p.mul(r, e),
+            });
+        }
+        let sign = p.call(Func::Sign, &[u]);
+        let abs = p.call(Func::Abs, &[u]);
+        let n = p.num(power);
+        let magnitude = p.pow(abs, n);
+        let mut g = p.mul(sign, magnitude);
+        if let Some(r) = num {
+            g = p.mul(r, g);
+        }
+        if let Some(r) = den {
+            g = p.div(g, r);
+        }
+        Some(g)
+    }
+
+    /// The factors of `f` through products, quotients and negations, with their exponent
+    /// (`1` in a numerator, `-1` in a denominator); a negation is kept as a factor `-1`.
+    fn factors(&mut self, f: ExprId, k: f64, out: &mut Vec<(ExprId, f64)>) {
+        match self.pool.node(f) {
+            Node::Binary(BinOp::Mul, a, b) => {
+                self.factors(a, k, out);
+                self.factors(b, k, out);
+            }
+            Node::Binary(BinOp::Div, a, b) => {
+                self.factors(a, k, out);
+                self.factors(b, -k, out);
+            }
+            Node::Neg(a) => {
+                let minus = self.pool.num(-1.0);
+                out.push((minus, 1.0));
+                self.factors(a, k, out);
+            }
+            _ => out.push((f, k)),
+        }
     }
 
     /// Whether `x` reaches `f` through sums, products, quotients and negations only.
@@ -495,6 +598,11 @@ mod tests {
             ("atan(x)*c", &[-5.0, 0.0, 5.0]),
             ("c^x", &[-1.0, 0.0, 2.0]),
             ("-(c*x)", &[-1.0, 3.0]),
+            // The textbook forms of a quadratic loss: odd, as `c*sign(x)*abs(x)^2` is.
+            ("c*x*abs(x)", &[-2.0, -0.3, 0.0, 1.5]),
+            ("sign(x)*x^2*c", &[-2.0, 0.0, 0.7]),
+            ("x*abs(x)^2/c", &[-1.2, 0.0, 4.0]),
+            ("-(c*x^3*abs(x))", &[-1.1, 0.0, 0.9]),
         ];
         for (text, xs) in cases {
             let mut p = Pool::default();
@@ -545,6 +653,22 @@ mod tests {
     }
 
     /// The orifice's `f = c·sqrt(e)` read backwards holds where `f/c ≥ 0`: the domain says so.
+    #[test]
+    fn an_odd_loss_has_no_domain_to_state() {
+        for text in ["c*sign(x)*abs(x)^2", "c*x*abs(x)", "sign(x)*x^2*c"] {
+            let mut p = Pool::default();
+            let f = law(&mut p, text);
+            let y = p.leaf(Leaf::Var(VarId(1)));
+            let inv = invert(&mut p, f, Leaf::Var(VarId(0)), y).expect("invertible");
+            assert!(inv.domain.is_empty(), "{text}: {:?}", inv.domain);
+        }
+        // An even law keeps no sign: it has no inverse.
+        let mut p = Pool::default();
+        let f = law(&mut p, "c*x*x");
+        let y = p.leaf(Leaf::Var(VarId(1)));
+        assert!(invert(&mut p, f, Leaf::Var(VarId(0)), y).is_none());
+    }
+
     #[test]
     fn the_square_root_states_its_domain() {
         let mut p = Pool::default();
