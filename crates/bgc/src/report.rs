@@ -377,3 +377,20 @@ impl miette::Diagnostic for Report {
         Some(Box::new(std::iter::once(primary).chain(notes)))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_name_past_200_characters_is_cut_to_its_ends_and_length() {
+        let long = "m".to_string() + &"x".repeat(70_000);
+        let said = short_words(&format!("`{long}` is not defined"));
+        assert!(said.len() < 200, "{said}");
+        assert!(
+            said.ends_with("xxxx (70001 characters)` is not defined"),
+            "{said}"
+        );
+        assert_eq!(short_words("`ab_c` is fine"), "`ab_c` is fine");
+    }
+}
