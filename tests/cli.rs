@@ -451,6 +451,39 @@ fn a_textbook_quadratic_loss_is_inverted_and_simulates_from_rest() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The README's first command prints no warning: the bench's ratio `N`, read by the gear and
+/// by the load-side coupling on purpose, is marked `shared`. Without the mark the warning
+/// comes back, and the output lists the shared parameter either way.
+#[test]
+fn a_parameter_marked_shared_is_not_warned_about() {
+    let out = bgc(&["models/backlash_bench.bg"]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(
+        !stderr(&out).contains("bg::shared-parameter"),
+        "{}",
+        stderr(&out)
+    );
+    let dir = scratch("cli-shared");
+    let text = std::fs::read_to_string(root().join("models/backlash_bench.bg")).expect("model");
+    let unmarked = text.replace(" shared \"reduction", " \"reduction");
+    assert_ne!(unmarked, text);
+    let model = dir.join("bench.bg");
+    std::fs::write(&model, unmarked).expect("w");
+    let again = bgc(&[&model.display().to_string()]);
+    assert!(
+        stderr(&again).contains("bg::shared-parameter"),
+        "{}",
+        stderr(&again)
+    );
+    assert!(
+        stderr(&again).contains("silences"),
+        "{}",
+        stderr(&again)
+    );
+    assert_eq!(stdout(&again), stdout(&out), "the mark changes no output");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A run that stops says where its cause is written: an input whose expression has no value
 /// is located at the scenario's line that defines it (it was "`U0` is not a finite number at
 /// t = 0 s" against the model's file), and a state whose derivative is not a number at the

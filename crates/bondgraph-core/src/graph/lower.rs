@@ -169,6 +169,7 @@ impl<'a> Lowerer<'a, '_> {
                 value: value.unwrap_or_default(),
                 unit: decl.unit.clone(),
                 uncertainty,
+                shared: decl.shared.is_some(),
                 description: decl.description.clone(),
                 span: decl.name.span,
             });

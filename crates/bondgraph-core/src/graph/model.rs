@@ -102,6 +102,8 @@ pub(crate) struct Param {
     pub unit: Option<String>,
     /// How far the true value may be from the nominal one (a half-width, in its unit).
     pub uncertainty: Option<f64>,
+    /// Whether it is marked `shared`: read by several components on purpose.
+    pub shared: bool,
     /// What it is.
     pub description: Option<String>,
     /// Where it is declared.

@@ -167,6 +167,7 @@ impl<'m> Builder<'m> {
                 value: p.value,
                 unit: p.unit.clone(),
                 uncertainty: p.uncertainty,
+                shared: p.shared,
                 description: p.description.clone(),
                 span: p.span,
             });
@@ -571,8 +572,11 @@ impl<'m> Builder<'m> {
                 c.arrs[k].components.push(h);
             }
         }
+        // A parameter marked `shared` is read by several components on purpose.
         for shared in c.shared_parameters() {
-            stage.push(shared_parameter(c, &shared));
+            if !c.parameters[shared.parameter].shared {
+                stage.push(shared_parameter(c, &shared));
+            }
         }
         let marks: Vec<Vec<usize>> = c.components.values().map(|r| r.marks.clone()).collect();
         let selected = fdi::isolability::of_signatures(&marks);
@@ -821,7 +825,7 @@ fn shared_parameter(c: &Compiled, shared: &SharedParameter) -> Diagnostic {
         ),
     )
     .with_label("shared here")
-    .with_help("the output's `shared parameters` lists the ARRs a change of it can show in (the union of their rows); a parameter of each component's own keeps faults apart")
+    .with_help("the output's `shared parameters` lists the ARRs a change of it can show in (the union of their rows); a parameter of each component's own keeps faults apart; `shared` after its value (`param N = 5 shared`) says the model means it, and silences this")
 }
 
 /// The causality of one mode in the model's names.

@@ -64,6 +64,9 @@ pub struct Parameter {
     /// How far the true value may be from the nominal one (`+- 5%` in the model), as a
     /// half-width in its unit: what adaptive thresholds allow for.
     pub uncertainty: Option<f64>,
+    /// Whether the model marks it `shared`: several components read it on purpose (a gear
+    /// ratio), and a change of it is not warned about.
+    pub shared: bool,
     /// What it is, as the user described it.
     pub description: Option<String>,
     /// Where it is declared.

@@ -75,6 +75,8 @@ pub(crate) struct ParamDecl {
     pub unit: Option<String>,
     /// How far the true value may be from the nominal one, and where that was written.
     pub uncertainty: Option<(Uncertainty, Span)>,
+    /// Where `shared` was written: several components read it on purpose.
+    pub shared: Option<Span>,
     /// What it is.
     pub description: Option<String>,
 }

@@ -212,6 +212,7 @@ impl Builder<'_> {
         let mut value = None;
         let mut unit = None;
         let mut uncertainty = None;
+        let mut shared = None;
         let mut description = None;
         for p in inner {
             match p.as_rule() {
@@ -219,6 +220,7 @@ impl Builder<'_> {
                 Rule::param_value => value = self.param_value(p),
                 Rule::unit => unit = Some(inner_text(p)),
                 Rule::uncertainty => uncertainty = self.uncertainty(p),
+                Rule::kw_shared => shared = Some(self.span(&p)),
                 Rule::description => description = Some(inner_text(p)),
                 _ => {}
             }
@@ -231,6 +233,7 @@ impl Builder<'_> {
             value,
             unit,
             uncertainty,
+            shared,
             description,
         }
     }
@@ -710,6 +713,7 @@ fn rule_name(rule: Rule) -> Option<&'static str> {
         Rule::ident | Rule::keyword => "a name",
         Rule::kw_model => "`model`",
         Rule::kw_param => "`param`",
+        Rule::kw_shared => "`shared`",
         Rule::kw_input => "`input`",
         Rule::kw_let => "`let`",
         Rule::kw_on => "`on`",
