@@ -475,11 +475,7 @@ fn a_parameter_marked_shared_is_not_warned_about() {
         "{}",
         stderr(&again)
     );
-    assert!(
-        stderr(&again).contains("silences"),
-        "{}",
-        stderr(&again)
-    );
+    assert!(stderr(&again).contains("silences"), "{}", stderr(&again));
     assert_eq!(stdout(&again), stdout(&out), "the mark changes no output");
     std::fs::remove_dir_all(&dir).ok();
 }
