@@ -247,22 +247,7 @@ pub(crate) fn build_in(
     free: &[LetId],
     scope: Option<&[NodeId]>,
 ) -> System {
-    let mut b = Builder {
-        model,
-        mode,
-        free,
-        sys: System {
-            vars: Vec::new(),
-            equations: Vec::new(),
-            states: Vec::new(),
-            refusals: Vec::new(),
-            inversions: Vec::new(),
-            pool: Pool::default(),
-            index: HashMap::new(),
-        },
-        lets: vec![None; model.lets.len()],
-        oversized: None,
-    };
+    let mut b = Builder::new(model, mode, free);
     b.lets();
     let (bonds, nodes): (Vec<BondId>, Vec<NodeId>) = match scope {
         None => (model.bonds().collect(), model.nodes().collect()),
@@ -388,22 +373,7 @@ pub(crate) struct Oversized {
 /// differentiation passes [`MOST_DERIVATIVE_NODES`], found before any other work, at the
 /// cost of the bound at most.
 pub(crate) fn first_oversized_derivative(model: &BondGraph) -> Option<Oversized> {
-    let mut b = Builder {
-        model,
-        mode: Mode::Diagnosis,
-        free: &[],
-        sys: System {
-            vars: Vec::new(),
-            equations: Vec::new(),
-            states: Vec::new(),
-            refusals: Vec::new(),
-            inversions: Vec::new(),
-            pool: Pool::default(),
-            index: HashMap::new(),
-        },
-        lets: vec![None; model.lets.len()],
-        oversized: None,
-    };
+    let mut b = Builder::new(model, Mode::Diagnosis, &[]);
     let found = |b: &Builder<'_>, holder| {
         b.oversized.map(|(asked, reached)| Oversized {
             holder,
@@ -428,7 +398,27 @@ pub(crate) fn first_oversized_derivative(model: &BondGraph) -> Option<Oversized>
     None
 }
 
-impl Builder<'_> {
+impl<'m> Builder<'m> {
+    /// A builder of `model`'s equations for `mode`, with nothing written yet.
+    fn new(model: &'m BondGraph, mode: Mode, free: &'m [LetId]) -> Self {
+        Builder {
+            model,
+            mode,
+            free,
+            sys: System {
+                vars: Vec::new(),
+                equations: Vec::new(),
+                states: Vec::new(),
+                refusals: Vec::new(),
+                inversions: Vec::new(),
+                pool: Pool::default(),
+                index: HashMap::new(),
+            },
+            lets: vec![None; model.lets.len()],
+            oversized: None,
+        }
+    }
+
     fn new_var(&mut self, var: Var) -> VarId {
         let id = VarId(self.sys.vars.len() as u32);
         self.sys.vars.push(var);
