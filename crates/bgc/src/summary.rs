@@ -103,6 +103,37 @@ fn size(x: f64) -> String {
 }
 
 /// The table `bgc verify` prints: each ARR on the healthy plant, then each FSM entry.
+/// What the runs went through where `sign`, `abs`, `min` or `max` switch: an integrated
+/// residual's level must not jump there (`jump`, relative to its size), and a model that
+/// switches where no run went is said to be checked between its switches only.
+fn crossings(out: &mut String, z: &bondgraph_sim::ZeroCrossings) {
+    if z.arguments == 0 {
+        return;
+    }
+    let arguments = format!(
+        "{} argument{} of sign, abs, min or max",
+        z.arguments,
+        if z.arguments == 1 { "" } else { "s" }
+    );
+    if z.crossed == 0 {
+        let _ = writeln!(
+            out,
+            "  note: no run crossed a zero of the {arguments}: the relations are checked between such crossings only"
+        );
+        return;
+    }
+    let _ = writeln!(
+        out,
+        "  (jump: an integrated residual's level across {} zero crossings of the {arguments}, relative to its size; {} of the runs had inputs of mean zero{})",
+        z.crossed,
+        z.reversing_runs,
+        match z.stopped {
+            0 => String::new(),
+            n => format!(", {n} stopped where the model left the finite numbers"),
+        }
+    );
+}
+
 pub(crate) fn verification(c: &Compiled, v: &Verification) -> String {
     let verdict = |pass: bool| if pass { "pass" } else { "FAIL" };
     let mut out = String::new();
@@ -118,15 +149,22 @@ pub(crate) fn verification(c: &Compiled, v: &Verification) -> String {
             v.state_scale
         );
     }
+    let switching = v.crossings.arguments > 0;
     for a in &v.arrs {
+        let jump = match a.jump {
+            Some(j) => format!("  jump {:>10}", size(j)),
+            None if switching => format!("  {:15}", ""),
+            None => String::new(),
+        };
         let _ = writeln!(
             out,
-            "  {:<8} {:>10}  {}",
+            "  {:<8} {:>10}{jump}  {}",
             a.name,
             size(a.worst),
             verdict(a.pass)
         );
     }
+    crossings(&mut out, &v.crossings);
     let width = c
         .components
         .values()

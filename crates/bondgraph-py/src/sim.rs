@@ -96,5 +96,10 @@ pub(crate) fn verify<'py>(
     out.set_item("unchecked", unchecked)?;
     out.set_item("step", v.step)?;
     out.set_item("state_scale", v.state_scale)?;
+    let jumps: Vec<(String, f64)> = (v.arrs.iter())
+        .filter_map(|a| Some((a.name.clone(), a.jump?)))
+        .collect();
+    out.set_item("jumps", jumps)?;
+    out.set_item("crossings", v.crossings.crossed)?;
     Ok(out)
 }

@@ -170,6 +170,12 @@ def test_verify_gives_the_clis_verdicts():
         model.verify(input_scale=1e308)
     with pytest.raises(ValueError, match=r"runs must be 1 to 1000"):
         model.verify(runs=10**9)
+    # The DC motor switches nowhere; the two-mass drive's dry friction does, and its
+    # integrated relations are taken through the load's reversals without a jump.
+    assert checked.crossings == 0 and checked.jumps == {}
+    drive = bgc.compile(ROOT / "models" / "two_mass_friction.bg").verify()
+    assert drive.passed and drive.crossings > 0
+    assert set(drive.jumps) == {"ARR1", "ARR2"} and max(drive.jumps.values()) < 1e-12
 
 
 def test_a_model_pickles_as_its_text_and_compiles_again():

@@ -19,5 +19,5 @@ pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 pub use simulation::Simulation;
 pub use verify::{
     verify, verify_reporting, ArrCheck, EntryCheck, Progress, Verification, VerifyError,
-    VerifyOptions,
+    VerifyOptions, ZeroCrossings,
 };

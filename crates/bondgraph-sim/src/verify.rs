@@ -27,10 +27,10 @@
 
 use std::collections::{BTreeSet, HashMap};
 
-use bondgraph_core::BinOp;
 use bondgraph_core::{
     Auxiliary, Mode, Realisation, ResidualForm, Sensor, StorageCausality, Symbol,
 };
+use bondgraph_core::{BinOp, Func};
 use bondgraph_core::{Compiled, Component, ComponentKind, Handle, Input, Parameter, State};
 use bondgraph_core::{Derivatives, ExprId, Node, Pool, Tape};
 
@@ -183,8 +183,30 @@ pub struct ArrCheck {
     pub name: String,
     /// Largest relative |residual| over all runs.
     pub worst: f64,
-    /// Whether it stayed under the tolerance.
+    /// Realised by integration: the largest jump of its level across a zero crossing of a
+    /// `sign`, `abs`, `min` or `max` argument, beyond what its rate accounts for, relative
+    /// to the level's largest size (`None` when no run crossed one, or the ARR is evaluated
+    /// as written).
+    pub jump: Option<f64>,
+    /// Whether it stayed under the tolerance, and its level did across every crossing.
     pub pass: bool,
+}
+
+/// The zero crossings of the arguments where `sign`, `abs`, `min` and `max` switch, which
+/// the runs went through.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ZeroCrossings {
+    /// Arguments of `sign` and `abs`, and differences of `min`'s and `max`'s, that the
+    /// state equations and the residuals hold.
+    pub arguments: usize,
+    /// Crossings the check went through, over every run.
+    pub crossed: usize,
+    /// Runs with inputs of mean zero added to reverse the model's flows (one per initial
+    /// state; none when the model switches nowhere).
+    pub reversing_runs: usize,
+    /// Walks stopped where the model left the finite numbers (inputs of mean zero may take
+    /// it out of its domain); what they crossed before is kept.
+    pub stopped: usize,
 }
 
 /// One FSM entry under a fault of its component.
@@ -220,6 +242,8 @@ pub struct Verification {
     pub state_scale: f64,
     /// How many times the initial states were shrunk tenfold to get there.
     pub scalings: u32,
+    /// The zero crossings the integrated residuals were checked across.
+    pub crossings: ZeroCrossings,
 }
 
 impl Verification {
@@ -298,6 +322,65 @@ struct Plant {
     root_tape: Tape<V>,
     /// How many roots there are.
     roots: usize,
+    /// Where `sign`, `abs`, `min` and `max` switch (the arguments of the first two, the
+    /// differences of the others' two), then each integrated residual's level, then its
+    /// rate, in the order of [`Plant::integrated`].
+    crossing_tape: Tape<V>,
+    /// How many switching arguments the crossing tape starts with.
+    switches: usize,
+    /// The residuals realised by integration (positions in [`Plant::residuals`]).
+    integrated: Vec<usize>,
+}
+
+/// Most zero crossings checked per run: a friction that sticks chatters through zero at every
+/// step, and a few hundred crossings show a jump as well as thousands.
+const MOST_CROSSINGS_PER_RUN: usize = 200;
+/// Half the interval around a zero crossing over which an integrated level's jump is
+/// measured, as a share of the step.
+const CROSSING_HALF_WIDTH: f64 = 1e-7;
+
+/// What the walks through zero crossings found, over all runs.
+#[derive(Clone, Debug, Default)]
+struct Crossings {
+    /// Crossings checked.
+    crossed: usize,
+    /// Each integrated residual's largest jump of its level across a crossing.
+    jumps: Vec<f64>,
+    /// Each integrated residual's largest |level| met, to judge its jumps against.
+    levels: Vec<f64>,
+    /// Walks stopped where a value left the finite numbers.
+    stopped: usize,
+}
+
+impl Crossings {
+    fn new(integrated: usize) -> Self {
+        Crossings {
+            jumps: vec![0.0; integrated],
+            levels: vec![0.0; integrated],
+            ..Crossings::default()
+        }
+    }
+
+    /// Keeps the largest |level| of `values`, the crossing tape's, whose levels start after
+    /// the `switches` arguments.
+    fn sizes(&mut self, switches: usize, values: &[f64]) {
+        for (j, size) in self.levels.iter_mut().enumerate() {
+            *size = size.max(values[switches + j].abs());
+        }
+    }
+
+    /// Each integrated residual's largest jump relative to its level's size.
+    fn relative(&self) -> Vec<f64> {
+        (self.jumps.iter().zip(&self.levels))
+            .map(|(&j, &l)| {
+                if j == 0.0 {
+                    0.0
+                } else {
+                    j / l.max(f64::MIN_POSITIVE)
+                }
+            })
+            .collect()
+    }
 }
 
 /// Most times the step is divided by ten for a stiff model.
@@ -402,6 +485,7 @@ fn verify_with(
         faulty_input: None,
         fault_size: 0.0,
         options,
+        inputs: Inputs::Offset,
         guess: std::cell::RefCell::new(vec![0.0; plant.loops]),
         root_guess: std::cell::RefCell::new(vec![0.0; plant.roots]),
     };
@@ -416,17 +500,20 @@ fn verify_with(
     }
     let healthy_worst = worst.clone();
     let gaps = split_gaps(c);
+    let (crossings, jumps) = through_crossings(&healthy_run, &initial);
     let arrs = c
         .arrs
         .iter()
         .zip(&worst)
         .zip(&gaps)
-        .map(|((a, &w), &gap)| {
+        .zip(jumps)
+        .map(|(((a, &w), &gap), jump)| {
             let w = w.max(gap);
             ArrCheck {
                 name: a.name.clone(),
                 worst: w,
-                pass: w < options.healthy,
+                jump,
+                pass: w < options.healthy && jump.is_none_or(|j| j < options.healthy),
             }
         })
         .collect();
@@ -528,7 +615,46 @@ fn verify_with(
         step: options.step,
         state_scale: options.state_scale,
         scalings: 0,
+        crossings,
     })
+}
+
+/// The healthy runs' walks through the zero crossings of the switching arguments, then those
+/// of as many runs with inputs of mean zero, from initial states of alternating signs: the
+/// offset inputs of the other runs seldom reverse a speed. Each ARR's relative jump across
+/// them, `None` when it is evaluated as written or nothing crossed.
+fn through_crossings(healthy: &Run<'_>, initial: &[Vec<f64>]) -> (ZeroCrossings, Vec<Option<f64>>) {
+    let plant = healthy.plant;
+    let mut jumps = vec![None; plant.residuals.len()];
+    if plant.switches == 0 {
+        return (ZeroCrossings::default(), jumps);
+    }
+    let mut found = Crossings::new(plant.integrated.len());
+    for x0 in initial {
+        healthy.crossings(x0, &mut found);
+    }
+    let reversing = Run {
+        inputs: Inputs::Reversing,
+        ..healthy.clone()
+    };
+    for (seed, x0) in initial.iter().enumerate() {
+        let alternating: Vec<f64> = (x0.iter().enumerate())
+            .map(|(i, v)| if (i + seed) % 2 == 0 { -v } else { *v })
+            .collect();
+        reversing.crossings(&alternating, &mut found);
+    }
+    if found.crossed > 0 {
+        for (&k, jump) in plant.integrated.iter().zip(found.relative()) {
+            jumps[k] = Some(jump);
+        }
+    }
+    let summary = ZeroCrossings {
+        arguments: plant.switches,
+        crossed: found.crossed,
+        reversing_runs: initial.len(),
+        stopped: found.stopped,
+    };
+    (summary, jumps)
 }
 
 /// The input a source applies, when it applies exactly one that no other component applies:
@@ -646,6 +772,7 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
             Realisation::Integrated(i) => vec![(Root::Level, i.level), (Root::Rate, i.rate)],
         }));
     let mut level = None;
+    let mut split: Vec<(usize, VId, VId)> = Vec::new();
     for (key, root) in roots {
         let mut signal = |p: &mut Pool<V>, s: Symbol| match s {
             Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
@@ -690,8 +817,12 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
                     V::Root(k) => root_derivatives.get(&(k, 1)).copied(),
                     other => plant_rate(p, &rhs, other),
                 });
-                let d = level.take().and_then(|l| along.of(&mut pool, l));
+                let l = level.take();
+                let d = l.and_then(|l| along.of(&mut pool, l));
                 let d = d.unwrap_or_else(|| pool.num(f64::NAN));
+                if let Some(l) = l {
+                    split.push((residuals.len(), l, e));
+                }
                 residuals.push(pool.add(e, d));
             }
         }
@@ -700,6 +831,8 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
     roots.extend(&residuals);
     roots.extend(&loops);
     roots.extend(&laws);
+    // A level may hold an integral its derivative does not (`d/dt int(a) = a`).
+    roots.extend(split.iter().map(|&(_, level, _)| level));
     let mut integrals = Vec::new();
     pool.visit_reachable(&roots, |id, node| {
         if let Node::Int(_) = node {
@@ -724,7 +857,14 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
     let mut residual_roots = residuals.clone();
     residual_roots.extend(terms.iter().flatten());
     let output_roots: Vec<VId> = outputs.iter().map(|&(_, e)| e).collect();
+    let mut crossing_roots = switches(&mut pool, &roots);
+    let switches = crossing_roots.len();
+    crossing_roots.extend(split.iter().map(|&(_, level, _)| level));
+    crossing_roots.extend(split.iter().map(|&(_, _, rate)| rate));
     Some(Plant {
+        crossing_tape: Tape::new(&pool, &crossing_roots),
+        switches,
+        integrated: split.iter().map(|&(k, _, _)| k).collect(),
         derivative_tape: Tape::new(&pool, &derivative_roots),
         residual_tape: Tape::new(&pool, &residual_roots),
         output_tape: Tape::new(&pool, &output_roots),
@@ -739,6 +879,26 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
         residuals,
         terms,
     })
+}
+
+/// Where the non-smooth functions in `roots` switch: the argument of each `sign` and `abs`,
+/// and `a − b` for each `min(a, b)` and `max(a, b)`, each once.
+fn switches(pool: &mut Pool<V>, roots: &[VId]) -> Vec<VId> {
+    let mut found: Vec<(VId, Option<VId>)> = Vec::new();
+    pool.visit_reachable(roots, |_, node| match node {
+        Node::Call1(Func::Sign | Func::Abs, a) => found.push((a, None)),
+        Node::Call2(Func::Min | Func::Max, a, b) => found.push((a, Some(b))),
+        _ => {}
+    });
+    let made: Vec<VId> = (found.into_iter())
+        .map(|(a, b)| b.map_or(a, |b| pool.sub(a, b)))
+        .collect();
+    let mut out: Vec<VId> = (made.into_iter())
+        .filter(|&e| !matches!(pool.node(e), Node::Num(_)))
+        .collect();
+    out.sort();
+    out.dedup();
+    out
 }
 
 /// For each ARR realised by integration, how far `rate + d(level)/dt` is from the relation
@@ -893,12 +1053,28 @@ fn top_terms(pool: &Pool<V>, e: VId, out: &mut Vec<VId>) {
     }
 }
 
-/// The k-th test input and its n-th derivative at t.
-fn input(k: usize, n: u32, t: f64, scale: f64) -> f64 {
+/// The k-th test input and its n-th derivative at t: `scale (1 + 0.5 sin(w t + k))`, or
+/// with [`Inputs::Reversing`] `1.5 scale sin(w t + k)`, whose sign changes.
+fn input(k: usize, n: u32, t: f64, scale: f64, inputs: Inputs) -> f64 {
     let w = 1.3 + 0.7 * k as f64;
     let phase = w * t + k as f64;
     let d = w.powi(n as i32) * 0.5 * (phase + f64::from(n) * std::f64::consts::FRAC_PI_2).sin();
-    scale * if n == 0 { 1.0 + d } else { d }
+    scale
+        * match inputs {
+            Inputs::Reversing => 3.0 * d,
+            Inputs::Offset if n == 0 => 1.0 + d,
+            Inputs::Offset => d,
+        }
+}
+
+/// The test inputs of a run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Inputs {
+    /// Around the input scale, never below half of it: every model's domain holds them.
+    Offset,
+    /// Of mean zero, so that speeds and flows reverse: the runs that take a dry friction or
+    /// an orifice through the zero crossings where its law switches.
+    Reversing,
 }
 
 /// The n-th derivative of the additive sensor fault `size sin(2t + 1)` at t.
@@ -916,6 +1092,7 @@ struct Run<'a> {
     faulty_input: Option<Handle<Input>>,
     fault_size: f64,
     options: &'a VerifyOptions,
+    inputs: Inputs,
     /// The loops' unknowns last solved: Newton's next guess.
     guess: std::cell::RefCell<Vec<f64>>,
     /// The roots last solved: Newton's next guess for them.
@@ -938,7 +1115,7 @@ impl Run<'_> {
             V::Estimate(k) => x[self.plant.states + k.index()],
             V::Plant(p) => self.plant_params[p.index()],
             V::Nominal(p) => self.nominal[p.index()],
-            V::Input(u, n) => input(u.index(), n, t, self.options.input_scale),
+            V::Input(u, n) => input(u.index(), n, t, self.options.input_scale, self.inputs),
             V::SensorFault(s, n) if Some(s) == self.faulty_sensor => {
                 sensor_fault(n, t, self.fault_size)
             }
@@ -969,7 +1146,9 @@ impl Run<'_> {
         let integral = |id: VId| integrals[&id];
         let z = self.loops(x, t, &integral);
         // Only the residuals read roots.
-        let roots = if std::ptr::eq(tape, &self.plant.residual_tape) {
+        let roots = if std::ptr::eq(tape, &self.plant.residual_tape)
+            || std::ptr::eq(tape, &self.plant.crossing_tape)
+        {
             self.roots(x, t, &z, &integral)
         } else {
             Vec::new()
@@ -1053,30 +1232,124 @@ impl Run<'_> {
         mut visit: impl FnMut(&Self, &[f64], f64),
     ) -> Result<(), VerifyError> {
         let h = self.options.step;
+        let mut x = self.start(x0);
+        for step in 0..self.options.steps {
+            let t = step as f64 * h;
+            visit(self, &x, t);
+            x = self.rk4(&x, t, h);
+            if x.iter().any(|v| !v.is_finite()) {
+                return Err(VerifyError::Diverged(t));
+            }
+        }
+        Ok(())
+    }
+
+    /// The state one RK4 step of `h` after `x` at `t`.
+    fn rk4(&self, x: &[f64], t: f64, h: f64) -> Vec<f64> {
+        let add = |x: &[f64], k: &[f64], s: f64| -> Vec<f64> {
+            x.iter().zip(k).map(|(a, b)| a + s * b).collect()
+        };
+        let k1 = self.derivative(x, t);
+        let k2 = self.derivative(&add(x, &k1, h / 2.0), t + h / 2.0);
+        let k3 = self.derivative(&add(x, &k2, h / 2.0), t + h / 2.0);
+        let k4 = self.derivative(&add(x, &k3, h), t + h);
+        (0..x.len())
+            .map(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+            .collect()
+    }
+
+    /// Where a switching argument crosses zero along an RK4 trajectory from `x0`, how much
+    /// each integrated residual's level jumps across the crossing, beyond what its rate
+    /// accounts for. A relation taken as the derivative of its level holds pointwise on
+    /// either side of a crossing even when the level jumps there (`d/dt sign(v)` taken as
+    /// 0); only the level's continuity across it makes the integrated residual hold through
+    /// it. The walk stops, keeping what it found, where a value leaves the finite numbers
+    /// (inputs of mean zero may take a model out of its domain).
+    fn crossings(&self, x0: &[f64], found: &mut Crossings) {
+        let h = self.options.step;
+        let tape = &self.plant.crossing_tape;
+        let mut x = self.start(x0);
+        let mut now = self.values(tape, &x, 0.0);
+        let mut count = 0;
+        for step in 0..self.options.steps {
+            let t = step as f64 * h;
+            let next_x = self.rk4(&x, t, h);
+            let next = self.values(tape, &next_x, t + h);
+            if (next_x.iter().chain(&now).chain(&next)).any(|v| !v.is_finite()) {
+                found.stopped += 1;
+                return;
+            }
+            found.sizes(self.plant.switches, &now);
+            let crossed = (0..self.plant.switches).filter(|&k| now[k] * next[k] < 0.0);
+            let first = crossed
+                .map(|k| (self.locate(&x, t, k, now[k] > 0.0), k))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((tau, k)) = first.filter(|_| count < MOST_CROSSINGS_PER_RUN) {
+                count += usize::from(self.jumps_at(&x, t, (tau, k), found));
+            }
+            (x, now) = (next_x, next);
+        }
+    }
+
+    /// The time into the step from `x` at `t` at which switching argument `k`, positive at
+    /// its start or not, changes sign, by bisection to the last bits of the step.
+    fn locate(&self, x: &[f64], t: f64, k: usize, positive: bool) -> f64 {
+        let (mut before, mut after) = (0.0, self.options.step);
+        for _ in 0..52 {
+            let mid = 0.5 * (before + after);
+            let v = self.values(&self.plant.crossing_tape, &self.rk4(x, t, mid), t + mid)[k];
+            if (v > 0.0) == positive && v != 0.0 {
+                before = mid;
+            } else {
+                after = mid;
+            }
+        }
+        0.5 * (before + after)
+    }
+
+    /// Each integrated level's jump across the crossing of switching argument `k` at `tau`
+    /// into the step from `x` at `t`, recorded in `found`; false when the argument does not
+    /// change sign over the short interval around `tau` (a tangency), which is not checked.
+    fn jumps_at(&self, x: &[f64], t: f64, (tau, k): (f64, usize), found: &mut Crossings) -> bool {
+        let tape = &self.plant.crossing_tape;
+        // Short enough that the level's smooth change over it is far below round-off once
+        // the rate is accounted for; long enough that the argument visibly changes sign.
+        let half = CROSSING_HALF_WIDTH * self.options.step;
+        let start = (tau - half).max(0.0);
+        let before_x = if start > 0.0 {
+            self.rk4(x, t, start)
+        } else {
+            x.to_vec()
+        };
+        let width = tau + half - start;
+        let after_x = self.rk4(&before_x, t + start, width);
+        let before = self.values(tape, &before_x, t + start);
+        let after = self.values(tape, &after_x, t + start + width);
+        if before[k] * after[k] >= 0.0 {
+            return false;
+        }
+        let (s, n) = (self.plant.switches, self.plant.integrated.len());
+        for j in 0..n {
+            // Across the interval the level moves by −∫rate; what is left is its jump.
+            let moved = after[s + j] - before[s + j];
+            let jump = (moved + 0.5 * width * (after[s + n + j] + before[s + n + j])).abs();
+            found.jumps[j] = found.jumps[j].max(if jump.is_nan() { f64::INFINITY } else { jump });
+        }
+        found.sizes(s, &before);
+        found.sizes(s, &after);
+        found.crossed += 1;
+        true
+    }
+
+    /// The plant's, the copy's and the integrals' initial values from the plant's `x0`.
+    fn start(&self, x0: &[f64]) -> Vec<f64> {
         let mut x: Vec<f64> = x0.to_vec();
         // The copy of the model simulated residuals run starts where the plant does.
         if self.plant.rhs.len() > self.plant.states {
             x.extend_from_slice(x0);
         }
         x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
-        for step in 0..self.options.steps {
-            let t = step as f64 * h;
-            visit(self, &x, t);
-            let add = |x: &[f64], k: &[f64], s: f64| -> Vec<f64> {
-                x.iter().zip(k).map(|(a, b)| a + s * b).collect()
-            };
-            let k1 = self.derivative(&x, t);
-            let k2 = self.derivative(&add(&x, &k1, h / 2.0), t + h / 2.0);
-            let k3 = self.derivative(&add(&x, &k2, h / 2.0), t + h / 2.0);
-            let k4 = self.derivative(&add(&x, &k3, h), t + h);
-            for i in 0..x.len() {
-                x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-            }
-            if x.iter().any(|v| !v.is_finite()) {
-                return Err(VerifyError::Diverged(t));
-            }
-        }
-        Ok(())
+        x
     }
 
     /// Largest |residual| of each ARR along an RK4 trajectory from `x0`, relative to the
@@ -1138,6 +1411,75 @@ mod tests {
         let mut expected = vec![a, b];
         expected.sort();
         assert_eq!(terms, expected);
+    }
+
+    /// The two-mass drive with its load's dry friction `Fc*sign(w2)`, compiled.
+    fn two_mass_drive() -> Compiled {
+        let model = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/two_mass_friction.bg"
+        ))
+        .expect("the shipped model");
+        bondgraph_core::compile(&model, "two_mass_friction.bg", &Default::default())
+            .expect("compiles")
+            .compiled
+    }
+
+    /// What bgc wrote before it refused to differentiate through a dry friction: the load
+    /// side's equation differentiated with d/dt sign(w2) taken as 0, which drops the Coulomb
+    /// term, realised by integration. Its level `(cs w1 − J2 w2' − (cs + b2) w2)/k` holds
+    /// `w2'`, which jumps by 2 Fc/J2 at each reversal of the load, so its integrated
+    /// residual jumps by 2 Fc/k (5 mrad) there, while the relation holds pointwise.
+    fn differentiated_through_the_friction(c: &mut Compiled) {
+        let parameter = |c: &Compiled, name: &str| {
+            let h = c.parameters.find(|p| p.name == name).expect(name);
+            Symbol::Parameter(h)
+        };
+        let sensor = |name: &str| c.sensors.find(|s| s.name == name).expect(name);
+        let (w1, w2) = (sensor("w1"), sensor("w2"));
+        let [cs, b2, j2, k] = ["cs", "b2", "J2", "k"].map(|n| parameter(c, n));
+        let p = &mut c.exprs;
+        let [cs, b2, j2, k] = [cs, b2, j2, k].map(|s| p.leaf(s));
+        let [w1, w2, dw2] = [(w1, 0), (w2, 0), (w2, 1)].map(|(s, n)| p.leaf(Symbol::Sensor(s, n)));
+        let twist = p.mul(cs, w1);
+        let inertia = p.mul(j2, dw2);
+        let damping = p.add(cs, b2);
+        let damping = p.mul(damping, w2);
+        let numerator = p.sub(twist, inertia);
+        let numerator = p.sub(numerator, damping);
+        let level = p.div(numerator, k);
+        let rate = p.sub(w1, w2);
+        let mut d = Derivatives::new(bondgraph_core::time_rate);
+        let d_level = d.of(p, level).expect("a derivative");
+        let expr = p.add(rate, d_level);
+        let int_rate = p.int(rate);
+        let evaluated = p.add(level, int_rate);
+        let arr = &mut c.arrs[0];
+        arr.expr = expr;
+        let Realisation::Integrated(i) = &mut arr.realisation else {
+            panic!("ARR1 is realised by integration");
+        };
+        (i.level, i.rate, i.expr) = (level, rate, evaluated);
+    }
+
+    /// `verify` takes every integrated relation through zero crossings of the dry
+    /// friction's speed (runs with inputs of mean zero reverse the load) and checks that its
+    /// level does not jump there: the shipped relations pass, and the relation differentiated
+    /// through `sign(w2)` fails there although it holds at every sample.
+    #[test]
+    fn verify_fails_a_relation_differentiated_through_a_dry_friction() {
+        let mut c = two_mass_drive();
+        let right = verify(&c, &VerifyOptions::default()).expect("verifies");
+        assert!(right.passed(), "{right:?}");
+        assert!(right.crossings.crossed >= 4, "{:?}", right.crossings);
+        assert!(right.arrs.iter().all(|a| a.jump.is_some_and(|j| j < 1e-12)));
+        differentiated_through_the_friction(&mut c);
+        let wrong = verify(&c, &VerifyOptions::default()).expect("verifies");
+        let arr = &wrong.arrs[0];
+        assert!(arr.worst < 1e-12, "it holds pointwise: {arr:?}");
+        let jump = arr.jump.expect("checked across the reversals");
+        assert!(jump > 1e-3, "it jumps at each reversal: {arr:?}");
+        assert!(!arr.pass && !wrong.passed());
     }
 
     /// A stiffening spring whose force runs out of the finite numbers from the default

@@ -21,7 +21,7 @@ import json
 import os
 import pathlib
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -343,6 +343,12 @@ class Verification:
     #: The integration step and scale of the initial states used.
     step: float
     state_scale: float
+    #: Each ARR realised by integration, when a run crossed a zero where `sign`, `abs`,
+    #: `min` or `max` switch: the largest jump of its level across one, relative to its
+    #: size (a relation differentiated through a dry friction jumps; its row then fails).
+    jumps: Dict[str, float] = field(default_factory=dict)
+    #: The zero crossings the runs went through.
+    crossings: int = 0
 
     @property
     def passed(self) -> bool:
@@ -737,4 +743,6 @@ class Model:
             unchecked=list(out["unchecked"]),
             step=out["step"],
             state_scale=out["state_scale"],
+            jumps=dict(out["jumps"]),
+            crossings=out["crossings"],
         )
