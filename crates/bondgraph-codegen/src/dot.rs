@@ -1,7 +1,7 @@
 //! Graphviz DOT of a bond graph: half-arrows along positive power, bond numbers, `KIND:name`.
 //!
 //! Signal bonds to detectors are drawn dashed with a full arrow, as activated bonds are in the
-//! literature. Given a causality, each power bond also gets its causal stroke, at the end that
+//! literature; the signals that modulate an element (a detector's, an input's) dotted, into it. Given a causality, each power bond also gets its causal stroke, at the end that
 //! receives the effort. With ARRs, each element and detector is filled with the colour of its
 //! fault class (the components the ARRs cannot tell apart share one; the first 8 colours of
 //! the `pastel19` scheme, repeated past 8 classes, the class number in the tooltip: its 9th is
@@ -73,8 +73,47 @@ pub fn emit(c: &Compiled) -> String {
             bond.number
         );
     }
+    modulations(c, &mut out);
     out.push_str("}\n");
     out
+}
+
+/// The signals that modulate elements, as activated bonds (dotted, full arrow) into them: a
+/// detector's from its node, any other signal's (an input, a `let`, `t`) from a node of its
+/// own named after it, drawn once.
+fn modulations(c: &Compiled, out: &mut String) {
+    let g = &c.graph;
+    let detector = |name: &str| {
+        (g.nodes.iter())
+            .find(|(_, n)| n.name == name && matches!(n.class, NodeClass::Sensor(_)))
+            .map(|(h, _)| h)
+    };
+    let mut drawn: Vec<&str> = Vec::new();
+    for (h, node) in g.nodes.iter() {
+        for signal in &node.modulation {
+            let tail = match detector(signal) {
+                Some(s) => format!("n{}", s.index()),
+                None => {
+                    let id = quote(&format!("signal:{signal}"));
+                    if !drawn.contains(&signal.as_str()) {
+                        drawn.push(signal);
+                        let _ = writeln!(
+                            out,
+                            "  {id} [label={}, tooltip=\"signal\", fontcolor=gray30];",
+                            quote(signal)
+                        );
+                    }
+                    id
+                }
+            };
+            let _ = writeln!(
+                out,
+                "  {tail} -> n{} [arrowhead=normal, style=dotted, tooltip={}];",
+                h.index(),
+                quote(&format!("{signal} modulates {}", node.name))
+            );
+        }
+    }
 }
 
 /// Each component's fault class with the product's ARRs (`None`: undetectable), by name;
@@ -147,6 +186,36 @@ mod tests {
         assert!(
             dot.contains("n3 -> n2 [label=\"2\", arrowhead=normal, style=dashed]"),
             "{dot}"
+        );
+    }
+
+    /// A pump's impeller, a gyrator modulated by the measured speed, and a source modulated
+    /// by an input: each modulating signal is an activated bond into its element, a
+    /// detector's from the detector, an input's from a node of its own, drawn once.
+    #[test]
+    fn modulating_signals_are_drawn_into_their_elements() {
+        let dot = emit(&compile(
+            "model pump\nparam a = 0.5\nparam R1 = 2\ninput U\nMSe src = U*w\nMGY imp = a*w*U\n\
+             R line = R1\nDf w on j\nsrc -> 1:j -> imp -> 1:k -> line\n",
+            Derive::Nothing,
+        ));
+        let src = "n0 [label=\"MSe:src\"";
+        let imp = "n1 [label=\"MGY:imp\"";
+        let w = "n3 [label=\"Df:w\"";
+        assert!(
+            dot.contains(src) && dot.contains(imp) && dot.contains(w),
+            "{dot}"
+        );
+        for element in [0, 1] {
+            let edge = format!("  n3 -> n{element} [arrowhead=normal, style=dotted");
+            assert!(dot.contains(&edge), "{edge} in {dot}");
+            let edge = format!("  \"signal:U\" -> n{element} [arrowhead=normal, style=dotted");
+            assert!(dot.contains(&edge), "{edge} in {dot}");
+        }
+        assert_eq!(dot.matches("\"signal:U\" [label=\"U\"").count(), 1, "{dot}");
+        assert!(
+            !dot.contains("-> n2 [arrowhead=normal, style=dotted"),
+            "R is not modulated"
         );
     }
 

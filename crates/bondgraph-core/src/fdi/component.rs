@@ -93,7 +93,7 @@ fn lets_of(expr: &SignalExpr) -> BTreeSet<LetId> {
     out
 }
 
-fn signal_names(model: &BondGraph, expr: &SignalExpr) -> Vec<String> {
+pub(crate) fn signal_names(model: &BondGraph, expr: &SignalExpr) -> Vec<String> {
     let mut out: Vec<String> = Vec::new();
     expr.for_each_leaf(&mut |s| {
         if matches!(

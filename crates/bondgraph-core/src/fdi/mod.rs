@@ -19,5 +19,5 @@ mod subsets;
 
 pub(crate) use arr::{diagnose, Diagnosis};
 pub use candidates::ResidualSet;
-pub(crate) use component::{components, Component, ComponentKind};
+pub(crate) use component::{components, signal_names, Component, ComponentKind};
 pub(crate) use fsm::{Fsm, RowIndex};

@@ -923,9 +923,13 @@ fn graph(model: &BondGraph, causal: Option<&Causal>) -> Graph {
     let mut handle: HashMap<NodeId, Handle<GraphNode>> = HashMap::new();
     for id in model.nodes() {
         let node = model.node(id);
+        let mut modulation = Vec::new();
         let (class, note) = match &node.kind {
             NodeKind::Junction(kind) => (NodeClass::Junction(kind.symbol()), String::new()),
             NodeKind::Element(kind, law) => {
+                if kind.is_modulated() {
+                    modulation = fdi::signal_names(model, law.expr());
+                }
                 (NodeClass::Element(kind.name()), model.show(law.expr()))
             }
             NodeKind::Detector(kind) => (
@@ -937,6 +941,7 @@ fn graph(model: &BondGraph, causal: Option<&Causal>) -> Graph {
             name: node.name.clone(),
             class,
             note,
+            modulation,
         });
         handle.insert(id, h);
     }

@@ -611,6 +611,9 @@ pub struct GraphNode {
     pub class: NodeClass,
     /// Its law as written (elements), or its description (detectors).
     pub note: String,
+    /// The signals a modulated element's law reads (inputs, detectors, `let`s, `t`), each
+    /// once in the order written; empty for other nodes.
+    pub modulation: Vec<String>,
 }
 
 /// Where a bond's causal stroke is.
