@@ -23,6 +23,8 @@ mod isolability;
 mod models;
 #[path = "mutations.rs"]
 mod mutations;
+#[path = "no_std.rs"]
+mod no_std;
 #[path = "pump.rs"]
 mod pump;
 #[path = "refusals.rs"]

@@ -587,7 +587,12 @@ fn items(c: &Compiled, refused: &Cell<Option<Unwritable>>) -> TokenStream {
         &fields,
         &Lowering::new(c, &program, &fields, refused, Place::Push),
     );
+    // `f64`'s own `exp`, `sqrt`… come first where `std` is; in a crate without it (a
+    // firmware), these are the runtime's.
     quote! {
+        #[allow(unused_imports)]
+        use ::bondgraph::Real as _;
+
         #params
         #signals
         #copy
@@ -769,14 +774,14 @@ fn fsm(c: &Compiled) -> TokenStream {
         /// The components whose fault explains the residuals in alarm (see
         /// [`bondgraph::Fsm::candidates`]).
         #[must_use]
-        pub fn candidates(alarms: &[bool; #n]) -> Vec<&'static str> {
+        pub fn candidates(alarms: &[bool; #n]) -> ::bondgraph::Vec<&'static str> {
             FSM.candidates(alarms)
         }
 
         /// The components whose fault is consistent with the residuals in alarm, with no
         /// exoneration (see [`bondgraph::Fsm::suspects`]).
         #[must_use]
-        pub fn suspects(alarms: &[bool; #n]) -> Vec<&'static str> {
+        pub fn suspects(alarms: &[bool; #n]) -> ::bondgraph::Vec<&'static str> {
             FSM.suspects(alarms)
         }
     }

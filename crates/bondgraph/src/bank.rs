@@ -1,5 +1,7 @@
 //! Several signals sampled together, estimated together.
 
+use crate::prelude::*;
+
 use crate::differentiate::{check_fit, fit_weights};
 use crate::differentiate::{Differentiator, EstimatorError};
 use crate::window::Window;
@@ -111,7 +113,7 @@ fn weighted_sum<const C: usize, const N: usize>(samples: &[[f64; C]], weights: &
             *acc += w * v;
         }
     }
-    std::array::from_fn(|c| (sums[0][c] + sums[1][c]) + (sums[2][c] + sums[3][c]))
+    core::array::from_fn(|c| (sums[0][c] + sums[1][c]) + (sums[2][c] + sums[3][c]))
 }
 
 /// `C` estimators of any kind side by side, one per signal, each to an order of its own:

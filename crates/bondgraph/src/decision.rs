@@ -1,5 +1,7 @@
 //! Which components a pattern of alarms points to.
 
+use crate::prelude::*;
+
 use crate::signature::{raised, Signature};
 
 /// One row of the fault signature matrix, as generated code holds it.

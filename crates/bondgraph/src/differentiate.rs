@@ -1,6 +1,8 @@
 //! Time derivatives of sampled signals.
 
-use std::fmt;
+use crate::prelude::*;
+
+use core::fmt;
 
 use crate::fir::Fir;
 
@@ -93,7 +95,7 @@ impl fmt::Display for EstimatorError {
     }
 }
 
-impl std::error::Error for EstimatorError {}
+impl core::error::Error for EstimatorError {}
 
 /// A Savitzky–Golay differentiator: a least-squares polynomial of degree `d` fitted to the
 /// last `w` samples, differentiated at the window's centre (delay `(w−1)/2` samples, the
@@ -498,7 +500,7 @@ mod tests {
         let h = 1e-3;
         let omega = 200.0;
         let mut f =
-            StateVariableFilter::new(2, omega, std::f64::consts::FRAC_1_SQRT_2, h).expect("valid");
+            StateVariableFilter::new(2, omega, core::f64::consts::FRAC_1_SQRT_2, h).expect("valid");
         let mut worst = [0.0f64; 3];
         for k in 0..6000 {
             let t = k as f64 * h;

@@ -17,6 +17,8 @@
 //! estimators' artefacts at each reversal (21-sample alarms, every 3 s, 0.7 % of the samples)
 //! otherwise named the motor's class.
 
+use crate::prelude::*;
+
 use crate::signature::{raised, Signature};
 
 /// Counts of alarms per residual from the first alarm on.
@@ -104,9 +106,9 @@ impl Episode {
             // The alarm's samples so far count all at once when it outlasts the memory.
             let run = self.run[k];
             match run.cmp(&(self.memory[k] + 1)) {
-                std::cmp::Ordering::Equal => self.on[k] += run,
-                std::cmp::Ordering::Greater => self.on[k] += 1,
-                std::cmp::Ordering::Less => {}
+                core::cmp::Ordering::Equal => self.on[k] += run,
+                core::cmp::Ordering::Greater => self.on[k] += 1,
+                core::cmp::Ordering::Less => {}
             }
         }
     }

@@ -1,6 +1,8 @@
 //! Rows of weights over a sliding window: the estimators that are fits (Savitzky–Golay,
 //! modulating functions) give each derivative as one weighted sum of the last samples.
 
+use crate::prelude::*;
+
 use crate::window::Window;
 
 /// One row of weights per derivative order, applied to the last `window` samples.
@@ -115,7 +117,7 @@ fn dot_lanes(run: &[f64], weights: &[f64]) -> [f64; LANES] {
             }
         }
     }
-    std::array::from_fn(|lane| {
+    core::array::from_fn(|lane| {
         let rest: f64 = (whole..w).map(|j| run[j + lane] * weights[j]).sum();
         (sums[0][lane] + sums[1][lane]) + (sums[2][lane] + sums[3][lane]) + rest
     })

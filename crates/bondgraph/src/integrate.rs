@@ -122,15 +122,15 @@ mod tests {
         let mut line = Trapezoid::new();
         let mut sine = Trapezoid::new();
         let n = 1000;
-        let h = std::f64::consts::PI / n as f64;
+        let h = core::f64::consts::PI / n as f64;
         let mut last = 0.0;
         for k in 0..=n {
             let t = k as f64 * h;
-            last = line.push(t / std::f64::consts::PI, t / std::f64::consts::PI);
+            last = line.push(t / core::f64::consts::PI, t / core::f64::consts::PI);
             sine.push(t, t.sin());
         }
         assert!((last - 0.5).abs() < 1e-12);
-        let bound = h * h * std::f64::consts::PI / 12.0;
+        let bound = h * h * core::f64::consts::PI / 12.0;
         assert!(
             (sine.value() - 2.0).abs() <= bound * 1.01,
             "{}",

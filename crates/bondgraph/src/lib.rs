@@ -14,6 +14,13 @@
 //! signal of an ARR (and every integral) through the same estimator keeps the terms aligned in
 //! time, so a healthy residual stays near zero.
 
+// Its own tests run with `std`, whatever the features, to use its test helpers.
+#![cfg_attr(not(any(feature = "std", test)), no_std)]
+
+// Windows, episodes and candidate lists are sized at run time: the crate needs a global
+// allocator, not an operating system.
+extern crate alloc;
+
 mod bank;
 mod cusum;
 mod decision;
@@ -21,7 +28,9 @@ mod differentiate;
 mod episode;
 mod fir;
 mod integrate;
+mod math;
 mod modulating;
+mod prelude;
 mod reference;
 mod replay;
 mod root;
@@ -36,6 +45,7 @@ pub use decision::{candidates, suspects, Component, Fsm};
 pub use differentiate::{Differentiator, EstimatorError, SavitzkyGolay, StateVariableFilter};
 pub use episode::{Episode, Ranked};
 pub use integrate::{EstimatedIntegral, Trapezoid};
+pub use math::Real;
 pub use modulating::ModulatingFunction;
 pub use reference::Reference;
 pub use replay::Replay;
@@ -43,6 +53,11 @@ pub use root::RootFinder;
 pub use signature::Signature;
 pub use size::{Change, ChangeEstimator, FaultSize, Parametrised, Size, SizeError};
 pub use threshold::Threshold;
+
+/// The growable array of `alloc`, which generated code names this way so that it compiles
+/// in a crate without `std` as in one with it (`candidates` returns one).
+#[doc(hidden)]
+pub use alloc::vec::Vec;
 
 /// Compiles a bond-graph model at build time into its residual code (see the crate
 /// `bondgraph-macros`).

@@ -1,5 +1,7 @@
 //! Derivatives by modulating functions: integration by parts against a smooth window.
 
+use crate::prelude::*;
+
 use crate::differentiate::{Differentiator, EstimatorError};
 use crate::fir::Fir;
 
@@ -62,7 +64,7 @@ impl ModulatingFunction {
             binomial = binomial * (a - i) as f64 / (i + 1) as f64;
         }
         let integrate = |c: &[f64]| -> Vec<f64> {
-            std::iter::once(0.0)
+            core::iter::once(0.0)
                 .chain(c.iter().enumerate().map(|(p, c)| c / (p + 1) as f64))
                 .collect()
         };
@@ -149,7 +151,7 @@ mod tests {
             let Some(d) = f.push(t.sin()) else { continue };
             let at = t - delay;
             for (order, (w, v)) in worst.iter_mut().zip(d).enumerate() {
-                let want = g * (at + order as f64 * std::f64::consts::FRAC_PI_2).sin();
+                let want = g * (at + order as f64 * core::f64::consts::FRAC_PI_2).sin();
                 *w = w.max((v - want).abs());
             }
         }

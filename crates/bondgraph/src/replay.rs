@@ -1,6 +1,8 @@
 //! A copy of the model run alongside recorded samples, for simulated residuals.
 
-use std::collections::VecDeque;
+use crate::prelude::*;
+
+use alloc::collections::VecDeque;
 
 /// A copy of a model driven by recorded inputs: its state follows `dx/dt = f(t, x, u)` with
 /// the inputs linear between samples, one classic Runge–Kutta step per sample interval
@@ -27,7 +29,7 @@ impl Replay {
             x: x0.to_vec(),
             last: None,
             history: VecDeque::new(),
-            scratch: std::array::from_fn(|_| vec![0.0; n]),
+            scratch: core::array::from_fn(|_| vec![0.0; n]),
         }
     }
 

@@ -5,6 +5,8 @@
 //! of Rust and 3 GB of memory to write it). The marks alone grow with what the matrix says,
 //! and the decisions read only the residuals in alarm and the marks.
 
+use crate::prelude::*;
+
 /// The residuals a fault of one component moves, out of all the residuals of a matrix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Signature<'a> {

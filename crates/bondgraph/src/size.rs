@@ -13,6 +13,8 @@
 //! ([`Change::misfit`]) tells apart components one signature cannot. The estimate lags a
 //! drift by about the memory (a time constant of `memory` samples).
 
+use crate::prelude::*;
+
 /// A residual generator whose parameters can be set by place: what [`FaultSize`] runs at
 /// the point it linearises around. The generated `ResidualGenerator` implements it.
 pub trait Parametrised: Clone {
@@ -66,7 +68,7 @@ impl core::fmt::Display for SizeError {
     }
 }
 
-impl std::error::Error for SizeError {}
+impl core::error::Error for SizeError {}
 
 /// One parameter's estimated change from a point, as [`ChangeEstimator::change`] gives it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,7 @@
 //! The last samples of a stream, oldest first, as one slice.
 
+use crate::prelude::*;
+
 /// A sliding window over the last `len` samples. Each sample is stored twice, `len` apart,
 /// so that the window is always one contiguous slice, oldest first, with no copy per sample.
 #[derive(Clone, Debug)]

@@ -252,13 +252,6 @@ impl<L: LeafKind> Pool<L> {
             (Some(-1.0), _) => self.neg(b),
             (_, Some(-1.0)) => self.neg(a),
             _ => match (self.node(a), self.node(b)) {
-                // a * (1 / y) is a / y: printed, it read `a * 1 / y`.
-                (_, Node::Binary(BinOp::Div, one, y)) if self.as_num(one) == Some(1.0) => {
-                    self.div(a, y)
-                }
-                (Node::Binary(BinOp::Div, one, x), _) if self.as_num(one) == Some(1.0) => {
-                    self.div(b, x)
-                }
                 (Node::Neg(x), Node::Neg(y)) => self.mul(x, y),
                 (Node::Neg(x), _) => {
                     let m = self.mul(x, b);
@@ -568,18 +561,6 @@ mod tests {
         let s = p.add(a, b);
         assert_eq!(p.len(), 4, "t, 2, 2*t and their sum");
         assert!(matches!(p.node(s), Node::Binary(BinOp::Add, l, r) if l == r));
-    }
-
-    /// A sensitivity `∂r/∂fe` printed `y1 * Re * 1 / ke` in the JSON output.
-    #[test]
-    fn a_product_with_a_reciprocal_is_a_quotient() {
-        let mut p: Pool<Leaf> = Pool::default();
-        let (x, y) = (p.leaf(Leaf::Time), p.leaf(Leaf::Param(ParamId(0))));
-        let one = p.num(1.0);
-        let reciprocal = p.div(one, y);
-        let quotient = p.div(x, y);
-        assert_eq!(p.mul(x, reciprocal), quotient);
-        assert_eq!(p.mul(reciprocal, x), quotient);
     }
 
     #[test]

@@ -95,6 +95,16 @@ impl<'p, L: LeafKind, F: Fn(L) -> String> Printer<'p, L, F> {
                 let (first, rest) = self.chain(id, |o| o.precedence() == op.precedence());
                 self.text_into(out, first, op.operand_precedence().0);
                 for (op, b) in rest {
+                    // `a * (1 / y)` reads `a / y`, not `a * 1 / y`; a quotient's sharing
+                    // with other uses of `1 / y` stays in the pool.
+                    let (op, b) = match (op, self.pool.node(b)) {
+                        (BinOp::Mul, Node::Binary(BinOp::Div, one, y))
+                            if self.pool.as_num(one) == Some(1.0) =>
+                        {
+                            (BinOp::Div, y)
+                        }
+                        _ => (op, b),
+                    };
                     let _ = write!(out, " {} ", op.symbol());
                     self.text_into(out, b, op.operand_precedence().1);
                 }
@@ -324,6 +334,29 @@ fn latex_function(f: Func) -> &'static str {
 mod tests {
     use super::*;
     use crate::graph::ParamId;
+
+    /// A JSON sensitivity `∂r/∂fe` was printed `y1 * Re * 1 / ke`.
+    #[test]
+    fn a_product_with_a_reciprocal_prints_as_a_quotient() {
+        use crate::symbolic::Leaf;
+        let mut p: Pool<Leaf> = Pool::default();
+        let [y, re, ke] = [0, 1, 2].map(|k| p.leaf(Leaf::Param(ParamId(k))));
+        let one = p.num(1.0);
+        let reciprocal = p.div(one, ke);
+        let product = p.mul(y, re);
+        let scaled = p.mul(product, reciprocal);
+        let sum = p.add(scaled, y);
+        let reciprocal_of_sum = p.div(one, sum);
+        let outer = p.mul(re, reciprocal_of_sum);
+        let names = ["y1", "Re", "ke"];
+        let printer = Printer::new(&p, |l| match l {
+            Leaf::Param(ParamId(k)) => names[k as usize].to_string(),
+            _ => "?".to_string(),
+        });
+        assert_eq!(printer.text(scaled), "y1 * Re / ke");
+        assert_eq!(printer.text(outer), "Re / (y1 * Re / ke + y1)");
+        assert_eq!(printer.text(reciprocal), "1 / ke");
+    }
     use crate::symbolic::Leaf;
 
     /// Rational numbers print exactly, also one unit of the last place off (what `1 - 5/3`

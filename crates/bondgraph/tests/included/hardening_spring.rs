@@ -1,6 +1,8 @@
 // Residual code for the model `hardening_spring` (models/hardening_spring.bg), written by bgc.
 // It needs the `bondgraph` runtime crate.
 
+#[allow(unused_imports)]
+use ::bondgraph::Real as _;
 /// The model's parameters; [`Default`] gives the values the model declares.
 #[allow(non_snake_case)]
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -179,14 +181,14 @@ pub const FSM: ::bondgraph::Fsm = ::bondgraph::Fsm {
 /// [`bondgraph::Fsm::candidates`]).
 #[must_use]
 #[allow(dead_code, unreachable_pub, clippy::all)]
-pub fn candidates(alarms: &[bool; 1]) -> Vec<&'static str> {
+pub fn candidates(alarms: &[bool; 1]) -> ::bondgraph::Vec<&'static str> {
     FSM.candidates(alarms)
 }
 /// The components whose fault is consistent with the residuals in alarm, with no
 /// exoneration (see [`bondgraph::Fsm::suspects`]).
 #[must_use]
 #[allow(dead_code, unreachable_pub, clippy::all)]
-pub fn suspects(alarms: &[bool; 1]) -> Vec<&'static str> {
+pub fn suspects(alarms: &[bool; 1]) -> ::bondgraph::Vec<&'static str> {
     FSM.suspects(alarms)
 }
 /// The raw signals [`ResidualGenerator::push`] takes, in order: the inputs and
