@@ -14,6 +14,7 @@ mod completions;
 mod emit;
 mod identify;
 mod io;
+mod mat_record;
 mod options;
 mod output;
 mod parquet_record;

@@ -1,11 +1,12 @@
-//! Recorded samples read from CSV or Parquet: a time column with a uniform step and the
-//! columns a model's ARRs read.
+//! Recorded samples read from CSV, Parquet or a Matlab `.mat` file: a time column with a
+//! uniform step and the columns a model's ARRs read.
 
 use bondgraph_interpreter::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
 
 use std::path::Path;
 
 use crate::io;
+use crate::mat_record;
 use crate::parquet_record;
 use crate::report::{self, Failure};
 
@@ -80,25 +81,29 @@ impl Data {
         Ok(data)
     }
 
-    /// Reads the record `bytes` (Parquet, or else CSV), keeping the columns of `layout`;
-    /// needs at least `window` rows.
+    /// Reads the record `bytes` (Parquet or a MAT-file by their first bytes, or else CSV),
+    /// keeping the columns of `layout`; needs at least `window` rows.
     pub(crate) fn read(bytes: Vec<u8>, layout: &Layout, window: usize) -> Result<Data, String> {
-        let (time, columns, step) = if bytes.starts_with(parquet_record::MAGIC) {
-            let names: Vec<&str> = std::iter::once(layout.time.as_str())
-                .chain(layout.signals.iter().map(String::as_str))
-                .collect();
-            let mut columns = parquet_record::columns(bytes, &names)?;
-            let time = columns.remove(0);
-            let place = |k: usize| format!("row {}", k + 1);
-            let step = check_time(&time, &place)?;
-            (time, columns, (step, place(step.row)))
+        let names: Vec<&str> = std::iter::once(layout.time.as_str())
+            .chain(layout.signals.iter().map(String::as_str))
+            .collect();
+        // A table's rows are counted from 1; a CSV's by its lines, comments and all.
+        let (mut columns, lines) = if bytes.starts_with(parquet_record::MAGIC) {
+            (parquet_record::columns(bytes, &names)?, None)
+        } else if mat_record::is_mat(&bytes) {
+            (mat_record::columns(&bytes, &names)?, None)
         } else {
-            let (time, columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
-            let place = |k: usize| format!("line {}", lines[k]);
-            let step = check_time(&time, &place)?;
-            (time, columns, (step, place(step.row)))
+            let (time, mut columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
+            columns.insert(0, time);
+            (columns, Some(lines))
         };
-        let (clock, clock_place) = step;
+        let time = columns.remove(0);
+        let place = |k: usize| match &lines {
+            Some(lines) => format!("line {}", lines[k]),
+            None => format!("row {}", k + 1),
+        };
+        let clock = check_time(&time, &place)?;
+        let clock_place = place(clock.row);
         if time.len() < window {
             return Err(format!(
                 "{} rows: the estimator's window of {window} samples needs at least {window}",

@@ -2,6 +2,7 @@
 
 import csv
 import io
+import sys
 
 import numpy as np
 import pytest
@@ -191,6 +192,39 @@ def test_parquet_from_pandas_and_polars_gives_the_csvs_residuals(bench, record, 
     assert len(from_csv.splitlines()) > 5000
     for name in ("pandas.parquet", "polars.parquet"):
         assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
+
+
+def test_mat_files_from_scipy_give_the_csvs_residuals(record, tmp_path):
+    """The CLI on the same samples as CSV and as Matlab level-5 files written by scipy, plain
+    and zlib-compressed (`-v7`), by `scripts/records/to_mat.py`: byte-identical residual CSVs,
+    for `identify` too; a variable the file lacks is named with what it holds."""
+    import subprocess
+
+    from conftest import cli_path
+
+    pytest.importorskip("scipy")
+    # Long enough for identification's ten batches.
+    head = record.head(24000)
+    head.to_csv(tmp_path / "r.csv", index=False, float_format="%.17g")
+    script = ROOT / "scripts" / "records" / "to_mat.py"
+    for name, extra in (("plain.mat", []), ("compressed.mat", ["--compress"])):
+        subprocess.run([sys.executable, str(script), str(tmp_path / "r.csv"), str(tmp_path / name),
+                        *extra], check=True)
+    args = ["--threshold", "ARR1=0.5", "--threshold", "ARR2=0.05"]
+    from_csv = bgc_cli("residuals", str(BENCH), str(tmp_path / "r.csv"), *args)
+    assert len(from_csv.splitlines()) > 5000
+    for name in ("plain.mat", "compressed.mat"):
+        assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
+    fitted = {}
+    for name in ("r.csv", "compressed.mat"):
+        out = tmp_path / f"{name}.params"
+        bgc_cli("identify", str(BENCH), str(tmp_path / name), "--only", "fe", "-o", str(out))
+        fitted[name] = [l for l in out.read_text().splitlines() if not l.startswith("#")]
+    assert fitted["r.csv"] == fitted["compressed.mat"]
+    done = subprocess.run([cli_path(), "residuals", str(BENCH), str(tmp_path / "plain.mat"),
+                           "--column", "y1=speed"], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 1
+    assert "no variable `speed`" in done.stderr and "`y1`" in done.stderr, done.stderr
 
 
 def test_a_damaged_parquet_page_is_refused_where_the_file_has_checksums(record, tmp_path):
