@@ -26,6 +26,7 @@ mod sensors;
 mod simulate;
 mod size;
 mod summary;
+mod tdms_record;
 mod verify;
 
 use std::process::ExitCode;

@@ -1,5 +1,5 @@
-//! Recorded samples read from CSV, Parquet or a Matlab `.mat` file: a time column with a
-//! uniform step and the columns a model's ARRs read.
+//! Recorded samples read from CSV, Parquet, a Matlab `.mat` file or a TDMS file: a time
+//! column with a uniform step and the columns a model's ARRs read.
 
 use bondgraph_interpreter::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
 
@@ -9,6 +9,7 @@ use crate::io;
 use crate::mat_record;
 use crate::parquet_record;
 use crate::report::{self, Failure};
+use crate::tdms_record;
 
 /// Which columns of a record hold the time and the signals: the model's names, or others
 /// (`--time`, `--column SIGNAL=NAME`).
@@ -81,7 +82,7 @@ impl Data {
         Ok(data)
     }
 
-    /// Reads the record `bytes` (Parquet or a MAT-file by their first bytes, or else CSV),
+    /// Reads the record `bytes` (Parquet, a MAT-file or TDMS by their first bytes, or else CSV),
     /// keeping the columns of `layout`; needs at least `window` rows.
     pub(crate) fn read(bytes: Vec<u8>, layout: &Layout, window: usize) -> Result<Data, String> {
         let names: Vec<&str> = std::iter::once(layout.time.as_str())
@@ -92,6 +93,8 @@ impl Data {
             (parquet_record::columns(bytes, &names)?, None)
         } else if mat_record::is_mat(&bytes) {
             (mat_record::columns(&bytes, &names)?, None)
+        } else if bytes.starts_with(tdms_record::MAGIC) {
+            (tdms_record::columns(&bytes, &names)?, None)
         } else {
             let (time, mut columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
             columns.insert(0, time);

@@ -227,6 +227,31 @@ def test_mat_files_from_scipy_give_the_csvs_residuals(record, tmp_path):
     assert "no variable `speed`" in done.stderr and "`y1`" in done.stderr, done.stderr
 
 
+def test_tdms_files_from_nptdms_give_the_csvs_residuals(record, tmp_path):
+    """The CLI on the same samples as CSV and as TDMS written by npTDMS in segments, as a
+    logger streams them (`scripts/records/to_tdms.py`): byte-identical residual CSVs; a channel
+    the file lacks is named with what it holds."""
+    import subprocess
+
+    from conftest import cli_path
+
+    pytest.importorskip("nptdms")
+    head = record.head(6000)
+    head.to_csv(tmp_path / "r.csv", index=False, float_format="%.17g")
+    script = ROOT / "scripts" / "records" / "to_tdms.py"
+    for name, rows in (("one.tdms", "10000"), ("streamed.tdms", "700")):
+        subprocess.run([sys.executable, str(script), str(tmp_path / "r.csv"), str(tmp_path / name),
+                        "--segment", rows], check=True)
+    args = ["--threshold", "ARR1=0.5", "--threshold", "ARR2=0.05"]
+    from_csv = bgc_cli("residuals", str(BENCH), str(tmp_path / "r.csv"), *args)
+    for name in ("one.tdms", "streamed.tdms"):
+        assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
+    done = subprocess.run([cli_path(), "residuals", str(BENCH), str(tmp_path / "one.tdms"),
+                           "--time", "time"], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 1
+    assert "no channel `time`" in done.stderr and "`record/t`" in done.stderr, done.stderr
+
+
 def test_a_damaged_parquet_page_is_refused_where_the_file_has_checksums(record, tmp_path):
     """One flipped bit in a value: with page checksums (pyarrow's `write_page_checksum`) the
     file is refused with what is wrong; without, Parquet has nothing to tell it by, and the
