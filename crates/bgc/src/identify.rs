@@ -22,8 +22,8 @@ pub(crate) struct IdentifyArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
-    /// Healthy records of the plant (CSV, Parquet, a MAT-file or TDMS, as `bgc residuals`
-    /// reads them), fitted together.
+    /// Healthy records of the plant (CSV, Parquet, a MAT-file, TDMS or MDF 4, as
+    /// `bgc residuals` reads them), fitted together.
     #[arg(value_name = "RECORD", required = true)]
     records: Vec<PathBuf>,
     /// The records' time column, where it is not `t`.

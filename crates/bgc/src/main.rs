@@ -15,6 +15,7 @@ mod emit;
 mod identify;
 mod io;
 mod mat_record;
+mod mdf_record;
 mod options;
 mod output;
 mod parquet_record;

@@ -1,4 +1,4 @@
-//! Recorded samples read from CSV, Parquet, a Matlab `.mat` file or a TDMS file: a time
+//! Recorded samples read from CSV, Parquet, a Matlab `.mat` file, TDMS or MDF 4: a time
 //! column with a uniform step and the columns a model's ARRs read.
 
 use bondgraph_interpreter::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
@@ -7,6 +7,7 @@ use std::path::Path;
 
 use crate::io;
 use crate::mat_record;
+use crate::mdf_record;
 use crate::parquet_record;
 use crate::report::{self, Failure};
 use crate::tdms_record;
@@ -82,8 +83,8 @@ impl Data {
         Ok(data)
     }
 
-    /// Reads the record `bytes` (Parquet, a MAT-file or TDMS by their first bytes, or else CSV),
-    /// keeping the columns of `layout`; needs at least `window` rows.
+    /// Reads the record `bytes` (Parquet, a MAT-file, TDMS or MDF by their first bytes, or
+    /// else CSV), keeping the columns of `layout`; needs at least `window` rows.
     pub(crate) fn read(bytes: Vec<u8>, layout: &Layout, window: usize) -> Result<Data, String> {
         let names: Vec<&str> = std::iter::once(layout.time.as_str())
             .chain(layout.signals.iter().map(String::as_str))
@@ -95,6 +96,8 @@ impl Data {
             (mat_record::columns(&bytes, &names)?, None)
         } else if bytes.starts_with(tdms_record::MAGIC) {
             (tdms_record::columns(&bytes, &names)?, None)
+        } else if bytes.starts_with(mdf_record::MAGIC) {
+            (mdf_record::columns(&bytes, &names)?, None)
         } else {
             let (time, mut columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
             columns.insert(0, time);

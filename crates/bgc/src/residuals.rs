@@ -47,10 +47,10 @@ pub(crate) struct ResidualArgs {
     /// The model.
     #[arg(value_name = "MODEL")]
     model: PathBuf,
-    /// The recorded samples: CSV with a header, Parquet, a Matlab MAT-file or TDMS (told by
-    /// their first bytes), with a time column `t` at a uniform step and one column per input
-    /// and measured signal the ARRs read, named as in the model (or as `--time` and
-    /// `--column` say).
+    /// The recorded samples: CSV with a header, Parquet, a Matlab MAT-file, TDMS or MDF 4
+    /// (told by their first bytes), with a time column `t` (in MDF, the master channel) at a
+    /// uniform step and one column per input and measured signal the ARRs read, named as in
+    /// the model (or as `--time` and `--column` say).
     #[arg(value_name = "DATA")]
     data: PathBuf,
     /// The record's time column, where it is not `t`.

@@ -252,6 +252,25 @@ def test_tdms_files_from_nptdms_give_the_csvs_residuals(record, tmp_path):
     assert "no channel `time`" in done.stderr and "`record/t`" in done.stderr, done.stderr
 
 
+def test_mdf4_files_from_asammdf_give_the_csvs_residuals(record, tmp_path):
+    """The CLI on the same samples as CSV and as ASAM MDF 4 written by asammdf, plain and with
+    its data transposed and zipped (`scripts/records/to_mdf.py`): byte-identical residual CSVs,
+    the channel group's master channel read as the time."""
+    import subprocess
+
+    pytest.importorskip("asammdf")
+    head = record.head(6000)
+    head.to_csv(tmp_path / "r.csv", index=False, float_format="%.17g")
+    script = ROOT / "scripts" / "records" / "to_mdf.py"
+    for name, extra in (("plain.mf4", []), ("zipped.mf4", ["--compress"])):
+        subprocess.run([sys.executable, str(script), str(tmp_path / "r.csv"), str(tmp_path / name),
+                        *extra], check=True)
+    args = ["--threshold", "ARR1=0.5", "--threshold", "ARR2=0.05"]
+    from_csv = bgc_cli("residuals", str(BENCH), str(tmp_path / "r.csv"), *args)
+    for name in ("plain.mf4", "zipped.mf4"):
+        assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
+
+
 def test_a_damaged_parquet_page_is_refused_where_the_file_has_checksums(record, tmp_path):
     """One flipped bit in a value: with page checksums (pyarrow's `write_page_checksum`) the
     file is refused with what is wrong; without, Parquet has nothing to tell it by, and the
