@@ -14,8 +14,6 @@ mod completions;
 mod emit;
 mod identify;
 mod io;
-mod mat_record;
-mod mdf_record;
 mod options;
 mod output;
 mod parquet_record;
@@ -27,7 +25,6 @@ mod sensors;
 mod simulate;
 mod size;
 mod summary;
-mod tdms_record;
 mod verify;
 
 use std::process::ExitCode;

@@ -6,11 +6,8 @@ use bondgraph_interpreter::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TO
 use std::path::Path;
 
 use crate::io;
-use crate::mat_record;
-use crate::mdf_record;
 use crate::parquet_record;
 use crate::report::{self, Failure};
-use crate::tdms_record;
 
 /// Which columns of a record hold the time and the signals: the model's names, or others
 /// (`--time`, `--column SIGNAL=NAME`).
@@ -92,12 +89,8 @@ impl Data {
         // A table's rows are counted from 1; a CSV's by its lines, comments and all.
         let (mut columns, lines) = if bytes.starts_with(parquet_record::MAGIC) {
             (parquet_record::columns(bytes, &names)?, None)
-        } else if mat_record::is_mat(&bytes) {
-            (mat_record::columns(&bytes, &names)?, None)
-        } else if bytes.starts_with(tdms_record::MAGIC) {
-            (tdms_record::columns(&bytes, &names)?, None)
-        } else if bytes.starts_with(mdf_record::MAGIC) {
-            (mdf_record::columns(&bytes, &names)?, None)
+        } else if let Some(format) = bondgraph_records::Format::of(&bytes) {
+            (bondgraph_records::columns(format, &bytes, &names)?, None)
         } else {
             let (time, mut columns, lines) = read_csv(&bytes, &layout.time, &layout.signals)?;
             columns.insert(0, time);

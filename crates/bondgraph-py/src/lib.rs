@@ -10,6 +10,7 @@ mod errors;
 mod fit;
 mod model;
 mod monitor;
+mod records;
 mod sim;
 
 use pyo3::prelude::*;
@@ -31,6 +32,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit::with_values, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(sim::verify, m)?)?;
+    m.add_function(wrap_pyfunction!(records::read_columns, m)?)?;
     m.add("VERSION", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

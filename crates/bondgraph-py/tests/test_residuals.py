@@ -271,6 +271,32 @@ def test_mdf4_files_from_asammdf_give_the_csvs_residuals(record, tmp_path):
         assert bgc_cli("residuals", str(BENCH), str(tmp_path / name), *args) == from_csv, name
 
 
+def test_python_reads_a_loggers_record_from_its_path(bench, record, tmp_path):
+    """`model.residuals(path)`: a MAT-file, TDMS, MDF 4, Parquet or CSV record read from its
+    path gives the residuals of the same samples as a DataFrame; a column the file lacks is a
+    DataError naming it and the file."""
+    import subprocess
+
+    pytest.importorskip("scipy")
+    pytest.importorskip("nptdms")
+    pytest.importorskip("asammdf")
+    pytest.importorskip("pyarrow")
+    head = record.head(4000)
+    head.to_csv(tmp_path / "r.csv", index=False, float_format="%.17g")
+    head.to_parquet(tmp_path / "r.parquet", index=False)
+    scripts = ROOT / "scripts" / "records"
+    for script, name in (("to_mat.py", "r.mat"), ("to_tdms.py", "r.tdms"), ("to_mdf.py", "r.mf4")):
+        subprocess.run([sys.executable, str(scripts / script), str(tmp_path / "r.csv"),
+                        str(tmp_path / name)], check=True)
+    expected = bench.residuals(head)
+    for name in ("r.csv", "r.parquet", "r.mat", "r.tdms", "r.mf4"):
+        got = bench.residuals(tmp_path / name)
+        assert np.array_equal(got.time, expected.time), name
+        assert np.array_equal(got.values, expected.values, equal_nan=True), name
+    with pytest.raises(bgc.DataError, match=r"r\.mat \(a MAT-file\): no variable `speed`"):
+        bench.residuals(str(tmp_path / "r.mat"), columns={"y1": "speed"})
+
+
 def test_a_damaged_parquet_page_is_refused_where_the_file_has_checksums(record, tmp_path):
     """One flipped bit in a value: with page checksums (pyarrow's `write_page_checksum`) the
     file is refused with what is wrong; without, Parquet has nothing to tell it by, and the

@@ -187,12 +187,27 @@ def _names(data: Any) -> List[str]:
     )
 
 
+def _read_record(path: str, names: List[str]) -> Dict[str, np.ndarray]:
+    """The columns `names` of the record file at `path`: a MAT-file, TDMS or MDF 4 read as
+    `bgc residuals` reads it (told by its first bytes), Parquet or CSV by pandas."""
+    columns = _native.read_columns(path, names)
+    if columns is not None:
+        return dict(zip(names, columns))
+    try:
+        import pandas as pd
+    except ImportError as e:  # pragma: no cover - pandas is an extra
+        raise DataError(f"{path}: reading CSV or Parquet from a path needs pandas") from e
+    with open(path, "rb") as f:
+        parquet = f.read(4) == b"PAR1"
+    frame = pd.read_parquet(path) if parquet else pd.read_csv(path, comment="#")
+    return {str(k): frame[k].to_numpy() for k in frame.columns}
+
+
 def _columns(
     data: Any, wanted: Sequence[str], time: str, mapping: Optional[Mapping[str, str]]
 ) -> "tuple[np.ndarray, List[np.ndarray], List[str]]":
     """The time, the column of each of `wanted`, and the names the data gives them (which
-    the errors about their values use)."""
-    present = _names(data)
+    the errors about their values use). `data` may be a path to a record file."""
     mapping = dict(mapping or {})
     for signal in mapping:
         if signal not in wanted:
@@ -200,6 +215,9 @@ def _columns(
                 f"columns maps `{signal}`, which the residuals do not read{_close(signal, wanted)}; "
                 f"they read {', '.join(wanted)}"
             )
+    if isinstance(data, (str, os.PathLike)):
+        data = _read_record(os.fspath(data), [time] + [mapping.get(s, s) for s in wanted])
+    present = _names(data)
 
     def get(name: str, what: str) -> np.ndarray:
         if name not in present:

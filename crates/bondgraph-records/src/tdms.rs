@@ -12,7 +12,7 @@
 use std::collections::HashMap;
 
 /// The first bytes of every TDMS segment.
-pub(crate) const MAGIC: &[u8] = b"TDSm";
+pub(super) const MAGIC: &[u8] = b"TDSm";
 
 /// The lead-in's table-of-contents flags.
 const TOC_META_DATA: u32 = 1 << 1;
@@ -30,7 +30,7 @@ const SAME_AS_BEFORE: u32 = 0;
 /// name (or `group/channel` where several groups hold one), all of one length; a missing,
 /// ambiguous or non-numeric channel, or a value that is not a finite number, is an error that
 /// names it (and the row, from 1).
-pub(crate) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
     let channels = read(bytes)?;
     let mut out = Vec::with_capacity(names.len());
     for &name in names {

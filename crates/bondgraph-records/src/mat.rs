@@ -11,7 +11,7 @@
 use std::io::Read as _;
 
 /// The start of a level-5 MAT-file's 116-byte text header.
-pub(crate) const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
+pub(super) const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
 
 /// The start of a MATLAB 7.3 file's header: an HDF5 file, which this reader does not read.
 const HDF5_MAGIC: &[u8] = b"MATLAB 7.3 MAT-file";
@@ -21,14 +21,14 @@ const HDF5_MAGIC: &[u8] = b"MATLAB 7.3 MAT-file";
 const MOST_INFLATED: u64 = 1 << 31;
 
 /// Whether `bytes` are a MAT-file of a level this reader knows of (5, or 7.3 to refuse).
-pub(crate) fn is_mat(bytes: &[u8]) -> bool {
+pub(super) fn is_mat(bytes: &[u8]) -> bool {
     bytes.starts_with(MAGIC) || bytes.starts_with(HDF5_MAGIC)
 }
 
 /// The variables `names` of the MAT-file `bytes`, in that order, each a real numeric vector
 /// (n×1 or 1×n) of one length; a missing, complex, non-numeric or non-vector variable, or a
 /// value that is not a finite number, is an error that names it (and the row, from 1).
-pub(crate) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
     if bytes.starts_with(HDF5_MAGIC) {
         return Err(
             "a MATLAB 7.3 file (HDF5) is not read: save it with `save(FILE, '-v7')`, \

@@ -12,7 +12,7 @@
 use std::io::Read as _;
 
 /// The first bytes of every MDF file (the format's file identifier).
-pub(crate) const MAGIC: &[u8] = b"MDF     ";
+pub(super) const MAGIC: &[u8] = b"MDF     ";
 
 /// Most blocks visited: far past a logger's channels, short of what a loop of links would
 /// fill memory with.
@@ -24,7 +24,7 @@ const MOST_INFLATED: u64 = 1 << 31;
 /// The columns `names` of the MDF file `bytes`, in that order; `names[0]` is the time: a
 /// channel of that name, or else the master channel of the group the others are in. The
 /// signals must be recorded in one channel group (one time base).
-pub(crate) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
+pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, String> {
     if bytes.len() < 64 {
         return Err("an MDF file starts with a 64-byte identification block".into());
     }
