@@ -9,17 +9,14 @@ Needs numpy and scipy. The Python tests use it on a simulated record of the benc
 converts the EMPS records of the docs (which stay out of the repository)."""
 
 import argparse
-import csv
 
-import numpy as np
 import scipy.io
+
+import record_csv  # this folder's, next to the script
 
 
 def convert(source: str, target: str, compress: bool) -> None:
-    with open(source, newline="") as f:
-        rows = csv.reader(line for line in f if not line.startswith("#"))
-        header = next(rows)
-        values = np.array([[float(c) for c in row] for row in rows if row], dtype=float)
+    header, values = record_csv.read(source)
     variables = {name: values[:, k].reshape(-1, 1) for k, name in enumerate(header)}
     scipy.io.savemat(target, variables, do_compression=compress, oned_as="column")
 

@@ -9,17 +9,14 @@ read it as they read the CSV, the master as the time.
 Needs numpy and asammdf. The Python tests use it on a simulated record of the bench."""
 
 import argparse
-import csv
 
-import numpy as np
 from asammdf import MDF, Signal
+
+import record_csv  # this folder's, next to the script
 
 
 def convert(source: str, target: str, compress: bool) -> None:
-    with open(source, newline="") as f:
-        rows = csv.reader(line for line in f if not line.startswith("#"))
-        header = next(rows)
-        values = np.array([[float(c) for c in row] for row in rows if row], dtype=float)
+    header, values = record_csv.read(source)
     time = values[:, header.index("t")]
     signals = [Signal(values[:, k], time, name=name) for k, name in enumerate(header) if name != "t"]
     mdf = MDF(version="4.10")

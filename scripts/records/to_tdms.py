@@ -9,17 +9,15 @@ included, and each channel's `wf_increment` set to the step): `bgc residuals` an
 Needs numpy and nptdms. The Python tests use it on a simulated record of the bench."""
 
 import argparse
-import csv
 
 import numpy as np
 from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
 
+import record_csv  # this folder's, next to the script
+
 
 def convert(source: str, target: str, segment: int) -> None:
-    with open(source, newline="") as f:
-        rows = csv.reader(line for line in f if not line.startswith("#"))
-        header = next(rows)
-        values = np.array([[float(c) for c in row] for row in rows if row], dtype=float)
+    header, values = record_csv.read(source)
     step = float(np.median(np.diff(values[:, 0]))) if len(values) > 1 else 0.0
     group = "record"
     with TdmsWriter(target) as writer:

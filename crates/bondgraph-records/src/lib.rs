@@ -9,6 +9,7 @@
 
 mod mat;
 mod mdf;
+mod number;
 mod tdms;
 
 /// A format of record this crate reads.

@@ -10,6 +10,8 @@
 
 use std::io::Read as _;
 
+use crate::number::{first_not_finite, missing, one_length, Number};
+
 /// The start of a level-5 MAT-file's 116-byte text header.
 pub(super) const MAGIC: &[u8] = b"MATLAB 5.0 MAT-file";
 
@@ -40,31 +42,12 @@ pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, Str
     let mut out = Vec::with_capacity(names.len());
     for &name in names {
         let Some(v) = variables.iter().find(|v| v.name == name) else {
-            let held: Vec<&str> = variables.iter().map(|v| v.name.as_str()).collect();
-            let near = bondgraph_core::closest(name, held.iter().copied());
-            let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-            return Err(format!(
-                "no variable `{name}`{hint}; it holds {}",
-                if held.is_empty() {
-                    "none".to_string()
-                } else {
-                    held.iter()
-                        .map(|h| format!("`{h}`"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                }
-            ));
+            let held = variables.iter().map(|v| v.name.as_str());
+            return Err(missing("variable", name, held));
         };
         out.push(v.column()?);
     }
-    let lengths: Vec<usize> = out.iter().map(Vec::len).collect();
-    if let Some(k) = lengths.iter().position(|&n| n != lengths[0]) {
-        return Err(format!(
-            "`{}` has {} values and `{}` {}: a record's variables are its columns, of one length",
-            names[0], lengths[0], names[k], lengths[k]
-        ));
-    }
-    Ok(out)
+    one_length("variables", names, out)
 }
 
 /// A variable of the file, its values decoded only once asked for.
@@ -79,7 +62,7 @@ struct Variable {
 /// What a variable holds.
 enum Content {
     /// Real numbers: the element type they are stored as, the byte order, their bytes.
-    Real(Stored, bool, Vec<u8>),
+    Real(Number, bool, Vec<u8>),
     /// Complex numbers.
     Complex,
     /// Something else: its class's name.
@@ -112,98 +95,38 @@ impl Variable {
             ));
         }
         let count: usize = self.dims.iter().product();
-        let values = stored.decode(bytes, little);
+        let values = stored.values(bytes, !little);
         if values.len() != count {
             return Err(format!(
                 "`{name}` should hold {count} values and its data hold {}: the file is damaged",
                 values.len()
             ));
         }
-        if let Some(row) = values.iter().position(|v| !v.is_finite()) {
+        if let Some((row, value)) = first_not_finite(&values) {
             return Err(format!(
-                "`{name}` has no finite number at row {} ({})",
-                row + 1,
-                values[row]
+                "`{name}` has no finite number at row {row} ({value})"
             ));
         }
         Ok(values)
     }
 }
 
-/// How a variable's values are stored: a MAT-file may store a double array in a smaller
-/// integer type when its values fit.
-#[derive(Clone, Copy)]
-enum Stored {
-    I8,
-    U8,
-    I16,
-    U16,
-    I32,
-    U32,
-    I64,
-    U64,
-    F32,
-    F64,
-}
-
-impl Stored {
-    /// The element type of data type `code` (the format's `miINT8` … `miUINT64`).
-    fn of(code: u32) -> Option<Stored> {
-        Some(match code {
-            1 => Stored::I8,
-            2 => Stored::U8,
-            3 => Stored::I16,
-            4 => Stored::U16,
-            5 => Stored::I32,
-            6 => Stored::U32,
-            7 => Stored::F32,
-            9 => Stored::F64,
-            12 => Stored::I64,
-            13 => Stored::U64,
-            _ => return None,
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Stored::I8 | Stored::U8 => 1,
-            Stored::I16 | Stored::U16 => 2,
-            Stored::I32 | Stored::U32 | Stored::F32 => 4,
-            Stored::I64 | Stored::U64 | Stored::F64 => 8,
-        }
-    }
-
-    /// The values of `bytes` (a whole number of elements; a remainder is ignored).
-    fn decode(self, bytes: &[u8], little: bool) -> Vec<f64> {
-        let word = |c: &[u8]| -> [u8; 8] {
-            let mut w = [0u8; 8];
-            if little {
-                w[..c.len()].copy_from_slice(c);
-            } else {
-                for (k, b) in c.iter().rev().enumerate() {
-                    w[k] = *b;
-                }
-            }
-            w
-        };
-        (bytes.chunks_exact(self.size()))
-            .map(|c| {
-                let w = word(c);
-                match self {
-                    Stored::I8 => f64::from(w[0] as i8),
-                    Stored::U8 => f64::from(w[0]),
-                    Stored::I16 => f64::from(i16::from_le_bytes([w[0], w[1]])),
-                    Stored::U16 => f64::from(u16::from_le_bytes([w[0], w[1]])),
-                    Stored::I32 => f64::from(i32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-                    Stored::U32 => f64::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-                    Stored::F32 => f64::from(f32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-                    Stored::I64 => i64::from_le_bytes(w) as f64,
-                    Stored::U64 => u64::from_le_bytes(w) as f64,
-                    Stored::F64 => f64::from_le_bytes(w),
-                }
-            })
-            .collect()
-    }
+/// The number type of data type `code` (the format's `miINT8` … `miUINT64`): a MAT-file may
+/// store a double array in a smaller integer type when its values fit.
+fn stored(code: u32) -> Option<Number> {
+    Some(match code {
+        1 => Number::I8,
+        2 => Number::U8,
+        3 => Number::I16,
+        4 => Number::U16,
+        5 => Number::I32,
+        6 => Number::U32,
+        7 => Number::F32,
+        9 => Number::F64,
+        12 => Number::I64,
+        13 => Number::U64,
+        _ => return None,
+    })
 }
 
 /// The format's data types that hold more than numbers.
@@ -384,7 +307,7 @@ fn matrix(data: &[u8], little: bool, place: &str, asked: &[&str]) -> Result<Vari
         6..=15 if complex => Content::Complex,
         6..=15 => {
             let (kind, real) = c.element()?;
-            let stored = Stored::of(kind).ok_or_else(|| {
+            let stored = stored(kind).ok_or_else(|| {
                 format!("{place}: `{name}`'s values are of data type {kind}, not a number's")
             })?;
             Content::Real(stored, little, real.to_vec())

@@ -11,6 +11,8 @@
 
 use std::io::Read as _;
 
+use crate::number::{little_endian, missing};
+
 /// The first bytes of every MDF file (the format's file identifier).
 pub(super) const MAGIC: &[u8] = b"MDF     ";
 
@@ -40,7 +42,7 @@ pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, Str
     let holds = |g: &Group, n: &str| g.channels.iter().any(|c| c.name == n);
     let group = (groups.iter())
         .find(|g| signals.iter().all(|s| holds(g, s)))
-        .ok_or_else(|| missing(&groups, signals))?;
+        .ok_or_else(|| not_together(&groups, signals))?;
     let mut out = Vec::with_capacity(names.len());
     let master = if holds(group, time) {
         (group.channels.iter()).find(|c| c.name == *time)
@@ -66,27 +68,14 @@ pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, Str
 }
 
 /// The error for signals no one channel group holds together.
-fn missing(groups: &[Group], signals: &[&str]) -> String {
+fn not_together(groups: &[Group], signals: &[&str]) -> String {
     let everywhere: Vec<&str> = (groups.iter())
         .flat_map(|g| g.channels.iter().map(|c| c.name.as_str()))
         .collect();
     if let Some(absent) = signals.iter().find(|s| !everywhere.contains(s)) {
-        let near = bondgraph_core::closest(absent, everywhere.iter().copied());
-        let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-        let mut held: Vec<&str> = everywhere.clone();
+        let mut held = everywhere.clone();
         held.sort_unstable();
-        held.dedup();
-        return format!(
-            "no channel `{absent}`{hint}; it holds {}",
-            if held.is_empty() {
-                "none".to_string()
-            } else {
-                held.iter()
-                    .map(|h| format!("`{h}`"))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            }
-        );
+        return missing("channel", absent, held.into_iter());
     }
     format!(
         "{} are not recorded in one channel group: they have no one time base (resample them \
@@ -156,15 +145,7 @@ impl Channel {
         let mut out = Vec::with_capacity(records.len() / size.max(1));
         for (row, record) in records.chunks_exact(size.max(1)).enumerate() {
             let raw = &record[self.byte_offset..self.byte_offset + width];
-            let mut w = [0u8; 8];
-            if big {
-                for (k, x) in raw.iter().rev().enumerate() {
-                    w[k] = *x;
-                }
-            } else {
-                w[..width].copy_from_slice(raw);
-            }
-            let word = u64::from_le_bytes(w) >> self.bit_offset;
+            let word = u64::from_le_bytes(little_endian(raw, big)) >> self.bit_offset;
             let masked = if self.bit_count >= 64 {
                 word
             } else {

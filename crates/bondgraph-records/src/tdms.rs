@@ -11,6 +11,8 @@
 
 use std::collections::HashMap;
 
+use crate::number::{first_not_finite, missing, one_length, Number};
+
 /// The first bytes of every TDMS segment.
 pub(super) const MAGIC: &[u8] = b"TDSm";
 
@@ -39,19 +41,7 @@ pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, Str
             [one] => *one,
             [] => {
                 let held: Vec<String> = channels.iter().map(Channel::label).collect();
-                let near = bondgraph_core::closest(name, channels.iter().map(|c| c.name.as_str()));
-                let hint = near.map_or_else(String::new, |n| format!(" (did you mean `{n}`?)"));
-                return Err(format!(
-                    "no channel `{name}`{hint}; it holds {}",
-                    if held.is_empty() {
-                        "none".to_string()
-                    } else {
-                        held.iter()
-                            .map(|h| format!("`{h}`"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    }
-                ));
+                return Err(missing("channel", name, held.iter().map(String::as_str)));
             }
             several => {
                 let held: Vec<String> =
@@ -64,14 +54,7 @@ pub(super) fn columns(bytes: &[u8], names: &[&str]) -> Result<Vec<Vec<f64>>, Str
         };
         out.push(channel.column()?);
     }
-    let lengths: Vec<usize> = out.iter().map(Vec::len).collect();
-    if let Some(k) = lengths.iter().position(|&n| n != lengths[0]) {
-        return Err(format!(
-            "`{}` has {} values and `{}` {}: a record's channels are its columns, of one length",
-            names[0], lengths[0], names[k], lengths[k]
-        ));
-    }
-    Ok(out)
+    one_length("channels", names, out)
 }
 
 /// A channel and its values, in file order.
@@ -79,7 +62,7 @@ struct Channel {
     group: String,
     name: String,
     /// Its element type, once it has raw data.
-    kind: Option<Kind>,
+    kind: Option<Number>,
     values: Vec<f64>,
     /// Why its values cannot be read, if they cannot (a string, DAQmx raw data…).
     unreadable: Option<String>,
@@ -99,94 +82,42 @@ impl Channel {
         if let Some(why) = &self.unreadable {
             return Err(format!("channel `{}`: {why}", self.label()));
         }
-        if let Some(row) = self.values.iter().position(|v| !v.is_finite()) {
+        if let Some((row, value)) = first_not_finite(&self.values) {
+            let label = self.label();
             return Err(format!(
-                "channel `{}` has no finite number at row {} ({})",
-                self.label(),
-                row + 1,
-                self.values[row]
+                "channel `{label}` has no finite number at row {row} ({value})"
             ));
         }
         Ok(self.values.clone())
     }
 }
 
-/// A numeric element type of TDMS.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Kind {
-    I8,
-    I16,
-    I32,
-    I64,
-    U8,
-    U16,
-    U32,
-    U64,
-    F32,
-    F64,
-}
-
-impl Kind {
-    /// The element type of type code `code`, or what it is when it is not a number.
-    fn of(code: u32) -> Result<Kind, &'static str> {
-        Ok(match code {
-            1 => Kind::I8,
-            2 => Kind::I16,
-            3 => Kind::I32,
-            4 => Kind::I64,
-            5 => Kind::U8,
-            6 => Kind::U16,
-            7 => Kind::U32,
-            8 => Kind::U64,
-            9 | 0x19 => Kind::F32,
-            10 | 0x1A => Kind::F64,
-            0x20 => return Err("strings"),
-            0x21 => return Err("booleans"),
-            0x44 => return Err("time stamps"),
-            0x08_000C | 0x10_000D => return Err("complex numbers"),
-            0xFFFF_FFFF => return Err("DAQmx raw data (scaled by the driver)"),
-            _ => return Err("values of an unknown type"),
-        })
-    }
-
-    fn size(self) -> usize {
-        match self {
-            Kind::I8 | Kind::U8 => 1,
-            Kind::I16 | Kind::U16 => 2,
-            Kind::I32 | Kind::U32 | Kind::F32 => 4,
-            Kind::I64 | Kind::U64 | Kind::F64 => 8,
-        }
-    }
-
-    fn value(self, b: &[u8], big: bool) -> f64 {
-        let mut w = [0u8; 8];
-        let n = self.size();
-        if big {
-            for (k, x) in b[..n].iter().rev().enumerate() {
-                w[k] = *x;
-            }
-        } else {
-            w[..n].copy_from_slice(&b[..n]);
-        }
-        match self {
-            Kind::I8 => f64::from(w[0] as i8),
-            Kind::U8 => f64::from(w[0]),
-            Kind::I16 => f64::from(i16::from_le_bytes([w[0], w[1]])),
-            Kind::U16 => f64::from(u16::from_le_bytes([w[0], w[1]])),
-            Kind::I32 => f64::from(i32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-            Kind::U32 => f64::from(u32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-            Kind::F32 => f64::from(f32::from_le_bytes([w[0], w[1], w[2], w[3]])),
-            Kind::I64 => i64::from_le_bytes(w) as f64,
-            Kind::U64 => u64::from_le_bytes(w) as f64,
-            Kind::F64 => f64::from_le_bytes(w),
-        }
-    }
+/// The number type of TDMS type code `code`, or what it holds when it is not a number.
+fn kind_of(code: u32) -> Result<Number, &'static str> {
+    Ok(match code {
+        1 => Number::I8,
+        2 => Number::I16,
+        3 => Number::I32,
+        4 => Number::I64,
+        5 => Number::U8,
+        6 => Number::U16,
+        7 => Number::U32,
+        8 => Number::U64,
+        9 | 0x19 => Number::F32,
+        10 | 0x1A => Number::F64,
+        0x20 => return Err("strings"),
+        0x21 => return Err("booleans"),
+        0x44 => return Err("time stamps"),
+        0x08_000C | 0x10_000D => return Err("complex numbers"),
+        0xFFFF_FFFF => return Err("DAQmx raw data (scaled by the driver)"),
+        _ => return Err("values of an unknown type"),
+    })
 }
 
 /// How many values of an object a chunk holds, and of what type.
 #[derive(Clone, Copy)]
 struct Index {
-    kind: Result<Kind, &'static str>,
+    kind: Result<Number, &'static str>,
     count: u64,
     /// Bytes per chunk (strings carry their own size).
     bytes: u64,
@@ -341,7 +272,7 @@ fn read(bytes: &[u8]) -> Result<Vec<Channel>, String> {
                         let code = meta.u32()?;
                         let _dimension = meta.u32()?;
                         let count = meta.u64()?;
-                        let kind = Kind::of(code);
+                        let kind = kind_of(code);
                         let bytes = if code == 0x20 {
                             meta.u64()?
                         } else {
