@@ -204,6 +204,8 @@ fn read(bytes: &[u8]) -> Result<Vec<Channel>, String> {
     let mut indexes: HashMap<String, Index> = HashMap::new();
     // The objects whose data the segments write, in order.
     let mut list: Vec<String> = Vec::new();
+    // Its members, for a logger's thousands of channels in every segment.
+    let mut listed: std::collections::HashSet<String> = Default::default();
     let mut at = 0usize;
     while at < bytes.len() {
         let mut c = Cursor {
@@ -242,6 +244,7 @@ fn read(bytes: &[u8]) -> Result<Vec<Channel>, String> {
             .ok_or_else(|| format!("the segment at byte {at} puts its data past its end"))?;
         if toc & TOC_NEW_OBJ_LIST != 0 {
             list.clear();
+            listed.clear();
         }
         if toc & TOC_META_DATA != 0 {
             let mut meta = Cursor {
@@ -281,7 +284,7 @@ fn read(bytes: &[u8]) -> Result<Vec<Channel>, String> {
                         indexes.insert(path.clone(), Index { kind, count, bytes });
                     }
                 }
-                if index != NO_RAW_DATA && !list.contains(&path) {
+                if index != NO_RAW_DATA && listed.insert(path.clone()) {
                     list.push(path.clone());
                 }
                 let properties = meta.u32()?;
