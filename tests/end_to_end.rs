@@ -134,16 +134,16 @@ fn excitation(file: &str) -> Excitation {
 }
 
 /// One model's run: its JSON and the scenario every record shares.
-struct Case {
-    model: String,
-    json: Value,
+pub(crate) struct Case {
+    pub(crate) model: String,
+    pub(crate) json: Value,
     scenario: Vec<String>,
     excitation: Excitation,
-    dir: std::path::PathBuf,
+    pub(crate) dir: std::path::PathBuf,
 }
 
 impl Case {
-    fn new(file: &str, test: &str) -> Case {
+    pub(crate) fn new(file: &str, test: &str) -> Case {
         let model = format!("models/{file}");
         let out = bgc(&[&model, "--emit", "json"]);
         assert_eq!(code(&out), 0, "{}", stderr(&out));
@@ -184,7 +184,7 @@ impl Case {
     }
 
     /// Simulates with `extra` statements into `name`, returning its path.
-    fn simulate(&self, name: &str, extra: &[String]) -> String {
+    pub(crate) fn simulate(&self, name: &str, extra: &[String]) -> String {
         let path = self.dir.join(name).display().to_string();
         let mut args: Vec<String> = vec!["simulate".into(), self.model.clone()];
         for s in self.scenario.iter().chain(extra) {
@@ -200,7 +200,7 @@ impl Case {
     }
 
     /// The largest |value| of each named column of a record.
-    fn peaks(&self, path: &str) -> std::collections::HashMap<String, f64> {
+    pub(crate) fn peaks(&self, path: &str) -> std::collections::HashMap<String, f64> {
         let text = std::fs::read_to_string(path).expect("record");
         let mut lines = text.lines();
         let header: Vec<&str> = lines.next().expect("header").split(',').collect();
@@ -260,7 +260,7 @@ impl Case {
     }
 
     /// The noise statements: a thousandth of each measured signal's peak.
-    fn noise(&self, peaks: &std::collections::HashMap<String, f64>) -> Vec<String> {
+    pub(crate) fn noise(&self, peaks: &std::collections::HashMap<String, f64>) -> Vec<String> {
         self.json["sensors"]
             .as_array()
             .expect("sensors")
@@ -279,7 +279,7 @@ impl Drop for Case {
     }
 }
 
-fn models() -> Vec<String> {
+pub(crate) fn models() -> Vec<String> {
     (crate::common::models().iter())
         .map(|p| p.file_name().expect("name").to_string_lossy().into_owned())
         .collect()

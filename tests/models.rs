@@ -66,6 +66,7 @@ fn every_model_checks_and_every_emitter_is_snapshotted() {
         insta::assert_snapshot!("text", emit(&model, &["--emit", "text"]));
         insta::assert_snapshot!("latex", emit(&model, &["--emit", "latex"]));
         insta::assert_snapshot!("rust", emit(&model, &["--emit", "rust"]));
+        insta::assert_snapshot!("c", emit(&model, &["--emit", "c"]));
         let json = emit(&model, &["--emit", "json"]);
         schema(&model, &json);
         sparse_matches_dense(

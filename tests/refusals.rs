@@ -208,7 +208,7 @@ fn repeated_runs_of_the_bench_are_byte_identical_under_any_limits() {
         (&["--egg-nodes", "300", "--egg-iterations", "3"], 2),
         (&["--egg-rounds", "1", "--egg-budget", "3000"], 2),
     ];
-    let emitters = ["text", "json", "latex", "state", "dot", "rust"];
+    let emitters = ["text", "json", "latex", "state", "dot", "rust", "c"];
     for (extra, runs) in limits {
         for emit in emitters {
             let mut args = vec!["models/backlash_bench.bg", "--emit", emit];
@@ -255,6 +255,13 @@ fn a_storage_law_with_no_closed_form_inverse_is_solved_as_a_root() {
     assert!(
         rust.contains("pub fn residuals") && rust.contains("RootFinder"),
         "{rust}"
+    );
+    let c = bgc_stdin(&["-", "--emit", "c"], HARDENING.as_bytes());
+    assert_eq!(code(&c), 0, "{}", stderr(&c));
+    let c = stdout(&c);
+    assert!(
+        c.contains("bgc_root_solve(&g->roots[0], hardening_law0") && c.contains("\"q_spring\""),
+        "{c}"
     );
     let json = stdout(&bgc_stdin(&["-", "--emit", "json"], HARDENING.as_bytes()));
     assert!(
@@ -406,6 +413,14 @@ fn refused_state_equations_leave_the_residual_code() {
         "{rust}"
     );
     assert_plausible(&rust);
+    let out = bgc_stdin(&["-", "--emit", "c"], SELF_READING.as_bytes());
+    assert_eq!(code(&out), 1, "the state equations are refused");
+    let c = stdout(&out);
+    assert!(
+        c.contains("void selfread_residuals(") && c.contains("p->C1"),
+        "{c}"
+    );
+    assert_plausible(&c);
 }
 
 /// One mass `m` in two inertias (a cart and the pendulum's bob moving with it) and the weight:

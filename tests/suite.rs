@@ -9,6 +9,8 @@ mod common;
 
 #[path = "bad_models.rs"]
 mod bad_models;
+#[path = "c_backend.rs"]
+mod c_backend;
 #[path = "cli.rs"]
 mod cli;
 #[path = "end_to_end.rs"]

@@ -56,6 +56,9 @@ enum Target {
     Dot,
     /// Rust residual code (needs the `bondgraph` crate); not written when any error was found.
     Rust,
+    /// C99 residual code (needs libm only): with `-o FILE.c`, the source and its header
+    /// `FILE.h`; to standard output, both as one file. Not written when any error was found.
+    C,
 }
 
 /// How the JSON writes the FSM.
@@ -126,7 +129,43 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
         Target::Rust if c.residual_code_refused() => return io::succeeded(&c),
         Target::Rust => bondgraph_codegen::rust::emit(&c)
             .map_err(|why| report::refused(format!("{}: cannot write Rust: {why}", c.file_name)))?,
+        Target::C if c.residual_code_refused() => return io::succeeded(&c),
+        Target::C => return write_c(&c, args.output.as_deref()),
     };
     io::write(args.output.as_deref(), &text)?;
     io::succeeded(&c)
+}
+
+/// Writes the model's C code: to `FILE.c` and `FILE.h`, or as one file to standard output.
+fn write_c(c: &Compiled, output: Option<&Path>) -> Result<(), Failure> {
+    let header = match output {
+        Some(path) => header_path(path)?,
+        None => PathBuf::from(format!("{}.h", c.name)),
+    };
+    let header_name = header
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let code = bondgraph_codegen::c::emit(c, &header_name)
+        .map_err(|why| report::refused(format!("{}: cannot write C: {why}", c.file_name)))?;
+    match output {
+        Some(path) => {
+            io::write(Some(&header), &code.header)?;
+            io::write(Some(path), &code.source)?;
+        }
+        None => io::write(None, &code.single_file())?,
+    }
+    io::succeeded(c)
+}
+
+/// The header beside a C source `FILE.c`: `FILE.h`. Any other name is refused, since the
+/// header would be written over it or beside it under a name the user did not choose.
+fn header_path(source: &Path) -> Result<PathBuf, Failure> {
+    if source.extension().is_none_or(|e| e != "c") {
+        return Err(report::usage(format!(
+            "--emit c writes a source and its header: give -o a file name ending in .c (not `{}`)",
+            source.display()
+        )));
+    }
+    Ok(source.with_extension("h"))
 }

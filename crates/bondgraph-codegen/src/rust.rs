@@ -15,18 +15,18 @@ use std::fmt;
 
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Slot, Source};
 use bondgraph_core::{
-    children, BinOp, Compiled, Func, Handle, Node, Pool, Printer, Quantity, Readings, Realisation,
-    ResidualForm, Signal,
+    children, BinOp, Compiled, Func, Handle, Node, Pool, Printer, Realisation, ResidualForm,
 };
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 
 use crate::names;
+use crate::signals::{fields, Field};
 
 /// Why residual code was not written: something its program holds that Rust code cannot
 /// compute (it would have stood as a NaN in the code).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Unwritable(&'static str);
+pub struct Unwritable(pub(crate) &'static str);
 
 impl fmt::Display for Unwritable {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -72,74 +72,6 @@ pub fn ident(name: &str) -> Ident {
     } else {
         Ident::new(name, Span::call_site())
     }
-}
-
-/// One field of `Signals`: one slot of the program.
-struct Field {
-    name: String,
-    slot: Handle<Slot>,
-    doc: String,
-}
-
-/// The fields of `Signals`, one per slot of the program, in order: per signal its value,
-/// derivatives and integral, then the integrals of nonlinear expressions, then the copy's
-/// states.
-fn fields(c: &Compiled, program: &Program, readings: &Readings) -> Vec<Field> {
-    let printer = Printer::new(&c.exprs, |s| names::text(c, s));
-    let name_of = |signal: Signal| match signal {
-        Signal::Input(u) => (&c.inputs[u].name, "input"),
-        Signal::Sensor(s) => (&c.sensors[s].name, "measured signal"),
-    };
-    (program.slots.iter())
-        .map(|(slot, s)| {
-            let (name, doc) = match s.quantity {
-                Quantity::Derivative(signal, 0) => {
-                    let (name, what) = name_of(signal);
-                    (name.clone(), format!("The {what} `{name}`."))
-                }
-                Quantity::Derivative(signal, n) => {
-                    let (name, _) = name_of(signal);
-                    (
-                        format!("{name}_d{n}"),
-                        format!("The time derivative of order {n} of `{name}`."),
-                    )
-                }
-                Quantity::Integral(signal) => {
-                    let (name, _) = name_of(signal);
-                    (
-                        format!("{name}_int"),
-                        format!("The integral of `{name}` from the start of the record."),
-                    )
-                }
-                Quantity::Nonlinear(k) => (
-                    format!("int{}", k + 1),
-                    format!(
-                        "`int({})`: the integral from the start of the record of an expression that is not linear in the signals.",
-                        readings.nonlinear.get(k).map_or_else(String::new, |&e| printer.text(e))
-                    ),
-                ),
-                Quantity::Simulated(k) => {
-                    let name = &c.states[k].name;
-                    (
-                        format!("{name}_hat"),
-                        format!("The state `{name}` of the copy of the model that simulated residuals run."),
-                    )
-                }
-                Quantity::Root(k) => {
-                    let root = &c.roots[k];
-                    (
-                        root.name.clone(),
-                        format!(
-                            "The root of `{} = 0`: the law of `{}`, which has no closed-form inverse, solved at each estimate.",
-                            printer.text(root.residual),
-                            root.element
-                        ),
-                    )
-                }
-            };
-            Field { name, slot, doc }
-        })
-        .collect()
 }
 
 /// Binding strengths of Rust expressions as the lowering writes them.
@@ -397,7 +329,7 @@ fn number(x: f64, refused: &Cell<Option<Unwritable>>) -> (TokenStream, u8) {
 }
 
 /// How many times each node is reached from `roots` (once per parent edge), children first.
-fn uses(code: &Pool<Leaf>, roots: &[Code]) -> (Vec<Code>, HashMap<Code, usize>) {
+pub(crate) fn uses(code: &Pool<Leaf>, roots: &[Code]) -> (Vec<Code>, HashMap<Code, usize>) {
     let mut order = Vec::new();
     let mut count: HashMap<Code, usize> = HashMap::new();
     code.visit_reachable(roots, |id, node| {
