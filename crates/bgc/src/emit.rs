@@ -59,6 +59,9 @@ enum Target {
     /// C99 residual code (needs libm only): with `-o FILE.c`, the source and its header
     /// `FILE.h`; to standard output, both as one file. Not written when any error was found.
     C,
+    /// An FMI 3.0 co-simulation FMU of the residual generator (`-o FILE.fmu`): its binary
+    /// built here by the C compiler (`$CC`, else `cc`), its sources beside it.
+    Fmu,
 }
 
 /// How the JSON writes the FSM.
@@ -131,6 +134,11 @@ pub(crate) fn run(model: &Path, args: EmitArgs) -> Result<(), Failure> {
             .map_err(|why| report::refused(format!("{}: cannot write Rust: {why}", c.file_name)))?,
         Target::C if c.residual_code_refused() => return io::succeeded(&c),
         Target::C => return write_c(&c, args.output.as_deref()),
+        Target::Fmu if c.residual_code_refused() => return io::succeeded(&c),
+        Target::Fmu => {
+            crate::fmu::write(&c, args.output.as_deref())?;
+            return io::succeeded(&c);
+        }
     };
     io::write(args.output.as_deref(), &text)?;
     io::succeeded(&c)

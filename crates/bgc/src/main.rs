@@ -12,6 +12,7 @@ mod causality;
 mod check;
 mod completions;
 mod emit;
+mod fmu;
 mod identify;
 mod io;
 mod options;
@@ -26,6 +27,7 @@ mod simulate;
 mod size;
 mod summary;
 mod verify;
+mod zip;
 
 use std::process::ExitCode;
 

@@ -2,6 +2,7 @@
 
 pub mod c;
 pub mod dot;
+pub mod fmu;
 pub mod json;
 pub mod latex;
 mod names;

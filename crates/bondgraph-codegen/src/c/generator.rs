@@ -54,7 +54,7 @@ pub(super) fn types(cx: &Context<'_>) -> String {
     h += "    int window, next;\n    long seen;\n    double delay;\n";
     h += "    double weights[BGC_MAX_DEGREE + 1][BGC_MAX_WINDOW];\n";
     let _ = writeln!(h, "    double samples[2 * BGC_MAX_WINDOW * {ch}];");
-    let _ = writeln!(h, "    double sums[4 * {ch}];");
+    let _ = writeln!(h, "    double sums[5 * {ch}];");
     let _ = writeln!(
         h,
         "    double estimates[{}][{ch}];",

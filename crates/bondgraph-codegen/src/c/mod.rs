@@ -22,9 +22,11 @@ use bondgraph_core::{Compiled, ResidualForm};
 
 use crate::rust::Unwritable;
 use crate::signals::fields;
-use context::{comment, dim, string, Context, Names};
+pub(crate) use context::{comment, string};
+use context::{dim, Context, Names};
 use lower::{number, Place};
-use names::{ident, prefix};
+pub(crate) use names::ident;
+use names::prefix;
 
 /// The runtime's types, shared by the headers of several models.
 const TYPES: &str = include_str!("runtime/types.h");
@@ -61,6 +63,12 @@ impl CCode {
         let include = format!("#include \"{}\"\n", self.header_name);
         format!("{}\n{}", self.header, self.source.replacen(&include, "", 1))
     }
+}
+
+/// The prefix of every name the model's C code declares, and its file names' stem: the
+/// model's name as a C identifier (`backlash_bench`).
+pub fn identifier(c: &Compiled) -> String {
+    prefix(&c.name)
 }
 
 /// The model's C code, its header named `header_name` (`model.h`).

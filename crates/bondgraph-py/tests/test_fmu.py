@@ -1,0 +1,124 @@
+"""The bench's FMU (``bgc --emit fmu``), validated, loaded and stepped by FMPy over a
+simulated record with a growing dead zone: its residuals, thresholds, alarms and candidates are
+what ``bgc residuals`` gives on the same record."""
+
+import csv
+import io
+import math
+
+import fmpy
+import numpy as np
+import pytest
+from fmpy.fmi3 import FMU3Slave
+from fmpy.validation import validate_fmu
+
+from conftest import BENCH, ROOT, bgc_cli
+
+WINDOW = 21
+
+
+def _table(text: str):
+    rows = list(csv.reader(io.StringIO(text)))
+    return rows[0], rows[1:]
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    """The bench's FMU and a 10-s record of section 5 (the dead zone grows from 5 s)."""
+    tmp = tmp_path_factory.mktemp("fmu")
+    record = tmp / "record.csv"
+    bgc_cli("simulate", str(BENCH), str(ROOT / "scenarios" / "paper_section5.scn"),
+            "--duration", "10", "-o", str(record))
+    fmu = tmp / "bench.fmu"
+    bgc_cli(str(BENCH), "--emit", "fmu", "-o", str(fmu))
+    return fmu, record
+
+
+def _levels(record) -> dict:
+    """A level for each residual between two of its values about its median: its alarm rises
+    and falls along the record."""
+    header, rows = _table(bgc_cli("residuals", str(BENCH), str(record), "--window", str(WINDOW),
+                                  "--no-size"))
+    levels = {}
+    for k, name in enumerate(header[1:3]):
+        values = sorted(abs(float(r[1 + k])) for r in rows if r[1 + k])
+        m = len(values) // 2
+        levels[name] = 0.5 * (values[m] + values[m + 1])
+    return levels
+
+
+def _step(fmu, record, levels, debounce):
+    """Steps the FMU over the record with FMPy, sample by sample: the rows it outputs once
+    ready, as bgc residuals names the columns."""
+    md = fmpy.read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    header, rows = _table(record.read_text())
+    time = np.array([float(r[header.index("t")]) for r in rows])
+    # The step as bgc takes it from a uniform record: its first interval.
+    step = float(time[1] - time[0])
+    inputs = ["U0", "y1", "y2"]
+    columns = [header.index(n) for n in inputs]
+    slave = FMU3Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(fmu)),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
+    slave.instantiate()
+    slave.enterInitializationMode(startTime=time[0])
+    slave.setFloat64([vr["record.step"]] + [vr[f"decision.level.{n}"] for n in levels],
+                     [step] + list(levels.values()))
+    slave.setInt32([vr["estimator.window"], vr["decision.debounce"]], [WINDOW, debounce])
+    slave.exitInitializationMode()
+    names = list(levels)
+    outputs = ([vr["estimate.at"]] + [vr[f"residual.{n}"] for n in names]
+               + [vr[f"threshold.{n}"] for n in names])
+    alarms = [vr[f"alarm.{n}"] for n in names]
+    out = []
+    for t, row in zip(time, rows):
+        slave.setFloat64([vr[n] for n in inputs], [float(row[c]) for c in columns])
+        slave.doStep(currentCommunicationPoint=t, communicationStepSize=step)
+        if not slave.getBoolean([vr["estimate.ready"]])[0]:
+            continue
+        values = slave.getFloat64(outputs)
+        on = slave.getBoolean(alarms)
+        candidates = slave.getString([vr["candidates"]])[0]
+        out.append((values, on, candidates))
+    with pytest.raises(Exception):
+        # A communication step other than the record's is refused, not integrated.
+        slave.doStep(currentCommunicationPoint=time[-1] + step, communicationStepSize=2 * step)
+    slave.terminate()
+    slave.freeInstance()
+    return names, out
+
+
+def test_the_bench_fmu_passes_fmpy_validation(bench):
+    fmu, _ = bench
+    assert validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu), validate=True)
+    assert md.fmiVersion == "3.0" and md.coSimulation is not None
+    names = {v.name for v in md.modelVariables}
+    assert {"U0", "y1", "y2", "Re", "gamma", "record.step", "residual.ARR1",
+            "alarm.ARR2", "candidates"} <= names
+
+
+def test_the_bench_fmu_steps_as_bgc_residuals_computes(bench):
+    fmu, record = bench
+    levels = _levels(record)
+    debounce = 3
+    args = ["residuals", str(BENCH), str(record), "--window", str(WINDOW), "--no-size",
+            "--debounce", str(debounce)]
+    for name, level in levels.items():
+        args += ["--threshold", f"{name}={level!r}"]
+    header, rows = _table(bgc_cli(*args))
+    names, out = _step(fmu, record, levels, debounce)
+    assert len(out) == len(rows) > 9000
+    # To 1e-12: absolute below 1, relative to the residual's range above.
+    scale = {n: max(1.0, max(abs(float(r[header.index(n)])) for r in rows)) for n in names}
+    raised = 0
+    for (values, on, candidates), row in zip(out, rows):
+        cell = lambda column: row[header.index(column)]
+        assert math.isclose(values[0], float(cell("t")), abs_tol=1e-9)
+        for k, n in enumerate(names):
+            assert abs(values[1 + k] - float(cell(n))) <= 1e-12 * scale[n], (n, cell("t"))
+            assert values[1 + len(names) + k] == float(cell(f"threshold_{n}"))
+            assert on[k] == (cell(f"alarm_{n}") == "1"), (n, cell("t"))
+            raised += on[k]
+        assert candidates == cell("candidates"), cell("t")
+    assert raised > 1000, "the alarms rose and fell along the record"
