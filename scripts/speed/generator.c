@@ -18,10 +18,10 @@
 #define M(name) JOIN(BGC_UPPER, name)
 
 #define SAMPLES 10000
-#define RAW (M(RAW) > 0 ? M(RAW) : 1)
+#define WIDTH (M(RAW) > 0 ? M(RAW) : 1)
 
 static F(generator) generator;
-static double raw[SAMPLES][RAW];
+static double raw[SAMPLES][WIDTH];
 
 int main(int argc, char **argv)
 {

@@ -54,7 +54,6 @@ pub(super) fn types(cx: &Context<'_>) -> String {
     h += "    int window, next;\n    long seen;\n    double delay;\n";
     h += "    double weights[BGC_MAX_DEGREE + 1][BGC_MAX_WINDOW];\n";
     let _ = writeln!(h, "    double samples[2 * BGC_MAX_WINDOW * {ch}];");
-    let _ = writeln!(h, "    double sums[5 * {ch}];");
     let _ = writeln!(
         h,
         "    double estimates[{}][{ch}];",
@@ -183,9 +182,62 @@ pub(super) fn copy_rates(cx: &Context<'_>) -> String {
 
 /// The laws of the roots, set-up, settings and `push`.
 pub(super) fn functions(cx: &Context<'_>) -> String {
-    let mut s = laws(cx);
+    let mut s = fits(cx);
+    s += &laws(cx);
     s += &setup(cx);
     s += &push(cx);
+    s
+}
+
+/// The bank's fits, one per number of signals estimated (all of them for the values, the
+/// differentiated ones for the derivatives), with the bank's width as a constant, so that the
+/// compiler unrolls them as the Rust runtime's const generics are.
+fn fits(cx: &Context<'_>) -> String {
+    let program = cx.program;
+    let width = program.channels.len();
+    let mut counts = vec![width];
+    if program.top_order() > 0 && program.differentiated != width {
+        counts.push(program.differentiated);
+    }
+    let w = dim(width);
+    let mut s = String::new();
+    for n in counts {
+        let _ = writeln!(
+            s,
+            "/* The bank's estimates of one order: sum_j w[j] s[j][c] over the window for the first {n}
+   of the {width} signals (zero for the others): four running sums per signal over the samples
+   in fours, the last samples apart, added as the Rust runtime adds them. */
+static void {f}(const double *restrict s, const double *restrict w, int len,
+{pad}double *restrict out)
+{{
+    double s0[{w}], s1[{w}], s2[{w}], s3[{w}], rest[{w}];
+    int whole = len / 4 * 4, j, c;
+    for (c = 0; c < {w}; c++) {{
+        s0[c] = 0.0;
+        s1[c] = 0.0;
+        s2[c] = 0.0;
+        s3[c] = 0.0;
+        rest[c] = -0.0;
+    }}
+    for (j = 0; j < whole; j += 4) {{
+        for (c = 0; c < {n}; c++) {{
+            s0[c] += w[j] * s[j * {w} + c];
+            s1[c] += w[j + 1] * s[(j + 1) * {w} + c];
+            s2[c] += w[j + 2] * s[(j + 2) * {w} + c];
+            s3[c] += w[j + 3] * s[(j + 3) * {w} + c];
+        }}
+    }}
+    for (j = whole; j < len; j++)
+        for (c = 0; c < {n}; c++)
+            rest[c] += s[j * {w} + c] * w[j];
+    for (c = 0; c < {w}; c++)
+        out[c] = (s0[c] + s1[c]) + (s2[c] + s3[c]) + rest[c];
+}}
+",
+            f = cx.names.f(&format!("fit{n}")),
+            pad = " ".repeat(cx.names.f(&format!("fit{n}")).len() + 13),
+        );
+    }
     s
 }
 
@@ -454,13 +506,18 @@ fn push(cx: &Context<'_>) -> String {
     if (g->seen < g->window)
         return 0;
     window = g->samples + g->next * {ch1};
-    bgc_weighted_sum(window, {ch1}, {ch}, g->weights[0], g->window, g->sums, g->estimates[0]);
-    for (k = 1; k <= {order}; k++)
-        bgc_weighted_sum(window, {ch1}, {d}, g->weights[k], g->window, g->sums, g->estimates[k]);",
+    {fit_all}(window, g->weights[0], g->window, g->estimates[0]);",
         ch1 = dim(ch),
-        order = program.top_order(),
-        d = program.differentiated,
+        fit_all = n.f(&format!("fit{ch}")),
     );
+    if program.top_order() > 0 {
+        let _ = writeln!(
+            s,
+            "    for (k = 1; k <= {}; k++)\n        {}(window, g->weights[k], g->window, g->estimates[k]);",
+            program.top_order(),
+            n.f(&format!("fit{}", program.differentiated)),
+        );
+    }
     if let Some(copy) = &program.copy {
         let _ = writeln!(
             s,

@@ -77,30 +77,6 @@ static int bgc_fit_weights(int order, int degree, int window, int at, double ste
     return 1;
 }
 
-/* sum_j w[j] s[j][c] for the first `n` of `width` signals (zero for the others), as the Rust
-   runtime adds them: four running sums per signal over the samples in fours, the last
-   samples in a fifth (`sums` holds 5 width). */
-static void bgc_weighted_sum(const double *samples, int width, int n, const double *w, int len,
-                             double *sums, double *out)
-{
-    int whole = len / 4 * 4, j, i, c;
-    double *rest = sums + 4 * width;
-    for (c = 0; c < 4 * width; c++)
-        sums[c] = 0.0;
-    for (c = 0; c < width; c++)
-        rest[c] = -0.0;
-    for (j = 0; j < whole; j += 4)
-        for (i = 0; i < 4; i++)
-            for (c = 0; c < n; c++)
-                sums[i * width + c] += w[j + i] * samples[(j + i) * width + c];
-    for (j = whole; j < len; j++)
-        for (c = 0; c < n; c++)
-            rest[c] += samples[j * width + c] * w[j];
-    for (c = 0; c < width; c++)
-        out[c] = (sums[c] + sums[width + c]) + (sums[2 * width + c] + sums[3 * width + c])
-                 + rest[c];
-}
-
 /* Whether the alarm is on after `residual` against `level`: it changes after `debounce`
    consecutive samples on the other side. A residual that is not a number counts as above. */
 static int bgc_threshold_update(bgc_threshold *th, double residual, double level,
