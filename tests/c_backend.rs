@@ -57,30 +57,34 @@ fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
         let record_arg = record.display().to_string();
         let step = record_step(&record_arg);
         for (suffix, choice, adaptive) in VARIANTS {
-            let (replay, copy) = compile(&case, &format!("{stem}{suffix}"), choice);
             // `best` is tried where it runs a copy of the model (simulated residuals).
-            if suffix == "_best" && !copy {
+            let Some(replay) =
+                compile(&case, &format!("{stem}{suffix}"), choice, suffix != "_best")
+            else {
                 continue;
-            }
-            let mut options = thresholds(&case, &record_arg, choice);
+            };
+            let run = |options: &[String]| {
+                let out = Command::new(&replay)
+                    .arg(&record)
+                    .arg(step.to_string())
+                    .arg(WINDOW)
+                    .args(options)
+                    .output()
+                    .expect("the replay runs");
+                assert!(
+                    out.status.success(),
+                    "{file}: {}",
+                    String::from_utf8_lossy(&out.stderr)
+                );
+                String::from_utf8_lossy(&out.stdout).into_owned()
+            };
+            let mut options = thresholds(&run(&[]));
             options.extend(["--debounce".to_string(), "3".to_string()]);
             if adaptive {
                 options.push("--adaptive".to_string());
             }
             let cli = residuals(&case, &record_arg, choice, &options);
-            let out = Command::new(&replay)
-                .arg(&record)
-                .arg(step.to_string())
-                .arg(WINDOW)
-                .args(&options)
-                .output()
-                .expect("the replay runs");
-            assert!(
-                out.status.success(),
-                "{file}: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-            let c = String::from_utf8_lossy(&out.stdout).into_owned();
+            let c = run(&options);
             let what = format!("{file} {choice:?} (adaptive: {adaptive})");
             compare(&what, &cli, &c, 1e-12);
             let module = format!("m_{stem}{suffix}");
@@ -224,29 +228,22 @@ fn record_step(record: &str) -> f64 {
     t[1] - t[0]
 }
 
-/// `--threshold` options at about each residual's median |value| on the record, so that its
-/// alarm rises and falls all along it.
-fn thresholds(case: &Case, record: &str, choice: &[&str]) -> Vec<String> {
-    let mut args = vec![
-        "residuals",
-        case.model.as_str(),
-        record,
-        "--window",
-        WINDOW,
-        "--no-size",
-    ];
-    args.extend(choice);
-    let out = bgc(&args);
-    assert_eq!(code(&out), 0, "{}: {}", case.model, stderr(&out));
-    let text = stdout(&out);
-    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+/// `--threshold` options at about each residual's median |value| in `residuals` (a CSV of
+/// `t` and the residuals first), so that its alarm rises and falls all along the record.
+fn thresholds(residuals: &str) -> Vec<String> {
+    let header: Vec<&str> = residuals
+        .lines()
+        .next()
+        .expect("header")
+        .split(',')
+        .collect();
     let names: Vec<&str> = (header.iter().skip(1))
         .take_while(|h| !h.starts_with("threshold_"))
         .copied()
         .collect();
     let mut options = Vec::new();
     for (k, name) in names.iter().enumerate() {
-        let mut values: Vec<f64> = (text.lines().skip(1))
+        let mut values: Vec<f64> = (residuals.lines().skip(1))
             .filter_map(|l| l.split(',').nth(1 + k)?.parse::<f64>().ok())
             .map(f64::abs)
             .filter(|v| v.is_finite())
@@ -281,14 +278,21 @@ fn residuals(case: &Case, record: &str, choice: &[&str], options: &[String]) -> 
 }
 
 /// The model's C code (as `choice` asks) with the replay driver, compiled with [`FLAGS`]:
-/// the program's path, and whether the code runs a copy of the model.
-fn compile(case: &Case, stem: &str, choice: &[&str]) -> (PathBuf, bool) {
+/// the program's path; `None`, not compiled, where the code runs no copy of the model and
+/// `always` is not set.
+fn compile(case: &Case, stem: &str, choice: &[&str], always: bool) -> Option<PathBuf> {
     let source = case.dir.join(format!("{stem}.c"));
     let source_arg = source.display().to_string();
     let mut args = vec![case.model.as_str(), "--emit", "c", "-o", &source_arg];
     args.extend(choice);
     let out = bgc(&args);
     assert_eq!(code(&out), 0, "{stem}: {}", stderr(&out));
+    let copy = std::fs::read_to_string(&source)
+        .expect("the source")
+        .contains("_copy_rates(");
+    if !always && !copy {
+        return None;
+    }
     // The prefix of the code's names: the model's name, as the header's types carry it.
     let header = std::fs::read_to_string(source.with_extension("h")).expect("the header");
     let prefix = (header.lines())
@@ -314,10 +318,7 @@ fn compile(case: &Case, stem: &str, choice: &[&str]) -> (PathBuf, bool) {
         "{stem}: the C code does not compile with {FLAGS:?}:\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let copy = std::fs::read_to_string(&source)
-        .expect("the source")
-        .contains("_copy_rates(");
-    (program, copy)
+    Some(program)
 }
 
 /// `other`'s columns agree with `reference`'s of the same name: numbers to `tolerance`,

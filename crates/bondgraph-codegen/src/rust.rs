@@ -122,6 +122,18 @@ impl<'p> Lowering<'p> {
         }
     }
 
+    /// The same lowering with nothing bound yet: for code in a block of its own.
+    fn fresh(&self) -> Lowering<'p> {
+        Lowering {
+            c: self.c,
+            program: self.program,
+            place: self.place,
+            field: self.field.clone(),
+            bound: HashMap::new(),
+            refused: self.refused,
+        }
+    }
+
     fn wrap(ts: TokenStream, prec: u8, needed: u8) -> TokenStream {
         if prec < needed {
             quote!((#ts))
@@ -774,18 +786,31 @@ fn generator(program: &Program, fields: &[Field], lower: &Lowering<'_>) -> Token
                 Fill::Integral(integrand) => {
                     let k = count(others);
                     others += 1;
+                    // Each fill's repeated parts are computed once, in a block of its own.
+                    let mut lower = lower.fresh();
+                    let lets = lower.bind_shared(&[integrand], &[], "e");
                     let (integrand, _) = lower.expr(integrand);
-                    quote!(s.#name = self.others[#k].push(at, #integrand);)
+                    if lets.is_empty() {
+                        quote!(s.#name = self.others[#k].push(at, #integrand);)
+                    } else {
+                        quote!(s.#name = {
+                            #(#lets)*
+                            self.others[#k].push(at, #integrand)
+                        };)
+                    }
                 }
                 Fill::Root { residual, slope } => {
                     let k = count(roots);
                     roots += 1;
+                    let mut lower = lower.fresh();
+                    let lets = lower.bind_shared(&[residual, slope], &[], "e");
                     let (residual, _) = lower.expr(residual);
                     let (slope, _) = lower.expr(slope);
                     let label = &f.name;
                     quote! {
                         s.#name = match self.roots[#k].solve(|z| {
                             s.#name = z;
+                            #(#lets)*
                             (#residual, #slope)
                         }) {
                             Some(z) => z,

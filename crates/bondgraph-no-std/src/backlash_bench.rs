@@ -486,16 +486,15 @@ impl<B: ::bondgraph::Bank<CHANNELS>> ResidualGenerator<B> {
         s.y2_d1 = e1[1];
         s.y2_int = e0[5];
         s.int1 = self.others[0].push(at, -(p.Re * s.y2 * p.fs / p.N / p.ke));
-        s.int2 = self
-            .others[1]
-            .push(
-                at,
-                (p.N * s.y2 - s.y1)
-                    * ((p.gamma * (p.N * s.y2_int - s.y1_int)).exp() * p.j0 * p.gamma
-                        * 8.0
-                        / ((p.gamma * (p.N * s.y2_int - s.y1_int)).exp() + 1.0).powi(2)
-                        - 1.0),
-            );
+        s.int2 = {
+            let e1 = (p.gamma * (p.N * s.y2_int - s.y1_int)).exp();
+            self.others[1]
+                .push(
+                    at,
+                    (p.N * s.y2 - s.y1)
+                        * (e1 * p.j0 * p.gamma * 8.0 / (e1 + 1.0).powi(2) - 1.0),
+                )
+        };
         let mut r = residuals(p, &s);
         r[0] = self.references[0].push(r[0]);
         r[1] = self.references[1].push(r[1]);

@@ -244,7 +244,6 @@ static void {f}(const double *restrict s, const double *restrict w, int len,
 /// One function per root: the law's value and slope at `z`, with the slots before it.
 fn laws(cx: &Context<'_>) -> String {
     let n = cx.names;
-    let lower = cx.lowering(Place::Push);
     let mut s = String::new();
     let mut k = 0;
     for f in cx.fields {
@@ -260,9 +259,12 @@ fn laws(cx: &Context<'_>) -> String {
                 n.f("signals")
             );
         }
+        let mut lower = cx.lowering(Place::Push);
+        let lets = lower.bind_shared(&[residual, slope], &[], "e");
+        let lets: String = lets.iter().map(|l| format!("{l}\n")).collect();
         let _ = writeln!(
             s,
-            "/* The law whose root is `{name}`. */\nstatic void {f}(void *context, double z, double *value, double *slope)\n{{\n    const struct {lc} *law = context;\n    const {p} *p = law->p;\n    {sig} *s = law->s;\n    const double at = law->at;\n    (void)p;\n    (void)at;\n    s->{field} = z;\n    *value = {v};\n    *slope = {d};\n}}\n",
+            "/* The law whose root is `{name}`. */\nstatic void {f}(void *context, double z, double *value, double *slope)\n{{\n    const struct {lc} *law = context;\n    const {p} *p = law->p;\n    {sig} *s = law->s;\n    const double at = law->at;\n    (void)p;\n    (void)at;\n    s->{field} = z;\n{lets}    *value = {v};\n    *slope = {d};\n}}\n",
             name = f.name,
             f = n.f(&format!("law{k}")),
             lc = n.f("law_context"),
@@ -441,7 +443,6 @@ const char *{un}(const {g} *g)
 /// `_push`: the copy, the bank, the slots, the residuals, their references and alarms.
 fn push(cx: &Context<'_>) -> String {
     let (n, program) = (cx.names, cx.program);
-    let lower = cx.lowering(Place::Push);
     let ch = program.channels.len();
     let mut s = format!(
         "int {}({} *g, double t, const double raw[{}], {} *out)\n{{\n",
@@ -526,7 +527,7 @@ fn push(cx: &Context<'_>) -> String {
         );
     }
     s += "    g->unsolved = NULL;\n";
-    s += &fills(cx, &lower);
+    s += &fills(cx);
     let refs: Vec<usize> = (program.residuals.iter().enumerate())
         .filter(|(_, r)| r.evaluation == Evaluation::Integrated)
         .map(|(k, _)| k)
@@ -573,7 +574,7 @@ fn push(cx: &Context<'_>) -> String {
 }
 
 /// How each field is filled, in the program's order.
-fn fills(cx: &Context<'_>, lower: &crate::c::lower::Lowering<'_>) -> String {
+fn fills(cx: &Context<'_>) -> String {
     let (n, program) = (cx.names, cx.program);
     let (mut others, mut roots) = (0usize, 0usize);
     let mut s = String::new();
@@ -591,11 +592,22 @@ fn fills(cx: &Context<'_>, lower: &crate::c::lower::Lowering<'_>) -> String {
                 let _ = writeln!(s, "    s->{name} = g->copy_now[{}];", k.index());
             }
             Fill::Integral(integrand) => {
-                let _ = writeln!(
-                    s,
-                    "    s->{name} = bgc_trapezoid_push(&g->others[{others}], at, {});",
+                // Each fill's repeated parts are computed once, in a block of its own.
+                let mut lower = cx.lowering(Place::Push);
+                let lets = lower.bind_shared(&[integrand], &[], "e");
+                let fill = format!(
+                    "s->{name} = bgc_trapezoid_push(&g->others[{others}], at, {});",
                     lower.code(integrand)
                 );
+                if lets.is_empty() {
+                    let _ = writeln!(s, "    {fill}");
+                } else {
+                    let _ = writeln!(s, "    {{");
+                    for line in lets {
+                        let _ = writeln!(s, "    {line}");
+                    }
+                    let _ = writeln!(s, "        {fill}\n    }}");
+                }
                 others += 1;
             }
             Fill::Root { .. } => {
