@@ -8,5 +8,6 @@ pub mod latex;
 mod names;
 pub mod rust;
 mod shared;
+mod sharing;
 mod signals;
 pub mod text;

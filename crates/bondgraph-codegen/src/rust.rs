@@ -14,13 +14,12 @@ use std::collections::HashMap;
 use std::fmt;
 
 use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Slot, Source};
-use bondgraph_core::{
-    children, BinOp, Compiled, Func, Handle, Node, Pool, Printer, Realisation, ResidualForm,
-};
+use bondgraph_core::{BinOp, Compiled, Func, Handle, Node, Printer, Realisation, ResidualForm};
 use proc_macro2::{Ident, Literal, Span, TokenStream};
 use quote::{format_ident, quote};
 
 use crate::names;
+use crate::sharing::{bindings, Binding};
 use crate::signals::{fields, Field};
 
 /// Why residual code was not written: something its program holds that Rust code cannot
@@ -275,34 +274,20 @@ impl<'p> Lowering<'p> {
         (quote!(unwritable), ATOM)
     }
 
-    /// `let`s for every node of `roots` used more than once and for each named node (named
-    /// `name`, the others `prefix1`, `prefix2`…), bound from here on.
+    /// `let`s for every node of `roots` used more than once and for each named node they
+    /// read (named `name`, the others `prefix1`, `prefix2`…), bound from here on.
     fn bind_shared(
         &mut self,
         roots: &[Code],
         named: &[(Code, String)],
         prefix: &str,
     ) -> Vec<TokenStream> {
-        let code = &self.program.code;
-        let mut all = roots.to_vec();
-        all.extend(named.iter().map(|&(e, _)| e));
-        let (order, uses) = uses(code, &all);
         let mut lets = Vec::new();
-        let mut next = 0usize;
-        for id in order {
-            let shared = uses.get(&id).copied().unwrap_or(0) >= 2
-                && !matches!(code.node(id), Node::Num(_) | Node::Leaf(_));
-            let name = named.iter().find(|(e, _)| *e == id).map(|(_, n)| n);
-            if !shared && name.is_none() {
-                continue;
-            }
+        for (id, binding) in bindings(&self.program.code, roots, named) {
             let (value, _) = self.expr(id);
-            let name = match name {
-                Some(name) => format_ident!("{}", name),
-                None => {
-                    next += 1;
-                    format_ident!("{}{}", prefix, next)
-                }
+            let name = match binding {
+                Binding::Named(name) => format_ident!("{}", name),
+                Binding::Numbered(k) => format_ident!("{}{}", prefix, k),
             };
             lets.push(quote!(let #name = #value;));
             self.bound.insert(id, name);
@@ -338,22 +323,6 @@ fn number(x: f64, refused: &Cell<Option<Unwritable>>) -> (TokenStream, u8) {
     } else {
         (quote!(#lit), ATOM)
     }
-}
-
-/// How many times each node is reached from `roots` (once per parent edge), children first.
-pub(crate) fn uses(code: &Pool<Leaf>, roots: &[Code]) -> (Vec<Code>, HashMap<Code, usize>) {
-    let mut order = Vec::new();
-    let mut count: HashMap<Code, usize> = HashMap::new();
-    code.visit_reachable(roots, |id, node| {
-        order.push(id);
-        for child in children(node) {
-            *count.entry(child).or_default() += 1;
-        }
-    });
-    for &r in roots {
-        *count.entry(r).or_default() += 1;
-    }
-    (order, count)
 }
 
 /// The body of `residuals`: `let`s for shared nodes and auxiliary signals, then the array.

@@ -1,13 +1,14 @@
 //! Program code printed as C expressions, with shared nodes bound once as `const double`s.
 
 use std::cell::Cell;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 use bondgraph_core::program::{Code, Leaf, Program, Slot};
 use bondgraph_core::{BinOp, Compiled, Func, Handle, Node};
 
 use super::names::ident;
-use crate::rust::{uses, Unwritable};
+use crate::rust::Unwritable;
+use crate::sharing::{bindings, Binding};
 use crate::signals::Field;
 
 /// Binding strengths of C expressions as the lowering writes them.
@@ -107,37 +108,33 @@ impl<'p> Lowering<'p> {
                 let right = self.operand(b, right);
                 (format!("{left} {sign} {right}"), prec)
             }
-            Node::Call1(f, a) => {
-                let (x, _) = self.expr(a);
-                let name = match f {
-                    Func::Exp => "exp",
-                    Func::Log => "log",
-                    Func::Sqrt => "sqrt",
-                    Func::Abs => "fabs",
-                    Func::Sin => "sin",
-                    Func::Cos => "cos",
-                    Func::Tan => "tan",
-                    Func::Tanh => "tanh",
-                    Func::Atan => "atan",
-                    Func::Atanh => "atanh",
-                    _ => {
-                        self.reads_sign.set(true);
-                        "bgc_sign"
-                    }
-                };
-                (format!("{name}({x})"), ATOM)
-            }
-            Node::Call2(f, a, b) => {
-                let (x, _) = self.expr(a);
-                let (y, _) = self.expr(b);
-                // C99's fmin and fmax, like Rust's min and max, return the other of a NaN.
-                let name = match f {
-                    Func::Min => "fmin",
-                    _ => "fmax",
-                };
-                (format!("{name}({x}, {y})"), ATOM)
-            }
+            Node::Call1(f, a) => (format!("{}({})", self.function(f), self.expr(a).0), ATOM),
+            Node::Call2(f, a, b) => (
+                format!(
+                    "{}({}, {})",
+                    self.function(f),
+                    self.expr(a).0,
+                    self.expr(b).0
+                ),
+                ATOM,
+            ),
             Node::Int(_) => self.refuse("an integral the residual program did not make a slot"),
+        }
+    }
+
+    /// A function's name in C: libm's, which the language's names are but for `abs`, `min`
+    /// and `max` (C99's `fmin` and `fmax`, like Rust's, return the other of a NaN), and the
+    /// runtime's `sign`.
+    fn function(&self, f: Func) -> &'static str {
+        match f {
+            Func::Abs => "fabs",
+            Func::Min => "fmin",
+            Func::Max => "fmax",
+            Func::Sign => {
+                self.reads_sign.set(true);
+                "bgc_sign"
+            }
+            f => f.name(),
         }
     }
 
@@ -179,38 +176,19 @@ impl<'p> Lowering<'p> {
 
     /// `const double` lines for every node of `roots` used more than once and for each named
     /// node that they read (named `name`, the others `prefix1`, `prefix2`…), bound from here
-    /// on. A named node nothing reads is not bound: C warns of an unused variable.
+    /// on.
     pub(super) fn bind_shared(
         &mut self,
         roots: &[Code],
         named: &[(Code, String)],
         prefix: &str,
     ) -> Vec<String> {
-        let code = &self.program.code;
-        let mut read = HashSet::new();
-        code.visit_reachable(roots, |id, _| {
-            read.insert(id);
-        });
-        let named: Vec<&(Code, String)> = named.iter().filter(|(e, _)| read.contains(e)).collect();
-        let mut all = roots.to_vec();
-        all.extend(named.iter().map(|&&(e, _)| e));
-        let (order, uses) = uses(code, &all);
         let mut lines = Vec::new();
-        let mut next = 0usize;
-        for id in order {
-            let shared = uses.get(&id).copied().unwrap_or(0) >= 2
-                && !matches!(code.node(id), Node::Num(_) | Node::Leaf(_));
-            let name = named.iter().find(|(e, _)| *e == id).map(|(_, n)| n);
-            if !shared && name.is_none() {
-                continue;
-            }
+        for (id, binding) in bindings(&self.program.code, roots, named) {
             let (value, _) = self.expr(id);
-            let name = match name {
-                Some(name) => ident(name),
-                None => {
-                    next += 1;
-                    format!("{prefix}{next}")
-                }
+            let name = match binding {
+                Binding::Named(name) => ident(name),
+                Binding::Numbered(k) => format!("{prefix}{k}"),
             };
             lines.push(format!("    const double {name} = {value};"));
             self.bound.insert(id, name);
