@@ -400,5 +400,14 @@ fn the_single_file_is_the_header_and_the_source() {
     let out = bgc(&["models/backlash_bench.bg", "--emit", "c", "-o", "bench.txt"]);
     assert_eq!(code(&out), 2, "{}", stderr(&out));
     assert!(stderr(&out).contains("ending in .c"), "{}", stderr(&out));
+    // An FMU is an archive: never to standard output, only to a `.fmu`.
+    for args in [&["-o", "bench.zip"][..], &[][..]] {
+        let mut full = vec!["models/backlash_bench.bg", "--emit", "fmu"];
+        full.extend(args);
+        let out = bgc(&full);
+        assert_eq!(code(&out), 2, "{}", stderr(&out));
+        assert!(stderr(&out).contains("ending in .fmu"), "{}", stderr(&out));
+        assert!(out.stdout.is_empty());
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
