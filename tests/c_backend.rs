@@ -1,8 +1,8 @@
 //! The C backend: every model's code, compiled as strict C99, run over a noisy simulated
 //! record, gives the residuals the generated Rust gives, to the bit, and what `bgc residuals`
-//! gives: the residuals and thresholds to 1e-12 (the CLI's interpreter folds the parameters
-//! into its expressions and runs its fits by blocks, which moves a running value's last
-//! bits), the alarms and candidates exactly.
+//! gives: the residuals and thresholds to 1e-12 (the CLI's interpreter evaluates the program
+//! with the parameters folded in, and a running value's last bits differ from the generated
+//! code's), the alarms and candidates exactly.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
