@@ -10,18 +10,18 @@ use crate::c::lower::Place;
 use crate::c::names::ident;
 
 /// How many of each runtime piece the generator holds.
-struct Counts {
+pub(super) struct Counts {
     /// Trapezoids of raw signals fed to the bank.
-    integrals: usize,
+    pub(super) integrals: usize,
     /// Trapezoids of nonlinear expressions, integrated at the estimates' instant.
-    others: usize,
+    pub(super) others: usize,
     /// Root finders.
-    roots: usize,
+    pub(super) roots: usize,
     /// References of residuals realised by integration.
-    references: usize,
+    pub(super) references: usize,
 }
 
-fn counts(cx: &Context<'_>) -> Counts {
+pub(super) fn counts(cx: &Context<'_>) -> Counts {
     let p = cx.program;
     Counts {
         integrals: (p.channels.values())

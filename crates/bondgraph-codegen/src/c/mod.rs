@@ -208,7 +208,7 @@ fn signals_type(cx: &Context<'_>) -> String {
 /// The `extern` declarations of the model's tables.
 fn tables_declared(cx: &Context<'_>) -> String {
     let n = cx.names;
-    let (p, r) = (n.f("params"), n.m("RESIDUALS"));
+    let p = n.f("params");
     let lines = [
         format!("/* The values the model declares. */\nextern const {p} {};", n.f("default_params")),
         format!(
@@ -265,7 +265,6 @@ fn tables_declared(cx: &Context<'_>) -> String {
             dim(cx.c.components.len())
         ),
     ];
-    let _ = r;
     lines.join("\n") + "\n"
 }
 
@@ -305,30 +304,17 @@ fn source(cx: &Context<'_>, header_name: &str, body: &Body) -> String {
     s += CORE;
     s += "\n";
     s += FSM;
-    let integrates = (cx.program.channels.values())
-        .any(|c| matches!(c.source, bondgraph_core::program::Source::Integral(_)))
-        || (cx.program.slots.values())
-            .any(|s| matches!(s.fill, bondgraph_core::program::Fill::Integral(_)));
-    if integrates {
+    // Only the pieces the program runs: C warns of an unused static function.
+    let counts = generator::counts(cx);
+    let pieces = [
+        (counts.integrals + counts.others > 0, TRAPEZOID),
+        (counts.references > 0, REFERENCE),
+        (cx.reads_sign.get(), SIGN),
+        (counts.roots > 0, ROOTS),
+    ];
+    for (_, piece) in pieces.iter().filter(|(needed, _)| *needed) {
         s += "\n";
-        s += TRAPEZOID;
-    }
-    if (cx.program.residuals.iter()).any(|r| r.evaluation == Evaluation::Integrated) {
-        s += "\n";
-        s += REFERENCE;
-    }
-    if cx.reads_sign.get() {
-        s += "\n";
-        s += SIGN;
-    }
-    if cx
-        .program
-        .slots
-        .values()
-        .any(|slot| matches!(slot.fill, bondgraph_core::program::Fill::Root { .. }))
-    {
-        s += "\n";
-        s += ROOTS;
+        s += piece;
     }
     if cx.program.copy.is_some() {
         s += "\n";

@@ -79,13 +79,11 @@ typedef struct {{
 fn helpers(id: &str, vars: &[Variable], r: usize) -> String {
     let mut defaults = String::new();
     for v in vars {
-        let Some(start) = &v.start else { continue };
-        let value = match v.ty {
-            Type::Boolean => start.clone(),
-            Type::String => continue,
-            _ => start.clone(),
+        // The one string, the candidates, is an output: it has no start to set.
+        let Some(start) = v.start.as_ref().filter(|_| v.ty != Type::String) else {
+            continue;
         };
-        let _ = writeln!(defaults, "    {} = {value};", v.role.place());
+        let _ = writeln!(defaults, "    {} = {start};", v.role.place());
     }
     format!(
         "
@@ -412,7 +410,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
                       fmi3Boolean *earlyReturn, fmi3Float64 *lastSuccessfulTime)
 {{
     Instance *m = instance;
-    int alarms[{r_dim}], found[{c_dim}], count, k;
+    int alarms[{r_dim}], found[{upper}_COMPONENTS > 0 ? {upper}_COMPONENTS : 1], count, k;
     (void)noSetFMUStatePriorToCurrentPoint;
     if (m == NULL || m->mode != STEPPING)
         return refuse(instance, \"fmi3DoStep out of step mode\");
@@ -451,7 +449,6 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
 }}
 ",
         r_dim = r.max(1),
-        c_dim = "COMPONENTS_PLACEHOLDER",
+        upper = id.to_ascii_uppercase(),
     )
-    .replace("COMPONENTS_PLACEHOLDER", &format!("{}_COMPONENTS > 0 ? {}_COMPONENTS : 1", id.to_ascii_uppercase(), id.to_ascii_uppercase()))
 }
