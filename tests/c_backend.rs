@@ -39,13 +39,19 @@ struct Run {
     rust: PathBuf,
     record: PathBuf,
     step: f64,
+    /// The sizes' options (`--noise`, `--size NAME`…), for the Rust replay.
+    sizes: Vec<String>,
     c: String,
 }
+
+/// How many of its parameters each model's code sizes as written (C and Rust alike).
+const SIZED: &str = "2";
 
 #[test]
 fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
     let kept = crate::common::scratch("c-rust");
     let mut runs = Vec::new();
+    let mut bench = None;
     for file in models() {
         let case = Case::new(&file, "c");
         let clean = case.simulate("clean.csv", &[]);
@@ -78,12 +84,28 @@ fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
                 );
                 String::from_utf8_lossy(&out.stdout).into_owned()
             };
-            let mut options = thresholds(&run(&[]));
+            let first = run(&[]);
+            let mut options = thresholds(&first);
             options.extend(["--debounce".to_string(), "3".to_string()]);
             if adaptive {
                 options.push("--adaptive".to_string());
             }
             let cli = residuals(&case, &record_arg, choice, &options);
+            // As written, the first parameters the residuals read are sized too, weighted by
+            // the residuals' RMS on this healthy record.
+            let noise = ["--noise".to_string(), rms(&first)];
+            if suffix.is_empty() {
+                options.extend(noise.clone());
+                options.extend(["--sizes".to_string(), SIZED.to_string()]);
+            }
+            if file == "backlash_bench.bg" && suffix.is_empty() {
+                // Kept beyond the case's directory, which goes with it.
+                let (program, faulty) = (kept.join("bench-replay"), kept.join("faulty.csv"));
+                std::fs::copy(&replay, &program).expect("copied");
+                std::fs::copy(case.simulate("faulty.csv", &[FAULT.to_string()]), &faulty)
+                    .expect("copied");
+                bench = Some((program, faulty, noise[1].clone(), step));
+            }
             let c = run(&options);
             let what = format!("{file} {choice:?} (adaptive: {adaptive})");
             compare(&what, &cli, &c, 1e-12);
@@ -100,15 +122,23 @@ fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
             args.extend(choice);
             let out = bgc(&args);
             assert_eq!(code(&out), 0, "{file}: {}", stderr(&out));
+            let mut sizes = noise.to_vec();
+            sizes.extend(
+                sized(&c)
+                    .into_iter()
+                    .flat_map(|p| ["--size".to_string(), p]),
+            );
             runs.push(Run {
                 module,
                 rust,
                 record: record.clone(),
                 step,
+                sizes: if suffix.is_empty() { sizes } else { Vec::new() },
                 c,
             });
         }
     }
+    runs.push(faulty_bench(bench.expect("the bench is a model"), &kept));
     let program = rust_replay(&kept, &runs);
     for run in &runs {
         let out = Command::new(&program)
@@ -116,6 +146,7 @@ fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
             .arg(&run.record)
             .arg(run.step.to_string())
             .arg(WINDOW)
+            .args(&run.sizes)
             .output()
             .expect("the Rust replay runs");
         assert!(
@@ -128,6 +159,87 @@ fn every_model_in_c_computes_what_bgc_residuals_and_the_rust_code_compute() {
         compare(&run.module, &rust, &run.c, 0.0);
     }
     let _ = std::fs::remove_dir_all(&kept);
+}
+
+/// The bench's fault sized in C and Rust alike: its dead zone tripled early in the record.
+const FAULT: &str = "fault j0 = 3*j0 at 1";
+
+/// The bench's code as written over a record of its dead zone tripled, sizing `j0` and `Re`
+/// (the bench's program, that record, the residuals' healthy RMS, the step): the C code
+/// follows the dead zone past its linearisation, and the run is kept for the comparison
+/// with the Rust runtime's `FaultSize`.
+fn faulty_bench(bench: (PathBuf, PathBuf, String, f64), kept: &Path) -> Run {
+    let (program, record, noise, step) = bench;
+    let sizes: Vec<String> = ["--noise", &noise, "--size", "j0", "--size", "Re"]
+        .map(String::from)
+        .to_vec();
+    let out = Command::new(&program)
+        .arg(&record)
+        .arg(step.to_string())
+        .arg(WINDOW)
+        .args(&sizes)
+        .output()
+        .expect("the replay runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let c = String::from_utf8_lossy(&out.stdout).into_owned();
+    let header: Vec<&str> = c.lines().next().unwrap_or("").split(',').collect();
+    let column = header
+        .iter()
+        .position(|h| *h == "size_j0")
+        .expect("j0 sized");
+    let last = c.lines().last().unwrap_or("").split(',').nth(column);
+    let j0: f64 = last.and_then(|v| v.parse().ok()).expect("an estimate");
+    assert!((j0 / 0.6 - 1.0).abs() < 0.1, "j0 sized {j0}, truth 0.6");
+    Run {
+        module: "m_backlash_bench".to_string(),
+        rust: kept.join("m_backlash_bench.rs"),
+        record,
+        step,
+        sizes,
+        c,
+    }
+}
+
+/// The parameters a replay's output sizes, by its `size_NAME` columns.
+fn sized(output: &str) -> Vec<String> {
+    (output.lines().next().unwrap_or("").split(','))
+        .filter_map(|h| h.strip_prefix("size_"))
+        .filter(|h| !h.ends_with("_half_width") && !h.ends_with("_misfit"))
+        .map(String::from)
+        .collect()
+}
+
+/// Each residual's RMS in a replay's output, comma separated (1 where it is 0): the noise
+/// levels the sizes weigh them by.
+fn rms(output: &str) -> String {
+    let header: Vec<&str> = output.lines().next().unwrap_or("").split(',').collect();
+    let count = (header.iter().skip(1))
+        .take_while(|h| !h.starts_with("threshold_"))
+        .count();
+    let mut sums = vec![(0.0_f64, 0.0_f64); count];
+    for line in output.lines().skip(1) {
+        for (cell, sum) in line.split(',').skip(1).zip(&mut sums) {
+            if let Ok(v) = cell.parse::<f64>() {
+                if v.is_finite() {
+                    *sum = (sum.0 + v * v, sum.1 + 1.0);
+                }
+            }
+        }
+    }
+    let levels: Vec<String> = (sums.iter())
+        .map(|&(s, n)| {
+            if s > 0.0 {
+                format!("{:?}", (s / n).sqrt())
+            } else {
+                "1.0".to_string()
+            }
+        })
+        .collect();
+    levels.join(",")
 }
 
 /// A crate that includes every run's Rust code, built by a cargo of its own: its program
@@ -143,18 +255,20 @@ fn rust_replay(dir: &Path, runs: &[Run]) -> PathBuf {
     std::fs::copy(root().join("Cargo.lock"), krate.join("Cargo.lock")).expect("lock");
     let mut main = String::from(RUST_REPLAY);
     let mut arms = String::new();
-    for run in runs {
+    let mut included = std::collections::BTreeSet::new();
+    // The faulty bench's run reads the bench's module again.
+    for run in runs.iter().filter(|r| included.insert(r.module.clone())) {
         main += &format!(
             "#[allow(non_snake_case, clippy::all)]\nmod {} {{\n    include!({:?});\n}}\n",
             run.module, run.rust
         );
         arms += &format!(
-            "        {:?} => replay!({}, header, rows, step, window),\n",
+            "        {:?} => replay!({}, header, rows, step, window, sizes, noise),\n",
             run.module, run.module
         );
     }
     main += &format!(
-        "fn run(model: &str, header: &[String], rows: &[Vec<f64>], step: f64, window: usize) -> String {{\n    match model {{\n{arms}        _ => panic!(\"no model {{model}}\"),\n    }}\n}}\n"
+        "fn run(model: &str, header: &[String], rows: &[Vec<f64>], step: f64, window: usize, sizes: &[String], noise: &[f64]) -> String {{\n    match model {{\n{arms}        _ => panic!(\"no model {{model}}\"),\n    }}\n}}\n"
     );
     std::fs::write(krate.join("src/main.rs"), main).expect("main");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
@@ -180,11 +294,18 @@ fn rust_replay(dir: &Path, runs: &[Run]) -> PathBuf {
 /// The Rust replay's fixed part: reading the record, and one generator's run as a macro.
 const RUST_REPLAY: &str = r#"
 macro_rules! replay {
-    ($m:ident, $header:expr, $rows:expr, $step:expr, $window:expr) => {{
+    ($m:ident, $header:expr, $rows:expr, $step:expr, $window:expr, $sizes:expr, $noise:expr) => {{
         use $m::*;
         let degree = CHANNEL_ORDERS.iter().copied().max().unwrap_or(0).max(3);
         let mut g = ResidualGenerator::savitzky_golay(Params::default(), $step, $window, degree)
             .expect("a generator");
+        let mut sized: Vec<(&String, bondgraph::FaultSize<ResidualGenerator>)> = ($sizes.iter())
+            .map(|name: &String| {
+                let k = Params::NAMES.iter().position(|n| n == name).expect("a parameter");
+                let size = bondgraph::FaultSize::new(&g, k, $noise, 2000).expect("a size");
+                (name, size.with_correlation($window))
+            })
+            .collect();
         let column = |name: &str| $header.iter().position(|h| h == name).expect(name);
         let time = column("t");
         let raw: Vec<usize> = RAW_SIGNALS.iter().map(|s| column(s)).collect();
@@ -193,14 +314,24 @@ macro_rules! replay {
             out += ",";
             out += name;
         }
+        for (name, _) in &sized {
+            out += &format!(",size_{name},size_{name}_half_width,size_{name}_misfit");
+        }
         out += "
 ";
         for row in $rows {
-            let sample = core::array::from_fn(|i| row[raw[i]]);
+            let sample: [f64; RAW_SIGNALS.len()] = core::array::from_fn(|i| row[raw[i]]);
+            for (_, size) in &mut sized {
+                size.push(row[time], &sample);
+            }
             if let Some(r) = g.push(row[time], sample) {
                 out += &format!("{:?}", row[time] - g.delay());
                 for v in r {
                     if v.is_nan() { out += ","; } else { out += &format!(",{v:?}"); }
+                }
+                for (_, size) in &sized {
+                    let e = size.estimate();
+                    out += &format!(",{:?},{:?},{:?}", e.value, e.half_width, e.misfit);
                 }
                 out += "
 ";
@@ -220,7 +351,17 @@ fn main() {
         .collect();
     let step: f64 = args[2].parse().expect("step");
     let window: usize = args[3].parse().expect("window");
-    print!("{}", run(&args[0], &header, &rows, step, window));
+    let (mut sizes, mut noise) = (Vec::new(), Vec::new());
+    let mut options = args[4..].iter();
+    while let Some(option) = options.next() {
+        let value = options.next().expect("a value");
+        match option.as_str() {
+            "--size" => sizes.push(value.clone()),
+            "--noise" => noise = value.split(',').map(|v| v.parse().expect("a level")).collect(),
+            _ => panic!("unknown option {option}"),
+        }
+    }
+    print!("{}", run(&args[0], &header, &rows, step, window, &sizes, &noise));
 }
 
 "#;
@@ -366,6 +507,10 @@ fn compare(what: &str, reference: &str, other: &str, tolerance: f64) {
                 continue;
             }
             let (x, y): (f64, f64) = (a.parse().expect("number"), b.parse().expect("number"));
+            if x == y {
+                // Infinities too (a size's interval before it is known).
+                continue;
+            }
             let bound = if name == "t" {
                 1e-9
             } else {

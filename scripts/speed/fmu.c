@@ -52,11 +52,11 @@ static void *symbol(void *library, const char *name)
 
 int main(int argc, char **argv)
 {
-    uint32_t inputs[64], outputs[64], step_vr, window_vr;
-    size_t n_in, n_out, k, j;
+    uint32_t inputs[64], outputs[64], noises[64], step_vr, window_vr;
+    size_t n_in, n_out, n_noise = 0, k, j;
     int pass, passes;
     int32_t window;
-    double h = 1e-3, u[64], y[64], sink = 0.0, seconds, at;
+    double h = 1e-3, u[64], y[64], levels[64], sink = 0.0, seconds, at;
     bool flag;
     clock_t start;
     void *library;
@@ -73,6 +73,11 @@ int main(int argc, char **argv)
     n_out = parse(argv[6], outputs);
     window = atoi(argv[7]);
     passes = atoi(argv[8]);
+    /* With a ninth argument, the residuals' noise levels' references: every size runs. */
+    if (argc > 9)
+        n_noise = parse(argv[9], noises);
+    for (k = 0; k < n_noise; k++)
+        levels[k] = 0.01;
     {
         instantiate_fn instantiate = (instantiate_fn)symbol(library, "fmi3InstantiateCoSimulation");
         init_fn enter = (init_fn)symbol(library, "fmi3EnterInitializationMode");
@@ -96,6 +101,8 @@ int main(int argc, char **argv)
             enter(fmu, false, 0.0, 0.0, false, 0.0);
             set(fmu, &step_vr, 1, &h, 1);
             set_int(fmu, &window_vr, 1, &window, 1);
+            if (n_noise > 0)
+                set(fmu, noises, n_noise, levels, n_noise);
             if (exit_init(fmu) != 0)
                 return 1;
             for (k = 0; k < SAMPLES; k++) {

@@ -1,10 +1,12 @@
 /* Runs a model's C residual generator (`bgc MODEL --emit c -o m.c`) over a CSV record and
    prints what `bgc residuals` prints of it: per estimate t, the residuals, their thresholds,
-   the alarms and the candidates.
+   the alarms and the candidates; with sizes, each sized parameter's estimate after the
+   sample (value, half-width, misfit).
 
    cc -std=c99 -DBGC_HEADER='"m.h"' -DBGC_PREFIX=model -DBGC_UPPER=MODEL m.c replay.c -lm
    replay RECORD.csv STEP WINDOW [--debounce N] [--adaptive] [--integration N|start]
-          [--threshold K=LEVEL]... */
+          [--threshold K=LEVEL]... [--noise RMS1,RMS2...] [--memory N]
+          [--size PARAMETER]... [--sizes N: the first N the residuals read] */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,8 +21,11 @@
 
 #define LINE 65536
 #define COLUMNS 1024
+#define SIZES 4
 
 static F(generator) generator;
+static F(size) sizes[SIZES];
+static int sized[SIZES], nsized;
 
 static int fail(const char *what, const char *detail)
 {
@@ -50,6 +55,39 @@ static void number(double x)
         printf(",");
 }
 
+/* Adds parameter k to those sized; 0 where it is already or there is no room. */
+static int size(int k)
+{
+    int j;
+    for (j = 0; j < nsized; j++)
+        if (sized[j] == k)
+            return 0;
+    if (k < 0 || nsized == SIZES)
+        return 0;
+    sized[nsized++] = k;
+    return 1;
+}
+
+/* Sets up the sizes over the generator as set up, at the noise levels `noise`. */
+static int start_sizes(const char *noise, int memory, int window)
+{
+    double levels[M(RESIDUALS) > 0 ? M(RESIDUALS) : 1];
+    const char *p = noise;
+    int j, status;
+    for (j = 0; j < M(RESIDUALS); j++) {
+        levels[j] = p != NULL ? atof(p) : 1.0;
+        p = p != NULL ? strchr(p, ',') : NULL;
+        p = p != NULL ? p + 1 : NULL;
+    }
+    for (j = 0; j < nsized; j++) {
+        status = F(size_init)(&sizes[j], &generator, sized[j], levels, memory);
+        if (status != BGC_OK)
+            return fail("size: ", F(status_text)(status));
+        F(size_set_correlation)(&sizes[j], window);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     static char line[LINE];
@@ -58,6 +96,8 @@ int main(int argc, char **argv)
     double raw[M(RAW) > 0 ? M(RAW) : 1];
     F(output) out;
     FILE *record;
+    const char *noise = NULL;
+    int memory = 2000;
     if (argc < 4)
         return fail("usage: replay RECORD.csv STEP WINDOW [options]", "");
     degree = M(ORDER) > 3 ? M(ORDER) : 3;
@@ -74,6 +114,22 @@ int main(int argc, char **argv)
                 F(integrate_from_start)(&generator);
             else if (F(set_integration_window)(&generator, atoi(argv[k])) != BGC_OK)
                 return fail("bad integration window ", argv[k]);
+        } else if (strcmp(argv[k], "--noise") == 0 && k + 1 < argc) {
+            noise = argv[++k];
+        } else if (strcmp(argv[k], "--memory") == 0 && k + 1 < argc) {
+            memory = atoi(argv[++k]);
+        } else if (strcmp(argv[k], "--size") == 0 && k + 1 < argc) {
+            k++;
+            for (j = 0; j < M(PARAMETERS); j++)
+                if (strcmp(F(parameter_names)[j], argv[k]) == 0)
+                    break;
+            if (j == M(PARAMETERS) || !size(j))
+                return fail("cannot size ", argv[k]);
+        } else if (strcmp(argv[k], "--sizes") == 0 && k + 1 < argc) {
+            int wanted = atoi(argv[++k]);
+            for (j = 0; j < M(PARAMETERS) && nsized < wanted; j++)
+                if (F(sizable)[j])
+                    size(j);
         } else if (strcmp(argv[k], "--threshold") == 0 && k + 1 < argc) {
             const char *arg = argv[++k], *eq = strchr(arg, '=');
             int found = 0;
@@ -90,6 +146,8 @@ int main(int argc, char **argv)
             return fail("unknown option ", argv[k]);
         }
     }
+    if (start_sizes(noise, memory, atoi(argv[3])) != 0)
+        return 1;
     record = fopen(argv[1], "r");
     if (record == NULL || fgets(line, LINE, record) == NULL)
         return fail("cannot read ", argv[1]);
@@ -115,12 +173,19 @@ int main(int argc, char **argv)
         printf(",threshold_%s", F(residual_names)[j]);
     for (j = 0; j < M(RESIDUALS); j++)
         printf(",alarm_%s", F(residual_names)[j]);
-    printf(",candidates\n");
+    printf(",candidates");
+    for (j = 0; j < nsized; j++) {
+        const char *name = F(parameter_names)[sized[j]];
+        printf(",size_%s,size_%s_half_width,size_%s_misfit", name, name, name);
+    }
+    printf("\n");
     while (fgets(line, LINE, record) != NULL) {
         int alarms[M(RESIDUALS) > 0 ? M(RESIDUALS) : 1], found[M(COMPONENTS) > 0 ? M(COMPONENTS) : 1], count;
         n = split(line, cells);
         for (j = 0; j < M(RAW); j++)
             raw[j] = column[j] < n ? atof(cells[column[j]]) : NAN;
+        for (j = 0; j < nsized; j++)
+            F(size_push)(&sizes[j], atof(cells[time]), raw);
         if (!F(push)(&generator, atof(cells[time]), raw, &out))
             continue;
         printf("%.17g", out.at);
@@ -136,6 +201,10 @@ int main(int argc, char **argv)
         printf(",");
         for (j = 0; j < count; j++)
             printf("%s%s", j > 0 ? " " : "", F(component_names)[found[j]]);
+        for (j = 0; j < nsized; j++) {
+            bgc_size e = F(size_estimate)(&sizes[j]);
+            printf(",%.17g,%.17g,%.17g", e.value, e.half_width, e.misfit);
+        }
         printf("\n");
     }
     fclose(record);

@@ -332,6 +332,9 @@ fn setup(cx: &Context<'_>) -> String {
     case BGC_SINGULAR_FIT: return \"the fit's normal equations are singular\";
     case BGC_BAD_INTEGRATION_WINDOW: return \"the integration window is not between 1 and BGC_MAX_REFERENCE samples\";
     case BGC_BAD_INDEX: return \"no residual has that index\";
+    case BGC_BAD_PARAMETER: return \"no parameter has that index\";
+    case BGC_BAD_NOISE: return \"a residual's noise level is not a positive number (its healthy RMS, or its threshold over 3)\";
+    case BGC_BAD_MEMORY: return \"a size estimate's memory is shorter than 2 samples\";
     default: return \"not a status this code returns\";
     }}
 }}

@@ -4,7 +4,8 @@
 //! [`emit`] writes a header (the types, the model's tables and the functions' prototypes)
 //! and a source (the functions and, as `static` functions, the few pieces of the runtime
 //! the generator needs: Savitzky–Golay weights, trapezoids, references, the root finder,
-//! the copy's Runge–Kutta steps, thresholds). Every piece computes what the Rust runtime
+//! the copy's Runge–Kutta steps, thresholds), and the fault-size estimator over two copies
+//! of the generator (`size.rs`). Every piece computes what the Rust runtime
 //! computes, in the same order of operations, so that both give the same residuals to
 //! rounding. Storage is fixed (no `malloc`): the longest window is a macro a firmware can
 //! lower (`BGC_MAX_WINDOW`…).
@@ -13,6 +14,7 @@ mod context;
 mod generator;
 mod lower;
 mod names;
+mod size;
 
 use std::cell::Cell;
 use std::fmt::Write as _;
@@ -44,6 +46,8 @@ const FSM: &str = include_str!("runtime/fsm.c");
 const ROOTS: &str = include_str!("runtime/roots.c");
 /// The copy of the model, where a simulated residual runs one.
 const REPLAY: &str = include_str!("runtime/replay.c");
+/// The change estimator behind a fault's size.
+const SIZE: &str = include_str!("runtime/size.c");
 
 /// A model's C code: a header and the source that includes it.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -152,8 +156,10 @@ fn header(cx: &Context<'_>, header_name: &str) -> String {
     h += &params_type(cx);
     h += &signals_type(cx);
     h += &generator::types(cx);
+    h += &size::types(cx);
     h += &tables_declared(cx);
     h += &generator::prototypes(cx);
+    h += &size::prototypes(cx);
     h += "\n#ifdef __cplusplus\n}\n#endif\n\n#endif\n";
     h
 }
@@ -216,6 +222,11 @@ fn tables_declared(cx: &Context<'_>) -> String {
             n.f("uncertainty")
         ),
         format!("/* The parameters' names, in the order of the fields. */\nextern const char *const {}[{}];", n.f("parameter_names"), dim(cx.c.parameters.len())),
+        format!(
+            "/* Whether the residuals read each parameter: those whose size _size_init estimates. */\nextern const int {}[{}];",
+            n.f("sizable"),
+            dim(cx.c.parameters.len())
+        ),
         format!("/* The signals' names, in the order of the fields. */\nextern const char *const {}[{}];", n.f("signal_names"), dim(cx.fields.len())),
         format!("/* The ARRs' names, in the order of the residuals. */\nextern const char *const {}[{}];", n.f("residual_names"), dim(cx.residuals())),
         format!(
@@ -320,6 +331,8 @@ fn source(cx: &Context<'_>, header_name: &str, body: &Body) -> String {
         s += "\n";
         s += REPLAY;
     }
+    s += "\n";
+    s += SIZE;
     s += "\n/* The model. */\n\n";
     s += &tables(cx);
     s += &body.residuals;
@@ -327,6 +340,7 @@ fn source(cx: &Context<'_>, header_name: &str, body: &Body) -> String {
     s += &fsm_fns(cx);
     s += &body.copy;
     s += &body.push;
+    s += &size::functions(cx);
     s
 }
 
@@ -377,6 +391,16 @@ fn tables(cx: &Context<'_>) -> String {
         "char *const",
         &n.f("parameter_names"),
         &strings(c.parameters.values().map(|p| p.name.as_str()).collect()),
+    );
+    let read = program.parameters_read();
+    s += &array(
+        "int",
+        &n.f("sizable"),
+        &flags(
+            (c.parameters.iter())
+                .map(|(h, _)| read.contains(&h))
+                .collect(),
+        ),
     );
     s += &array(
         "char *const",

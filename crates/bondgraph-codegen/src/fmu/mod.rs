@@ -6,7 +6,9 @@
 //! Per `fmi3DoStep(t, h)`, the FMU takes the inputs set for `t` as the record's sample at `t`
 //! (`h` must be the record's step, a parameter) and outputs the estimate at `at = t - delay`
 //! once the estimator's window is full (`ready`): the residuals, their thresholds, alarms
-//! and the FSM's candidates. Packaging (compiling, zipping) is the CLI's.
+//! and the FSM's candidates; and, from the first sample, the size of each parameter the
+//! residuals read (the C code's size estimator, one per parameter switched on). Packaging
+//! (compiling, zipping) is the CLI's.
 
 mod variables;
 mod wrapper;

@@ -11,6 +11,8 @@ pub(crate) const DEFAULT_STEP: f64 = 1e-3;
 const DEFAULT_WINDOW: u32 = 11;
 /// The integration window the `integration_window` parameter starts at: the runtime's.
 const DEFAULT_INTEGRATION: u32 = 250;
+/// The size estimates' memory the `size.memory` parameter starts at, in samples.
+const DEFAULT_MEMORY: u32 = 2000;
 
 /// An FMI 3.0 variable type this FMU uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,6 +99,18 @@ pub enum Role {
     Alarm(usize),
     /// The candidates' names.
     Candidates,
+    /// The size estimates' memory.
+    SizeMemory,
+    /// A residual's noise level, by residual.
+    SizeNoise(usize),
+    /// Whether a parameter is sized, by its place among those sized.
+    SizeOn(usize),
+    /// A sized parameter's estimated value.
+    SizeValue(usize),
+    /// The half-width of its interval.
+    SizeHalfWidth(usize),
+    /// Its misfit.
+    SizeMisfit(usize),
 }
 
 impl Role {
@@ -119,6 +133,12 @@ impl Role {
             Role::Threshold(k) => format!("m->out.thresholds[{k}]"),
             Role::Alarm(k) => format!("m->out.alarms[{k}]"),
             Role::Candidates => "m->candidates".into(),
+            Role::SizeMemory => "m->size_memory".into(),
+            Role::SizeNoise(k) => format!("m->noise[{k}]"),
+            Role::SizeOn(k) => format!("m->size_on[{k}]"),
+            Role::SizeValue(k) => format!("m->size_out[{k}].value"),
+            Role::SizeHalfWidth(k) => format!("m->size_out[{k}].half_width"),
+            Role::SizeMisfit(k) => format!("m->size_out[{k}].misfit"),
         }
     }
 }
@@ -224,9 +244,101 @@ pub fn variables(c: &Compiled) -> Vec<Variable> {
         v.start = Some("-1".into());
         vars.push(v);
     }
+    let sizable = sizable(c);
+    vars.extend(size_settings(&residuals, &sizable));
     vars.extend(outputs(&residuals));
+    vars.extend(size_outputs(&sizable));
     for (k, v) in vars.iter_mut().enumerate() {
         v.reference = k as u32;
+    }
+    vars
+}
+
+/// The parameters whose size the FMU estimates (those the residuals read): each one's place
+/// among the model's parameters, and the parameter.
+pub(crate) fn sizable(c: &Compiled) -> Vec<(usize, &bondgraph_core::Parameter)> {
+    let read = c.program().parameters_read();
+    (c.parameters.iter().enumerate())
+        .filter(|(_, (h, _))| read.contains(h))
+        .map(|(k, (_, p))| (k, p))
+        .collect()
+}
+
+/// The size estimates' settings: their memory, each residual's noise and which parameters.
+fn size_settings(
+    residuals: &[&str],
+    sizable: &[(usize, &bondgraph_core::Parameter)],
+) -> Vec<Variable> {
+    if sizable.is_empty() {
+        return Vec::new();
+    }
+    let mut memory = var(
+        "size.memory".into(),
+        Type::Int32,
+        Causality::Parameter,
+        Role::SizeMemory,
+        "Samples of typical information the size estimates forget over (their time constant): they follow a drift with that lag".into(),
+    );
+    memory.start = Some(DEFAULT_MEMORY.to_string());
+    memory.min = Some("2".into());
+    let mut vars = vec![memory];
+    for (k, name) in residuals.iter().enumerate() {
+        let mut v = var(
+            format!("size.noise.{name}"),
+            Type::Float64,
+            Causality::Parameter,
+            Role::SizeNoise(k),
+            format!("The healthy RMS of {name}, its weight in the size estimates (negative: its decision level over 3; with neither, no size is estimated)"),
+        );
+        v.start = Some("-1".into());
+        vars.push(v);
+    }
+    for (k, (_, p)) in sizable.iter().enumerate() {
+        let mut v = var(
+            format!("size.{}.on", p.name),
+            Type::Boolean,
+            Causality::Parameter,
+            Role::SizeOn(k),
+            format!(
+                "Whether {}'s value is estimated (two more copies of the generator run)",
+                p.name
+            ),
+        );
+        v.start = Some("true".into());
+        vars.push(v);
+    }
+    vars
+}
+
+/// Each sized parameter's estimate, interval and misfit.
+fn size_outputs(sizable: &[(usize, &bondgraph_core::Parameter)]) -> Vec<Variable> {
+    let mut vars = Vec::new();
+    for (k, (_, p)) in sizable.iter().enumerate() {
+        let name = &p.name;
+        let mut value = var(
+            format!("size.{name}.value"),
+            Type::Float64,
+            Causality::Output,
+            Role::SizeValue(k),
+            format!("{name}'s value as the residuals tell it, a fault's size (the model's until they have; not a number where it is not estimated)"),
+        );
+        value.unit = p.unit.clone();
+        let mut half_width = var(
+            format!("size.{name}.half_width"),
+            Type::Float64,
+            Causality::Output,
+            Role::SizeHalfWidth(k),
+            format!("The half-width of the 95 % interval of {name}'s value (infinite until the residuals have told it)"),
+        );
+        half_width.unit = p.unit.clone();
+        let misfit = var(
+            format!("size.{name}.misfit"),
+            Type::Float64,
+            Causality::Output,
+            Role::SizeMisfit(k),
+            format!("What a change of {name} alone leaves of the residuals, RMS in units of their noise: about 1 where it explains them all (the parameter that moved has the lowest)"),
+        );
+        vars.extend([value, half_width, misfit]);
     }
     vars
 }

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use bondgraph_core::Compiled;
 
-use super::variables::{Causality, Role, Type, Variable};
+use super::variables::{sizable, Causality, Role, Type, Variable};
 use crate::c::string;
 
 /// The FMI types, written from the standard.
@@ -18,7 +18,9 @@ pub(super) fn emit(c: &Compiled, id: &str, vars: &[Variable], token: &str) -> St
     let program = c.program();
     let (r, raw) = (program.residuals.len(), program.raw.len());
     let names_len: usize = c.components.values().map(|k| k.name.len() + 1).sum();
-    let mut s = format!(
+    let places: Vec<String> = sizable(c).iter().map(|(k, _)| k.to_string()).collect();
+    let mut s =
+        format!(
         "/* The FMI 3.0 co-simulation interface of the residual generator of `{name}`, written by
    bgc. Each fmi3DoStep(t, h) takes the inputs set for t as the record's sample at t. */
 #include \"{id}.h\"
@@ -48,19 +50,30 @@ typedef struct {{
     int window, degree, integration, debounce;
     bool adaptive, ready, logging;
     char candidates[{cand}];
+    {id}_size sizes[{sized_dim}];
+    bgc_size size_out[{sized_dim}];
+    double noise[{r_dim}];
+    int size_memory;
+    bool size_on[{sized_dim}], sizing;
     Mode mode;
     char *name;
     fmi3InstanceEnvironment environment;
     fmi3LogMessageCallback log;
 }} Instance;
+
+/* The place among the model's parameters of each one whose size can be estimated. */
+static const int places[{sized_dim}] = {{{places}}};
 ",
         name = crate::c::comment(&c.name),
         token = string(token),
         raw_dim = raw.max(1),
         r_dim = r.max(1),
         cand = names_len.max(1),
+        sized_dim = places.len().max(1),
+        places = if places.is_empty() { "0".to_string() } else { places.join(", ") },
     );
     s += &helpers(id, vars, r);
+    s += &sizes(id, r, places.len());
     s += &lifecycle(id, r);
     for ty in [
         "Float32", "Float64", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64",
@@ -130,8 +143,12 @@ static void no_estimate(Instance *m)
 /* The start values of the model description. */
 static void defaults(Instance *m)
 {{
+    int k;
     m->params = {id}_default_params;
 {defaults}    m->time = 0.0;
+    m->sizing = false;
+    for (k = 0; k < (int)(sizeof m->size_out / sizeof m->size_out[0]); k++)
+        m->size_out[k].value = m->size_out[k].half_width = m->size_out[k].misfit = NAN;
     no_estimate(m);
 }}
 
@@ -148,6 +165,66 @@ static bool settable(Instance *m, const char *function)
     return false;
 }}
 "
+    )
+}
+
+/// The size estimates: set up at the end of initialisation, pushed at each step.
+fn sizes(id: &str, r: usize, sized: usize) -> String {
+    format!(
+        "
+/* Sets up the size estimates switched on, over the generator as set up: each residual weighed
+   by its noise level, else its decision level over 3. Without either for some residual, no
+   size is estimated, and the logger says why. 0 where a setting is refused. */
+static int start_sizes(Instance *m)
+{{
+    double noise[{r_dim}];
+    int k, status, any = 0;
+    char message[200];
+    m->sizing = false;
+    for (k = 0; k < {sized}; k++)
+        any |= m->size_on[k];
+    if (!any)
+        return 1;
+    for (k = 0; k < {r}; k++) {{
+        noise[k] = m->noise[k] > 0.0 ? m->noise[k] : m->levels[k] > 0.0 ? m->levels[k] / 3.0 : -1.0;
+        if (noise[k] > 0.0)
+            continue;
+        if (m->log != NULL) {{
+            snprintf(message, sizeof message, \"no fault size is estimated: %.40s has neither a noise level \"
+                     \"(size.noise.%.40s) nor a decision level\", {id}_residual_names[k], {id}_residual_names[k]);
+            m->log(m->environment, fmi3Warning, \"logStatusWarning\", message);
+        }}
+        return 1;
+    }}
+    for (k = 0; k < {sized}; k++) {{
+        if (!m->size_on[k])
+            continue;
+        status = {id}_size_init(&m->sizes[k], &m->generator, places[k], noise, m->size_memory);
+        if (status != BGC_OK) {{
+            say(m, fmi3Error, {id}_status_text(status));
+            return 0;
+        }}
+        {id}_size_set_correlation(&m->sizes[k], m->window);
+        {id}_size_set_settling(&m->sizes[k], m->integration > 0 ? m->integration : 250);
+        m->size_out[k] = {id}_size_estimate(&m->sizes[k]);
+    }}
+    m->sizing = true;
+    return 1;
+}}
+
+/* Pushes the sample at t to each size estimate switched on. */
+static void push_sizes(Instance *m, double t)
+{{
+    int k;
+    for (k = 0; m->sizing && k < {sized}; k++) {{
+        if (!m->size_on[k])
+            continue;
+        {id}_size_push(&m->sizes[k], t, m->raw);
+        m->size_out[k] = {id}_size_estimate(&m->sizes[k]);
+    }}
+}}
+",
+        r_dim = r.max(1),
     )
 }
 
@@ -264,6 +341,8 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
     {id}_set_debounce(&m->generator, m->debounce < 1 ? 1u : (unsigned)m->debounce);
     {id}_set_adaptive(&m->generator, m->adaptive);
     no_estimate(m);
+    if (!start_sizes(m))
+        return fmi3Error;
     m->mode = STEPPING;
     return fmi3OK;
 }}
@@ -361,9 +440,10 @@ fn setter(ty: &str, vars: &[Variable]) -> String {
             _ => continue,
         };
         let value = match (&v.role, v.ty) {
-            (Role::Integration | Role::Window | Role::Degree | Role::Debounce, _) => {
-                "(int)values[i]".to_string()
-            }
+            (
+                Role::Integration | Role::Window | Role::Degree | Role::Debounce | Role::SizeMemory,
+                _,
+            ) => "(int)values[i]".to_string(),
             _ => "values[i]".to_string(),
         };
         let _ = writeln!(
@@ -422,6 +502,7 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
         say(m, fmi3Error, message);
         return fmi3Error;
     }}
+    push_sizes(m, currentCommunicationPoint);
     if ({id}_push(&m->generator, currentCommunicationPoint, m->raw, &m->out)) {{
         m->ready = true;
         for (k = 0; k < {r}; k++)

@@ -199,6 +199,36 @@ impl Program {
     pub fn slot(&self, q: Quantity) -> Option<Handle<Slot>> {
         self.slots.find(|s| s.quantity == q)
     }
+
+    /// Every expression whose value the parameters may change: the residuals, the fills'
+    /// integrands and laws, the copy's rates.
+    pub fn parametrised(&self) -> Vec<Code> {
+        let mut roots: Vec<Code> = self.residuals.iter().map(|r| r.code).collect();
+        for slot in self.slots.values() {
+            match slot.fill {
+                Fill::Integral(code) => roots.push(code),
+                Fill::Root { residual, .. } => roots.push(residual),
+                Fill::Estimate { .. } | Fill::Simulated(_) => {}
+            }
+        }
+        if let Some(copy) = &self.copy {
+            roots.extend(copy.rates.iter().copied());
+        }
+        roots
+    }
+
+    /// The parameters the residuals depend on (through their own code, a fill's integrand or
+    /// law, or the copy's rates), in the model's order: those a fault's size can be
+    /// estimated of.
+    pub fn parameters_read(&self) -> Vec<Handle<Parameter>> {
+        let mut read = std::collections::BTreeSet::new();
+        self.code.visit_reachable(&self.parametrised(), |_, node| {
+            if let crate::symbolic::Node::Leaf(Leaf::Parameter(p)) = node {
+                read.insert(p);
+            }
+        });
+        read.into_iter().collect()
+    }
 }
 
 /// How a program's expression depends on the slots.

@@ -31,7 +31,7 @@
 //! score over stretches much longer than those windows, and the interval is Student's with
 //! as many degrees of freedom as batches less one.
 
-use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program};
+use bondgraph_core::program::{Evaluation, Leaf, Program};
 use bondgraph_core::{Compiled, Evaluator};
 
 use crate::fit::{Estimator, Fit, Integration};
@@ -310,7 +310,7 @@ pub fn choose_free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<
 /// Which parameters the program reads anywhere: residuals, integrands, roots, the copy.
 fn read_parameters(program: &Program, count: usize) -> Vec<bool> {
     // A root's slope is its law's derivative: it reads no parameter the law does not.
-    let roots = program_roots(program);
+    let roots = program.parametrised();
     let mut read = vec![false; count];
     program.code.visit_reachable(&roots, |_, node| {
         if let bondgraph_core::Node::Leaf(Leaf::Parameter(p)) = node {
@@ -944,7 +944,7 @@ impl Problem<'_> {
                 values[k] * (1e-4 * x).exp()
             };
         }
-        let roots = program_roots(self.program);
+        let roots = self.program.parametrised();
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
         (0..3).all(|_| {
             let point: Vec<f64> = (0..self.program.slots.len())
@@ -966,22 +966,6 @@ impl Problem<'_> {
             })
         })
     }
-}
-
-/// Every expression of a program whose value the parameters may change.
-fn program_roots(program: &Program) -> Vec<Code> {
-    let mut roots: Vec<Code> = program.residuals.iter().map(|r| r.code).collect();
-    for slot in program.slots.values() {
-        match slot.fill {
-            Fill::Integral(code) => roots.push(code),
-            Fill::Root { residual, .. } => roots.push(residual),
-            Fill::Estimate { .. } | Fill::Simulated(_) => {}
-        }
-    }
-    if let Some(copy) = &program.copy {
-        roots.extend(copy.rates.iter().copied());
-    }
-    roots
 }
 
 /// A number in [0, 1) from a xorshift state: the structural check's signals, the same on

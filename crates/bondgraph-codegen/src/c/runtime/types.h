@@ -32,7 +32,13 @@ typedef enum {
     /* The integration window is negative or longer than BGC_MAX_REFERENCE. */
     BGC_BAD_INTEGRATION_WINDOW,
     /* A residual's index is out of range. */
-    BGC_BAD_INDEX
+    BGC_BAD_INDEX,
+    /* No parameter has that index. */
+    BGC_BAD_PARAMETER,
+    /* A residual's noise level is not a positive finite number. */
+    BGC_BAD_NOISE,
+    /* A size estimate's memory is shorter than two samples. */
+    BGC_BAD_MEMORY
 } bgc_status;
 
 /* A running trapezoidal integral from the first sample. */
@@ -61,5 +67,18 @@ typedef struct {
     unsigned count;
     int alarm;
 } bgc_threshold;
+
+/* A parameter's estimate: its value, the half-width of its 95 % interval (HUGE_VAL until the
+   residuals have told it) and what a change of it alone leaves of the residuals, in units of
+   their noise (about 1 where it explains them all; HUGE_VAL until told). */
+typedef struct {
+    double value, half_width, misfit;
+} bgc_size;
+
+/* Recursive least squares for one parameter's change, with forgetting by information (the
+   runtime's ChangeEstimator; the weights are its owner's). */
+typedef struct {
+    double forgetting, correlation, ss, sr, rr, count, information, seen;
+} bgc_change;
 
 #endif
