@@ -10,14 +10,17 @@ use std::process::Command;
 use crate::common::{bgc, code, root, stderr, stdout};
 use crate::end_to_end::{models, Case};
 
-/// The strict flags the issue asks the code to pass.
+/// The strict flags the issue asks the code to pass, at `-O1`: GCC's flow warnings
+/// (`-Wmaybe-uninitialized`) need an optimising level, and `-O1` compiles the 55 programs in
+/// half the time `-O2` takes. The bits do not depend on the level (no contraction into FMAs
+/// under `-std=c99`): the comparison with the Rust code's bits holds either way.
 const FLAGS: [&str; 6] = [
     "-std=c99",
     "-Wall",
     "-Wextra",
     "-Werror",
     "-pedantic",
-    "-O2",
+    "-O1",
 ];
 
 /// Each way a model's code is written here: the Rust module's suffix, the options that

@@ -60,7 +60,8 @@ enum Target {
     /// `FILE.h`; to standard output, both as one file. Not written when any error was found.
     C,
     /// An FMI 3.0 co-simulation FMU of the residual generator (`-o FILE.fmu`): its binary
-    /// built here by the C compiler (`$CC`, else `cc`), its sources beside it.
+    /// built here by the C compiler (`$CC`, else `cc`; `-O2`, else `$CFLAGS`), its sources
+    /// beside it.
     Fmu,
 }
 

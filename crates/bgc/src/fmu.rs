@@ -1,8 +1,8 @@
 //! `bgc MODEL --emit fmu -o FILE.fmu`: an FMI 3.0 co-simulation FMU of the residual
 //! generator. The C code and the FMI functions (bondgraph-codegen) are compiled for this
-//! machine by its C compiler (`$CC`, else `cc`) into `binaries/PLATFORM/ID.so`, and shipped
-//! with their sources and build description, so that an FMU for another platform (a
-//! Windows PC, a dSPACE target) is built from the same files.
+//! machine by its C compiler (`$CC`, else `cc`; `-O2`, else `$CFLAGS`) into
+//! `binaries/PLATFORM/ID.so`, and shipped with their sources and build description, so that
+//! an FMU for another platform (a Windows PC, a dSPACE target) is built from the same files.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -108,6 +108,18 @@ impl Drop for Scratch {
     }
 }
 
+/// The C compiler's flags beside `-std=c99 -fPIC -shared`: `$CFLAGS` where it is set (a
+/// target's `-march`, another optimisation level), else `-O2`.
+fn flags() -> Vec<String> {
+    let set = std::env::var("CFLAGS").unwrap_or_default();
+    let words: Vec<String> = set.split_whitespace().map(str::to_string).collect();
+    if words.is_empty() {
+        vec!["-O2".to_string()]
+    } else {
+        words
+    }
+}
+
 /// The FMU's shared library, built by this machine's C compiler from the sources.
 fn compile(sources: &FmuSources, platform: &Platform) -> Result<Vec<u8>, Failure> {
     let cannot = |what: String| report::refused(format!("cannot build the FMU's binary: {what}"));
@@ -123,7 +135,9 @@ fn compile(sources: &FmuSources, platform: &Platform) -> Result<Vec<u8>, Failure
     let library = format!("{id}.{}", platform.extension);
     let out = Command::new(&compiler)
         .current_dir(&dir.0)
-        .args(["-std=c99", "-O2", "-fPIC", "-shared", "-o", &library])
+        .arg("-std=c99")
+        .args(flags())
+        .args(["-fPIC", "-shared", "-o", &library])
         .arg(format!("{id}.c"))
         .arg(&sources.wrapper_name)
         .arg("-lm")

@@ -23,8 +23,10 @@ def cli_path() -> str:
     return _CLI[0]
 
 
-def bgc_cli(*args: str) -> str:
-    """What the CLI prints on standard output; a failure fails the test."""
-    done = subprocess.run([cli_path(), *args], cwd=ROOT, capture_output=True, text=True)
+def bgc_cli(*args: str, env: dict | None = None) -> str:
+    """What the CLI prints on standard output (with ``env`` added to its environment); a
+    failure fails the test."""
+    full = None if env is None else {**os.environ, **env}
+    done = subprocess.run([cli_path(), *args], cwd=ROOT, capture_output=True, text=True, env=full)
     assert done.returncode == 0, done.stderr
     return done.stdout
