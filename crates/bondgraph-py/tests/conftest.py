@@ -1,6 +1,8 @@
 """Shared by the package's tests: where the repository's models are, and the CLI to compare
 with (``$BGC``, else the workspace's debug build, built if missing)."""
 
+from __future__ import annotations
+
 import os
 import pathlib
 import subprocess
