@@ -10,7 +10,7 @@ pub(crate) const DEFAULT_STEP: f64 = 1e-3;
 /// The estimator's window the `window` parameter starts at: `bgc residuals`' default.
 const DEFAULT_WINDOW: u32 = 11;
 /// The integration window the `integration_window` parameter starts at: the runtime's.
-const DEFAULT_INTEGRATION: u32 = 250;
+pub(crate) const DEFAULT_INTEGRATION: u32 = 250;
 /// The size estimates' memory the `size.memory` parameter starts at, in samples.
 const DEFAULT_MEMORY: u32 = 2000;
 

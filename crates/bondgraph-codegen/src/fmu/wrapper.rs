@@ -205,7 +205,7 @@ static int start_sizes(Instance *m)
             return 0;
         }}
         {id}_size_set_correlation(&m->sizes[k], m->window);
-        {id}_size_set_settling(&m->sizes[k], m->integration > 0 ? m->integration : 250);
+        {id}_size_set_settling(&m->sizes[k], m->integration > 0 ? m->integration : {settling});
         m->size_out[k] = {id}_size_estimate(&m->sizes[k]);
     }}
     m->sizing = true;
@@ -225,6 +225,8 @@ static void push_sizes(Instance *m, double t)
 }}
 ",
         r_dim = r.max(1),
+        // From the start, the reference's default window stands in for the settling.
+        settling = super::variables::DEFAULT_INTEGRATION,
     )
 }
 
