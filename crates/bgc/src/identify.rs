@@ -110,6 +110,16 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let found = identify(&c, &program, &start, &views, &settings)
         .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+    for l in &found.lost {
+        report::warn(format!(
+            "{}: the fit ran `{}` to {} (from {}), out of all proportion: held at its start, \
+             the others fitted without it",
+            c.file_name,
+            l.name,
+            significant(l.towards),
+            significant(start[l.parameter])
+        ));
+    }
     let sources: Vec<String> = args
         .records
         .iter()
@@ -189,6 +199,13 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
             found.jumps
         );
     }
+    let _ = writeln!(
+        out,
+        "# cost (residuals over the noise they carry, mean square: 1 is the noise) {} with \
+         the model's values, {} fitted",
+        significant(found.cost.0),
+        significant(found.cost.1)
+    );
     for (arr, (before, after)) in c.arrs.iter().zip(&found.rms) {
         let _ = writeln!(
             out,
@@ -199,7 +216,7 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         );
     }
     for combination in &found.undetermined {
-        let _ = writeln!(out, "# {}", undetermined(c, combination));
+        let _ = writeln!(out, "# {}", undetermined(c, found, combination));
     }
     for e in &found.estimates {
         let value = to_interval(e.value, e.half_width);
@@ -240,10 +257,29 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
             }
             Determined::Unread => "no residual reads it: model's value".into(),
             Determined::Held => "held (--only/--fix)".into(),
+            Determined::Lost => lost(found, e),
         };
         let _ = writeln!(out, "{} = {value}  # {note}", e.name);
     }
     out
+}
+
+/// Why a parameter the fit ran away with is held at its start.
+fn lost(found: &Identification, e: &bondgraph_interpreter::Estimate) -> String {
+    let towards = (found.lost.iter())
+        .find(|l| l.parameter == e.parameter)
+        .map_or(f64::NAN, |l| l.towards);
+    let whither = if towards.is_finite() {
+        format!("to {}", significant(towards))
+    } else {
+        "to no number".into()
+    };
+    format!(
+        "held at its start: the fit ran it {whither}, out of all proportion to its start, \
+         where these records do not hold it; the others were fitted without it (fix it with \
+         --fix {}, or fit records that excite it)",
+        e.name
+    )
 }
 
 /// Whether the fit drove a parameter by more than a factor of a million from its model
@@ -268,13 +304,20 @@ fn outside(c: &Compiled, e: &bondgraph_interpreter::Estimate) -> String {
 }
 
 /// What a combination the records do not determine means, in the parameters' names.
-fn undetermined(c: &Compiled, combination: &Combination) -> String {
+fn undetermined(c: &Compiled, found: &Identification, combination: &Combination) -> String {
     let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
+    let signed = |k: usize| found.estimates.get(k).is_some_and(|e| e.signed);
     // Exponents to two decimals: those that round to 0 barely take part.
     let moves: Vec<String> = (combination.scalings.iter())
         .map(|&(k, x)| (k, (x * 100.0).round() / 100.0))
         .filter(|&(_, e)| e != 0.0)
         .map(|(k, e)| match e {
+            // A parameter that moves by a shift moves by its start's size times `s` along it.
+            e if signed(k) => {
+                let size = found.estimates[k].start.abs();
+                let size = if size == 0.0 { 1.0 } else { size };
+                format!("{} + {}·s", names[k], significant(e * size))
+            }
             1.0 => format!("{}·s", names[k]),
             -1.0 => format!("{}/s", names[k]),
             e if e > 0.0 => format!("{}·s^{e}", names[k]),

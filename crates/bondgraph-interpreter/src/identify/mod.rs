@@ -40,8 +40,10 @@ use crate::linalg::{dot, eigen_symmetric, Square};
 
 mod jumps;
 mod noise;
+mod scaling;
 
 use noise::Probe;
+use scaling::Scaling;
 
 /// A record to fit: its times and its raw columns in the program's raw order.
 pub struct Record<'a> {
@@ -103,6 +105,19 @@ pub enum Determined {
     Unread,
     /// Not fitted: held at the given value.
     Held,
+    /// The fit ran away with it (see [`Identification::lost`]): held at its start.
+    Lost,
+}
+
+/// A parameter the fit ran away with, held at its start while the others were fitted.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Lost {
+    /// The parameter, by its place in the model.
+    pub parameter: usize,
+    /// Its name.
+    pub name: String,
+    /// Where the fit was taking it (possibly not a number).
+    pub towards: f64,
 }
 
 /// One parameter's estimate.
@@ -124,6 +139,9 @@ pub struct Estimate {
     pub determined: Determined,
     /// Whether the fit stopped at the model's `+- x%`.
     pub at_bound: bool,
+    /// Whether the fit moved it by a shift, so that it may cross zero (an offset, a bias:
+    /// a value of 0 or below, or one only sources read), rather than by a factor.
+    pub signed: bool,
 }
 
 /// A combination of parameters the records do not determine: scaling each parameter by
@@ -176,6 +194,8 @@ pub struct Identification {
     /// How many estimates were left out of the fit because a jump of a signal was within
     /// their windows' reach, where the estimators' assumptions fail.
     pub left_out: usize,
+    /// The parameters the fit ran away with, held at their starts.
+    pub lost: Vec<Lost>,
 }
 
 /// Why identification could not be done.
@@ -222,8 +242,9 @@ const DIFFERENCE: f64 = 1e-6;
 /// Most Levenberg–Marquardt iterations per round.
 const ITERATIONS: usize = 60;
 
-/// How far from its model value, as a factor, a fit may drive a parameter before the
-/// combinations it takes part in are no longer called structural.
+/// How far from its start, as a factor, a fit may drive a parameter before it is held there
+/// (see [`identify`]); and before the combinations it takes part in are no longer called
+/// structural.
 const RUNAWAY: f64 = 1e6;
 
 /// Fresh draws of the signals' noise the intervals' second estimate rests on.
@@ -234,6 +255,11 @@ const MOST_BATCHES: usize = 20;
 
 /// Fits the parameters of `c` (its residual program `program`) to `records`, from the
 /// values `start` (in the model's order).
+///
+/// The fit never ends above the cost it started from, and never returns a value out of all
+/// proportion to its start: a parameter the fit runs away with (more than [`RUNAWAY`]
+/// times its start, or not a number) is held at its start and the others are fitted again;
+/// [`Identification::lost`] names it with where it was going.
 pub fn identify(
     c: &Compiled,
     program: &Program,
@@ -242,44 +268,89 @@ pub fn identify(
     settings: &Settings,
 ) -> Result<Identification, IdentifyError> {
     let read = read_parameters(program, start.len());
-    let free: Vec<usize> = if settings.free.is_empty() {
+    let mut free: Vec<usize> = if settings.free.is_empty() {
         (0..start.len()).filter(|&k| read[k]).collect()
     } else {
         settings.free.iter().copied().filter(|&k| read[k]).collect()
     };
-    // The fit grows its horizon: over a short first stretch the model's error has not yet
-    // accumulated in what the relations integrate from the start (the bench's twist, from
-    // the two encoders and the gear ratio), so the fit starts near its basin; each longer
-    // stretch starts from the fit of the one before.
+    let mut lost = Vec::new();
+    // Each round holds at least one more parameter, so there are at most as many rounds as
+    // parameters.
+    loop {
+        let problem = Problem::new(c, program, records, settings, start, &free);
+        let first = problem.evaluate(&vec![0.0; free.len()])?;
+        problem.check_length(first.rows)?;
+        let (u, stop) = fit(c, program, records, settings, start, &free, &first)?;
+        let values = problem.values(&u);
+        let ran: Vec<usize> = (free.iter().copied())
+            .filter(|&k| problem.scalings[k].ran_away(start[k], values[k], RUNAWAY))
+            .collect();
+        if !ran.is_empty() {
+            lost.extend(ran.iter().map(|&k| Lost {
+                parameter: k,
+                name: c.parameters.values().nth(k).map(|p| p.name.clone()).unwrap_or_default(),
+                towards: values[k],
+            }));
+            free.retain(|k| !ran.contains(k));
+            continue;
+        }
+        let mut found = problem.summarise(&u, first.raw_rms.clone(), &read, stop)?;
+        let per_sample = |s: &Samples| s.cost() / (s.rows * s.residuals).max(1) as f64;
+        found.cost = (per_sample(&first), per_sample(&problem.evaluate(&u)?));
+        found.jumps = (problem.records.iter())
+            .map(|r| jumps::jumps(&r.raw).len())
+            .sum();
+        found.left_out = problem.left_out.iter().flatten().filter(|&&x| x).count();
+        for l in &lost {
+            found.estimates[l.parameter].determined = Determined::Lost;
+        }
+        found.lost = lost;
+        return Ok(found);
+    }
+}
+
+/// The fit of the parameters `free` from `start`: the coordinates reached and how the last
+/// round stopped. `first` holds the residuals at the start over the whole records.
+///
+/// The fit grows its horizon: over a short first stretch the model's error has not yet
+/// accumulated in what the relations integrate from the start (the bench's twist, from the
+/// two encoders and the gear ratio), so the fit starts near its basin; each longer stretch
+/// starts from the fit of the one before. Where that path ends above the start's cost over
+/// the whole records (a short stretch's minimum that the whole does not share), the fit is
+/// made again from the start over the whole records, which can only go down.
+fn fit(
+    c: &Compiled,
+    program: &Program,
+    records: &[Record<'_>],
+    settings: &Settings,
+    start: &[f64],
+    free: &[usize],
+    first: &Samples,
+) -> Result<(Vec<f64>, (Stop, usize)), IdentifyError> {
     let mut u = vec![0.0; free.len()];
     let total = records.iter().map(|r| r.time.len()).max().unwrap_or(0);
-    let mut length = Problem::new(c, program, records, settings, start, &free).first_horizon();
+    let mut length = Problem::new(c, program, records, settings, start, free).first_horizon();
     // Over a span, the fit starts where the span does.
     if settings.span.is_some() {
         length = total;
     }
     while length < total {
         let heads: Vec<Record<'_>> = records.iter().map(|r| r.head(length)).collect();
-        let stage = Problem::new(c, program, &heads, settings, start, &free);
+        let stage = Problem::new(c, program, &heads, settings, start, free);
         if stage.evaluate(&u).is_ok() {
             stage.minimise(&mut u)?;
         }
         length *= 2;
     }
-    let problem = Problem::new(c, program, records, settings, start, &free);
-    let first = problem.evaluate(&vec![0.0; free.len()])?;
-    problem.check_length(first.rows)?;
-    let before = first.raw_rms.clone();
+    let problem = Problem::new(c, program, records, settings, start, free);
+    let staged = problem
+        .evaluate(&u)
+        .is_ok_and(|s| s.dropped <= first.dropped && s.cost() <= first.cost());
+    if !staged {
+        u.fill(0.0);
+    }
     let stop = problem.minimise(&mut u)?;
-    let mut found = problem.summarise(&u, before, &read, stop)?;
-    let per_sample = |s: &Samples| s.cost() / (s.rows * s.residuals).max(1) as f64;
-    found.cost = (per_sample(&first), per_sample(&problem.evaluate(&u)?));
-    let jumps = (problem.records.iter())
-        .map(|r| jumps::jumps(&r.raw).len())
-        .sum();
-    found.jumps = jumps;
-    found.left_out = problem.left_out.iter().flatten().filter(|&&x| x).count();
-    Ok(found)
+    Ok((u, stop))
 }
 
 /// The parameters to fit, by their place in `c`: those named in `only` (every one when it
@@ -320,14 +391,15 @@ fn read_parameters(program: &Program, count: usize) -> Vec<bool> {
     read
 }
 
-/// Each parameter's bounds on its log-scaling, from the model's `+- x%`.
-fn bounds(c: &Compiled, start: &[f64], bounded: bool) -> Vec<(f64, f64)> {
-    (c.parameters.values().zip(start))
-        .map(|(p, &v)| match p.uncertainty {
-            Some(half) if bounded && v != 0.0 && half < v.abs() => {
+/// Each parameter's bounds on its fit coordinate, from the model's `+- x%`.
+fn bounds(c: &Compiled, start: &[f64], scalings: &[Scaling], bounded: bool) -> Vec<(f64, f64)> {
+    (c.parameters.values().zip(start).zip(scalings))
+        .map(|((p, &v), &scaling)| match (p.uncertainty, scaling) {
+            (Some(half), Scaling::Factor) if bounded && v != 0.0 && half < v.abs() => {
                 let r = half / v.abs();
                 ((1.0 - r).ln(), (1.0 + r).ln())
             }
+            (Some(half), Scaling::Shift(size)) if bounded => (-half / size, half / size),
             _ => (f64::NEG_INFINITY, f64::INFINITY),
         })
         .collect()
@@ -386,6 +458,8 @@ struct Problem<'a> {
     probes: Vec<Option<Probe>>,
     fit: &'a Fit,
     start: &'a [f64],
+    /// How each parameter of the model moves with its fit coordinate.
+    scalings: Vec<Scaling>,
     /// The fitted parameters, by their place in the model.
     free: Vec<usize>,
     bounds: Vec<(f64, f64)>,
@@ -421,6 +495,7 @@ impl<'a> Problem<'a> {
         start: &'a [f64],
         free: &[usize],
     ) -> Problem<'a> {
+        let scalings = scaling::scalings(c, start);
         let mut problem = Problem {
             c,
             program,
@@ -439,7 +514,8 @@ impl<'a> Problem<'a> {
             fit: &settings.fit,
             start,
             free: free.to_vec(),
-            bounds: bounds(c, start, settings.bounded),
+            bounds: bounds(c, start, &scalings, settings.bounded),
+            scalings,
             fallback: Vec::new(),
             left_out: Vec::new(),
             span: settings.span.is_some(),
@@ -484,20 +560,11 @@ impl<'a> Problem<'a> {
     }
 }
 
-/// A parameter's value at log-scaling `u` from `start` (a shift where it starts at 0).
-fn scaled(start: f64, u: f64) -> f64 {
-    if start == 0.0 {
-        u
-    } else {
-        start * u.exp()
-    }
-}
-
 impl Problem<'_> {
     fn values(&self, u: &[f64]) -> Vec<f64> {
         let mut values = self.start.to_vec();
         for (&k, &x) in self.free.iter().zip(u) {
-            values[k] = scaled(self.start[k], x);
+            values[k] = self.scalings[k].value(self.start[k], x);
         }
         values
     }
@@ -783,6 +850,7 @@ impl Problem<'_> {
                     Determined::Unread
                 },
                 at_bound: false,
+                signed: self.scalings[k].signed(),
             })
             .collect();
         for (j, &k) in self.free.iter().enumerate() {
@@ -796,13 +864,9 @@ impl Problem<'_> {
                 e.determined = Determined::No;
                 continue;
             }
-            // The covariance is of the log-scalings: to first order, the value's is its
-            // square times the value's.
-            let slope = if self.start[k] == 0.0 {
-                1.0
-            } else {
-                values[k].abs()
-            };
+            // The covariance is of the fit's coordinates: to first order, the value's is
+            // the coordinate's times the slope squared.
+            let slope = self.scalings[k].slope(values[k]);
             e.half_width = half_widths[j] * slope;
             e.std_error = e.half_width / t;
             e.determined = if e.half_width > values[k].abs() {
@@ -824,6 +888,7 @@ impl Problem<'_> {
             stop,
             jumps: 0,
             left_out: 0,
+            lost: Vec::new(),
         })
     }
 
@@ -916,10 +981,8 @@ impl Problem<'_> {
                 // scaling of it flat there, which says nothing of what the ARRs hold. (The
                 // check cannot be made at the model's values instead: a sum `R1 + R2` is flat
                 // along exponents that depend on where it is taken.)
-                let ran_away = scalings.iter().any(|&(k, _)| {
-                    self.start[k] != 0.0
-                        && (values[k] / self.start[k]).abs().ln().abs() > RUNAWAY.ln()
-                });
+                let ran_away = (scalings.iter())
+                    .any(|&(k, _)| self.scalings[k].ran_away(self.start[k], values[k], RUNAWAY));
                 let structural = !ran_away && self.structural(&scalings, values);
                 Combination {
                     scalings,
@@ -938,11 +1001,7 @@ impl Problem<'_> {
     fn structural(&self, scalings: &[(usize, f64)], values: &[f64]) -> bool {
         let mut moved = values.to_vec();
         for &(k, x) in scalings {
-            moved[k] = if values[k] == 0.0 {
-                values[k] + 1e-4 * x
-            } else {
-                values[k] * (1e-4 * x).exp()
-            };
+            moved[k] = self.scalings[k].value(values[k], 1e-4 * x);
         }
         let roots = self.program.parametrised();
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
