@@ -34,6 +34,9 @@ enum ResidualsArg {
     Best,
     /// Every candidate with a signature of its own.
     All,
+    /// Each detector's reading against a copy of the model the inputs drive from rest (the
+    /// output error), one per detector.
+    Simulated,
 }
 
 impl ResidualsArg {
@@ -42,6 +45,7 @@ impl ResidualsArg {
             ResidualsArg::PerSensor => ResidualSet::PerSensor,
             ResidualsArg::Best => ResidualSet::Best,
             ResidualsArg::All => ResidualSet::All,
+            ResidualsArg::Simulated => ResidualSet::Simulated,
         }
     }
 }

@@ -313,6 +313,7 @@ fn isolability(out: &mut String, c: &Compiled) {
         ResidualSet::PerSensor => "per-sensor",
         ResidualSet::Best => "best",
         ResidualSet::All => "all",
+        ResidualSet::Simulated => "simulated",
     };
     let _ = writeln!(
         out,

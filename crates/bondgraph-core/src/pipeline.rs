@@ -81,6 +81,26 @@ pub(crate) fn candidate_list(model: &BondGraph) -> (Vec<Candidate>, usize) {
 /// product (about a second at this bound).
 const MAX_SIMULATED_WORK: usize = 20_000_000;
 
+/// Adds to `list` every detector's simulated residual, asked for as they are (the output
+/// error): none where a copy of the model cannot be run (see [`simulated::simulated`]).
+fn every_simulated(
+    model: &BondGraph,
+    (integral, state): (&Causal, &StateSpace),
+    fsm: &Fsm,
+    list: &mut Vec<Candidate>,
+) -> Vec<Simulated> {
+    let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
+    let index = crate::fdi::RowIndex::new(&components);
+    let found = simulated::simulated(model, integral, state);
+    list.extend(found.iter().enumerate().map(|(k, s)| Candidate {
+        origin: Origin::Simulated(k),
+        without: Vec::new(),
+        order: 0,
+        rows: simulated::rows(s, &components, &index),
+    }));
+    found
+}
+
 /// Adds to `list` the detectors' simulated residuals, when together they tell apart classes
 /// that the derived residuals do not: a residual that needs a copy of the model run from a
 /// known state is kept for what no relation of measured signals can show. Returns those
@@ -130,7 +150,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
     let d = diagnose(model);
     let fsm = Fsm::new(model, &d);
     let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
-    let possible = if set == ResidualSet::PerSensor {
+    let possible = if set.per_detector() {
         // One derivation only: the whole model's ARRs, as they are.
         Classes::default()
     } else {
@@ -138,10 +158,12 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
     };
     let rows = shown_by(&fsm, d.arrs.len());
     let mut found = candidates::candidates(model, d, rows, &components, &possible);
-    let simulated = if set == ResidualSet::PerSensor {
-        Vec::new()
-    } else {
-        add_simulated(model, simulation, &fsm, &mut found.list)
+    let simulated = match set {
+        ResidualSet::PerSensor => Vec::new(),
+        ResidualSet::Simulated => every_simulated(model, simulation, &fsm, &mut found.list),
+        ResidualSet::Best | ResidualSet::All => {
+            add_simulated(model, simulation, &fsm, &mut found.list)
+        }
     };
     let all: Vec<&Candidate> = found.list.iter().collect();
     let classes = candidates::classes_of(&all, components.len());
@@ -153,9 +175,8 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
         sources: found.sources,
         fsm,
         chosen,
-        candidates: (set != ResidualSet::PerSensor).then_some(classes),
-        bound: (set != ResidualSet::PerSensor)
-            .then(|| candidates::bound(&possible, &found.unrealised)),
+        candidates: (!set.per_detector()).then_some(classes),
+        bound: (!set.per_detector()).then(|| candidates::bound(&possible, &found.unrealised)),
         set,
         capped: found.capped,
         unrealised: found.unrealised,

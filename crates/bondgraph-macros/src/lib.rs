@@ -42,7 +42,7 @@ struct Source {
     path: Option<PathBuf>,
     /// For an inline model, where each token starts in `text`, and its span in the caller.
     tokens: Vec<(usize, proc_macro::Span)>,
-    /// Which residuals to generate (`residuals = per_sensor | best | all` after a path).
+    /// Which residuals to generate (`residuals = per_sensor | best | all | simulated` after a path).
     residuals: ResidualSet,
     /// How to realise them (`realise = lowest | direct` after a path).
     realise: Realise,
@@ -223,7 +223,7 @@ struct Settings {
     params: Option<String>,
 }
 
-/// What follows the path: nothing, or `, residuals = per_sensor | best | all`,
+/// What follows the path: nothing, or `, residuals = per_sensor | best | all | simulated`,
 /// `, realise = lowest | direct`, `, params = "FILE"`.
 fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
     let text: Vec<String> = rest.iter().map(ToString::to_string).collect();
@@ -235,7 +235,7 @@ fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
     };
     let expected = || {
         format!(
-            "after the model's path, expected nothing or `, residuals = per_sensor | best | all`, \
+            "after the model's path, expected nothing or `, residuals = per_sensor | best | all | simulated`, \
              `, realise = lowest | direct` and `, params = \"FILE\"`, found `{}`",
             words.join(" ")
         )
@@ -248,18 +248,15 @@ fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
                 })?;
                 out.params = Some(file.value());
             }
-            [",", "residuals", "=", set] => {
-                out.residuals = match *set {
-                    "per_sensor" => ResidualSet::PerSensor,
-                    "best" => ResidualSet::Best,
-                    "all" => ResidualSet::All,
-                    other => {
-                        return Err(format!(
-                            "`residuals = {other}`: expected `per_sensor`, `best` or `all`"
-                        ))
-                    }
-                }
-            }
+            [",", "residuals", "=", set] => out.residuals = match *set {
+                "per_sensor" => ResidualSet::PerSensor,
+                "best" => ResidualSet::Best,
+                "all" => ResidualSet::All,
+                "simulated" => ResidualSet::Simulated,
+                other => return Err(format!(
+                    "`residuals = {other}`: expected `per_sensor`, `best`, `all` or `simulated`"
+                )),
+            },
             [",", "realise", "=", how] => {
                 out.realise = match *how {
                     "lowest" => Realise::Lowest,

@@ -23,8 +23,9 @@ fn residual_set(name: &str) -> PyResult<ResidualSet> {
         "per-sensor" => Ok(ResidualSet::PerSensor),
         "best" => Ok(ResidualSet::Best),
         "all" => Ok(ResidualSet::All),
+        "simulated" => Ok(ResidualSet::Simulated),
         other => Err(PyValueError::new_err(format!(
-            "residuals={other:?}: expected \"per-sensor\", \"best\" or \"all\""
+            "residuals={other:?}: expected \"per-sensor\", \"best\", \"all\" or \"simulated\""
         ))),
     }
 }

@@ -49,6 +49,17 @@ pub enum ResidualSet {
     Best,
     /// Every candidate with a signature of its own.
     All,
+    /// Each detector's simulated residual only: its reading against a copy of the model
+    /// that the inputs drive from rest (the output error), one per detector.
+    Simulated,
+}
+
+impl ResidualSet {
+    /// Whether it is one residual per detector, with no candidates derived beyond the whole
+    /// model's.
+    pub(crate) fn per_detector(self) -> bool {
+        matches!(self, ResidualSet::PerSensor | ResidualSet::Simulated)
+    }
 }
 
 /// The cost of a simulated residual in the choice of a set: above any derivative order an ARR
@@ -555,6 +566,9 @@ pub(crate) fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usiz
             .collect(),
         ResidualSet::All => (0..list.len()).collect(),
         ResidualSet::Best => best(list, n),
+        ResidualSet::Simulated => (0..list.len())
+            .filter(|&k| matches!(list[k].origin, Origin::Simulated(_)))
+            .collect(),
     }
 }
 

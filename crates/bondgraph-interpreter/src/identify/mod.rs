@@ -32,7 +32,7 @@
 //! as many degrees of freedom as batches less one.
 
 use bondgraph_core::program::{Evaluation, Leaf, Program};
-use bondgraph_core::{Compiled, Evaluator};
+use bondgraph_core::{Compiled, Evaluator, ResidualForm};
 
 use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
@@ -286,17 +286,25 @@ pub fn identify(
             .filter(|&k| problem.scalings[k].ran_away(start[k], values[k], RUNAWAY))
             .collect();
         if !ran.is_empty() {
-            lost.extend(ran.iter().map(|&k| Lost {
-                parameter: k,
-                name: c.parameters.values().nth(k).map(|p| p.name.clone()).unwrap_or_default(),
-                towards: values[k],
+            lost.extend(ran.iter().map(|&k| {
+                Lost {
+                    parameter: k,
+                    name: c
+                        .parameters
+                        .values()
+                        .nth(k)
+                        .map(|p| p.name.clone())
+                        .unwrap_or_default(),
+                    towards: values[k],
+                }
             }));
             free.retain(|k| !ran.contains(k));
             continue;
         }
         let mut found = problem.summarise(&u, first.raw_rms.clone(), &read, stop)?;
         let per_sample = |s: &Samples| s.cost() / (s.rows * s.residuals).max(1) as f64;
-        found.cost = (per_sample(&first), per_sample(&problem.evaluate(&u)?));
+        let last = problem.evaluate(&u)?;
+        found.cost = (per_sample(&first), per_sample(&last));
         found.jumps = (problem.records.iter())
             .map(|r| jumps::jumps(&r.raw).len())
             .sum();
@@ -465,6 +473,9 @@ struct Problem<'a> {
     bounds: Vec<(f64, f64)>,
     /// Each residual's weight where no noise reaches it.
     fallback: Vec<f64>,
+    /// Each residual's noise where it is held at the start's (a simulated residual: see
+    /// [`Problem::new`]).
+    fixed: Vec<Option<f64>>,
     /// For each record, the estimates (by place) a jump of a signal reaches, or outside
     /// the span fitted.
     left_out: Vec<Vec<bool>>,
@@ -517,6 +528,7 @@ impl<'a> Problem<'a> {
             bounds: bounds(c, start, &scalings, settings.bounded),
             scalings,
             fallback: Vec::new(),
+            fixed: Vec::new(),
             left_out: Vec::new(),
             span: settings.span.is_some(),
             from_span: settings.span.is_some_and(|s| s.origin == Origin::Span),
@@ -547,6 +559,20 @@ impl<'a> Problem<'a> {
             problem.fallback = (first.raw_rms.iter())
                 .map(|&r| if r > 0.0 { 1.0 / r } else { 1.0 })
                 .collect();
+            // A simulated residual (the output error) is weighed by the noise it carries at
+            // the start, held there: its response to the inputs' noise runs through the
+            // copy's dynamics, which the parameters scale, and a weight that followed them
+            // would let the fit trade the output's misfit for a quieter copy (on the EMPS
+            // axis the position's RMS error grew while the weighed cost fell).
+            let simulated =
+                |k: usize| c.arrs.get(k).map(|a| a.form) == Some(ResidualForm::Simulated);
+            if (0..first.residuals).any(simulated) {
+                if let Ok(weighed) = problem.evaluate(&vec![0.0; free.len()]) {
+                    problem.fixed = (weighed.scale.iter().enumerate())
+                        .map(|(k, &w)| simulated(k).then_some(w))
+                        .collect();
+                }
+            }
         }
         problem
     }
@@ -603,6 +629,7 @@ impl Problem<'_> {
         let gains = self.noise_gains(&values, &samples)?;
         let scale: Vec<f64> = (gains.iter().zip(&self.fallback).enumerate())
             .map(|(k, (&g, &w))| match g {
+                _ if self.fixed.get(k).copied().flatten().is_some() => self.fixed[k].unwrap_or(1.0),
                 Some(g) if g > 0.0 => g,
                 _ if w > 0.0 => 1.0 / w,
                 _ => samples.raw_rms[k].max(f64::MIN_POSITIVE),

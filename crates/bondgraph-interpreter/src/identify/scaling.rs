@@ -108,7 +108,11 @@ mod tests {
         assert_eq!(s[0], Scaling::Factor, "M");
         assert_eq!(s[1], Scaling::Factor, "Fv");
         assert_eq!(s[2], Scaling::Shift(2.0), "offset, read by a source only");
-        assert_eq!(s[3], Scaling::Shift(1.0), "z: 0, so nothing says it is a magnitude");
+        assert_eq!(
+            s[3],
+            Scaling::Shift(1.0),
+            "z: 0, so nothing says it is a magnitude"
+        );
         assert_eq!(Scaling::Shift(2.0).value(2.0, -2.5), -3.0);
         assert!((Scaling::Factor.value(90.0, 0.1f64.ln_1p()) - 99.0).abs() < 1e-9);
     }
