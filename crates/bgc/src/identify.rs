@@ -5,10 +5,10 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use bondgraph_core::{Compiled, Derive, ParameterValues};
+use bondgraph_core::{Compiled, Derive, Options, ParameterValues, ResidualSet};
 use bondgraph_interpreter::{
-    identify, Combination, Determined, Estimator, Fit, Identification, Integration, Record,
-    Settings,
+    identify_by, simulation_error, Chosen, Combination, Criteria, Criterion, Determined, Estimator,
+    Fit, Identification, Integration, Record, Settings,
 };
 
 use crate::io;
@@ -54,6 +54,16 @@ pub(crate) struct IdentifyArgs {
     choice: ResidualChoice,
     #[command(flatten)]
     values: ValuesArg,
+    /// Which error the fit minimises: the ARRs' residuals (`equation`), each sensor against
+    /// a copy of the model the recorded inputs drive from rest (`simulation`, the output
+    /// error), or whichever of the two predicts the held-out last 30 % of the records
+    /// better, fitted again on the whole (`evidence`).
+    #[arg(long, value_enum, value_name = "ERROR", default_value = "evidence")]
+    criterion: CriterionArg,
+    /// Records to validate the fit on (the plant's other runs, not fitted): the simulation
+    /// error of each sensor, with the model's values and with the fit, in the file's header.
+    #[arg(long = "validate", value_name = "RECORD")]
+    validate: Vec<PathBuf>,
     /// Write the parameter file to FILE instead of standard output.
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
@@ -61,6 +71,49 @@ pub(crate) struct IdentifyArgs {
     /// kept) to FILE.
     #[arg(long, value_name = "FILE")]
     write_model: Option<PathBuf>,
+}
+
+/// `--criterion`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum CriterionArg {
+    /// The ARRs' residuals (equation error).
+    Equation,
+    /// Each sensor against a copy of the model the recorded inputs drive (output error).
+    Simulation,
+    /// Whichever predicts a held-out tail of the records better.
+    Evidence,
+}
+
+impl CriterionArg {
+    fn criterion(self) -> Criterion {
+        match self {
+            CriterionArg::Equation => Criterion::Equation,
+            CriterionArg::Simulation => Criterion::Simulation,
+            CriterionArg::Evidence => Criterion::Evidence,
+        }
+    }
+}
+
+/// The model compiled for its simulated residuals (the output error), without printing its
+/// diagnostics again: `None` where it has none.
+fn simulated_model(args: &IdentifyArgs, c: &Compiled) -> Option<Compiled> {
+    if args.criterion == CriterionArg::Equation && args.validate.is_empty() {
+        return None;
+    }
+    let (_, bytes) = io::read(&args.model).ok()?;
+    let text = String::from_utf8(bytes).ok()?;
+    let text = match args.values.path() {
+        Some(path) => io::read_values(path).ok()?.apply(&text).ok()?,
+        None => text,
+    };
+    let options = Options {
+        derive: Derive::Everything,
+        simplify: Some(bondgraph_core::Limits::default()),
+        residuals: ResidualSet::Simulated,
+        realise: args.choice.realise(),
+    };
+    let out = bondgraph_core::compile(&text, &c.file_name, &options).ok()?;
+    (!out.compiled.arrs.is_empty()).then_some(out.compiled)
 }
 
 /// Runs `bgc identify`.
@@ -108,8 +161,27 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
         })
         .collect();
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
-    let found = identify(&c, &program, &start, &views, &settings)
-        .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+    let simulated = simulated_model(&args, &c);
+    let simulated_program = simulated.as_ref().map(Compiled::program);
+    let criteria = Criteria {
+        equation: (&c, &program),
+        simulation: simulated.as_ref().zip(simulated_program.as_ref()),
+    };
+    let (found, chosen) = identify_by(
+        &criteria,
+        &start,
+        &views,
+        &settings,
+        args.criterion.criterion(),
+    )
+    .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+    if let (Some(why), CriterionArg::Simulation) = (&chosen.fallback, args.criterion) {
+        report::warn(format!(
+            "{}: fitted by the equation error instead of the simulation error: {why}",
+            c.file_name
+        ));
+    }
+    let validation = validate(&args, &criteria, &start, &found, &settings)?;
     for l in &found.lost {
         report::warn(format!(
             "{}: the fit ran `{}` to {} (from {}), out of all proportion: held at its start, \
@@ -127,12 +199,71 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
         .collect();
     io::write(
         args.output.as_deref(),
-        &parameter_file(&c, &found, &sources),
+        &parameter_file(&c, &found, &sources, &chosen, &validation),
     )?;
     if let Some(path) = &args.write_model {
         write_model(&args, &c, &found, path)?;
     }
     Ok(())
+}
+
+/// Each validation record's simulation error per sensor, with the model's values and with
+/// the fit (its name, the sensors, and the two errors).
+struct Validation {
+    record: String,
+    sensors: Vec<String>,
+    model: Vec<f64>,
+    fitted: Vec<f64>,
+}
+
+/// The simulation error of the model's values and of the fit on each `--validate` record.
+fn validate(
+    args: &IdentifyArgs,
+    criteria: &Criteria<'_>,
+    start: &[f64],
+    found: &Identification,
+    settings: &Settings,
+) -> Result<Vec<Validation>, Failure> {
+    if args.validate.is_empty() {
+        return Ok(Vec::new());
+    }
+    let Some((sc, sp)) = criteria.simulation else {
+        return Err(report::refused(format!(
+            "--validate: {}",
+            criteria.simulation_missing().unwrap_or_default()
+        )));
+    };
+    let names: Vec<String> = sp.raw.values().map(|r| r.name.clone()).collect();
+    let layout = Layout::new(&names, &args.time, &args.columns)?;
+    let mut out = Vec::new();
+    for path in &args.validate {
+        let data = Data::load(path, &layout, args.window)?;
+        let record = [Record {
+            time: &data.time,
+            raw: data.columns.iter().map(Vec::as_slice).collect(),
+        }];
+        let mut settings = settings.clone();
+        settings.fit.step = data.step;
+        settings.fit.integration = vec![Integration::default(); sc.arrs.len()];
+        let error = |values: &[f64]| simulation_error(sc, sp, values, &record, &[0], &settings);
+        out.push(Validation {
+            record: path.display().to_string(),
+            sensors: sensors(sc),
+            model: error(start),
+            fitted: error(&found.values),
+        });
+    }
+    Ok(out)
+}
+
+/// The sensor each simulated residual compares, by name.
+fn sensors(c: &Compiled) -> Vec<String> {
+    (c.arrs.iter())
+        .map(|a| {
+            a.sensor
+                .map_or_else(|| a.name.clone(), |s| c.sensors[s].name.clone())
+        })
+        .collect()
 }
 
 /// The parameters to fit, by their place: `only` (or every one), less `fix`.
@@ -163,7 +294,13 @@ fn check_steps(paths: &[PathBuf], records: &[Data]) -> Result<(), Failure> {
 
 /// The parameter file: a line per parameter with its interval and the model's value as a
 /// comment, and what the records do not determine in the header.
-fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> String {
+fn parameter_file(
+    c: &Compiled,
+    found: &Identification,
+    sources: &[String],
+    chosen: &Chosen,
+    validation: &[Validation],
+) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -171,6 +308,19 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         c.name,
         sources.join(", ")
     );
+    let _ = writeln!(out, "# {}", criterion_line(chosen));
+    for v in validation {
+        for (k, sensor) in v.sensors.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "# validation on {}: {sensor}'s simulation error RMS {} with the model's \
+                 values, {} fitted",
+                v.record,
+                significant(v.model[k]),
+                significant(v.fitted[k])
+            );
+        }
+    }
     let _ = writeln!(
         out,
         "# {} residual samples in {} batches; 95 % intervals (Student, batch means); \
@@ -262,6 +412,34 @@ fn parameter_file(c: &Compiled, found: &Identification, sources: &[String]) -> S
         let _ = writeln!(out, "{} = {value}  # {note}", e.name);
     }
     out
+}
+
+/// Which error was minimised, and why.
+fn criterion_line(chosen: &Chosen) -> String {
+    let what = match chosen.criterion {
+        Criterion::Simulation => {
+            "fitted by the simulation error (each sensor against a copy of the model the \
+             recorded inputs drive from rest)"
+        }
+        _ => "fitted by the equation error (the ARRs' residuals)",
+    };
+    let rms = |e: &[f64]| {
+        (e.iter().map(|&x| significant(x)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match (&chosen.evidence, &chosen.fallback) {
+        (Some(e), _) => format!(
+            "{what}: chosen by evidence: fitted on the first {:.0} % of the records, the \
+             simulation error on the rest was {} (RMS per sensor) by the equation error's fit \
+             and {} by the simulation error's",
+            100.0 * (1.0 - e.held_out),
+            rms(&e.equation),
+            rms(&e.simulation)
+        ),
+        (None, Some(why)) => format!("{what}: {why}"),
+        (None, None) => format!("{what}: as asked (--criterion)"),
+    }
 }
 
 /// Why a parameter the fit ran away with is held at its start.

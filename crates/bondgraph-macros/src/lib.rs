@@ -248,15 +248,19 @@ fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
                 })?;
                 out.params = Some(file.value());
             }
-            [",", "residuals", "=", set] => out.residuals = match *set {
-                "per_sensor" => ResidualSet::PerSensor,
-                "best" => ResidualSet::Best,
-                "all" => ResidualSet::All,
-                "simulated" => ResidualSet::Simulated,
-                other => return Err(format!(
+            [",", "residuals", "=", set] => {
+                out.residuals = match *set {
+                    "per_sensor" => ResidualSet::PerSensor,
+                    "best" => ResidualSet::Best,
+                    "all" => ResidualSet::All,
+                    "simulated" => ResidualSet::Simulated,
+                    other => {
+                        return Err(format!(
                     "`residuals = {other}`: expected `per_sensor`, `best`, `all` or `simulated`"
-                )),
-            },
+                ))
+                    }
+                }
+            }
             [",", "realise", "=", how] => {
                 out.realise = match *how {
                     "lowest" => Realise::Lowest,

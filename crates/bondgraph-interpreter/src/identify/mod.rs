@@ -38,9 +38,14 @@ use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
 use crate::linalg::{dot, eigen_symmetric, Square};
 
+mod criterion;
 mod jumps;
 mod noise;
 mod scaling;
+
+pub use criterion::{
+    identify_by, simulation_error, Chosen, Criteria, Criterion, Evidence, HELD_OUT,
+};
 
 use noise::Probe;
 use scaling::Scaling;
@@ -221,8 +226,9 @@ impl std::fmt::Display for IdentifyError {
             IdentifyError::NoSamples => f.write_str("no residual is a number on these records"),
             IdentifyError::TooShort { estimates, needed } => write!(
                 f,
-                "{estimates} estimates: identification needs at least {needed} (ten batches \
-                 of eight times the estimator's and the integration's windows)"
+                "{estimates} estimates: identification needs at least {needed} (five batches \
+                 of eight times the estimator's and the integration's windows, as the \
+                 residuals use them)"
             ),
         }
     }
@@ -252,6 +258,10 @@ const REPLICATES: usize = 20;
 
 /// Most batches for the intervals.
 const MOST_BATCHES: usize = 20;
+
+/// Fewest batches for the intervals: Student's quantile with four degrees of freedom
+/// (2.78) widens them for what so few batches leave unknown.
+const LEAST_BATCHES: usize = 5;
 
 /// Fits the parameters of `c` (its residual program `program`) to `records`, from the
 /// values `start` (in the model's order).
@@ -580,9 +590,12 @@ impl<'a> Problem<'a> {
     /// The first horizon of the fit: two stretches of correlated residuals, short enough
     /// that a model error integrated from the start (a gear ratio off by 2 % turns the
     /// bench's twist by tens of radians over minutes) has not carried a nonlinear law far
-    /// from where the plant works.
+    /// from where the plant works. At least a 64th of the records, so that a residual
+    /// correlated over a few samples only (a simulated one reads no window) does not start
+    /// the fit on a handful of them.
     fn first_horizon(&self) -> usize {
-        self.batch_length() / 2
+        let total = self.records.iter().map(|r| r.time.len()).max().unwrap_or(0);
+        (self.batch_length() / 2).max(total / 64)
     }
 }
 
@@ -726,19 +739,28 @@ impl Problem<'_> {
             .collect())
     }
 
-    /// The estimators' window and the longest integration window, in samples.
+    /// The estimators' window and the longest integration window, in samples: each counted
+    /// where some residual uses it (an estimate of a measured signal's value or derivative;
+    /// a residual integrated over a window), so that a simulated residual, which reads
+    /// neither, or a relation read as written, is not charged for an integration it does
+    /// not make.
     fn windows(&self) -> (usize, usize) {
         let window = match self.fit.estimator {
             Estimator::SavitzkyGolay { window, .. } | Estimator::Modulating { window } => window,
         };
-        let integration = (self.fit.integration.iter())
-            .map(|i| match i {
-                Integration::Window(n) => *n,
-                Integration::Start => 0,
-            })
+        let estimates = (self.program.slots.values())
+            .any(|s| matches!(s.fill, bondgraph_core::program::Fill::Estimate { .. }));
+        let integration = (self.program.residuals.iter().enumerate())
+            .filter(|(_, r)| r.evaluation == Evaluation::Integrated)
+            .map(
+                |(k, _)| match self.fit.integration.get(k).copied().unwrap_or_default() {
+                    Integration::Window(n) => n,
+                    Integration::Start => 0,
+                },
+            )
             .max()
-            .unwrap_or(bondgraph::Reference::DEFAULT_WINDOW);
-        (window, integration)
+            .unwrap_or(0);
+        (if estimates { window } else { 1 }, integration)
     }
 
     /// The estimates a stretch of correlated residuals spans.
@@ -756,7 +778,7 @@ impl Problem<'_> {
         let needed = if self.span {
             self.windows().0
         } else {
-            10 * self.batch_length()
+            LEAST_BATCHES * self.batch_length()
         };
         if rows < needed {
             return Err(IdentifyError::TooShort {
@@ -806,7 +828,12 @@ impl Problem<'_> {
                         (x + d).clamp(lo, hi)
                     })
                     .collect();
-                let candidate = self.evaluate(&trial)?;
+                // A step where no residual is a number anywhere is refused like one that
+                // loses some: the copy of a simulated residual may diverge there.
+                let Ok(candidate) = self.evaluate(&trial) else {
+                    damping *= 4.0;
+                    continue;
+                };
                 let trial_cost = if candidate.dropped > dropped {
                     f64::INFINITY
                 } else {
