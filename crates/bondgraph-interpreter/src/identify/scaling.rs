@@ -92,8 +92,11 @@ mod tests {
     use super::*;
 
     fn compiled(text: &str) -> Compiled {
-        let (c, d) = bondgraph_core::compile(text, "t.bg");
-        c.unwrap_or_else(|| panic!("{d:?}"))
+        let options = bondgraph_core::Options::default();
+        match bondgraph_core::compile(text, "t.bg", &options) {
+            Ok(out) => out.compiled,
+            Err(d) => panic!("{d:?}"),
+        }
     }
 
     #[test]
