@@ -224,6 +224,18 @@ impl Generator {
         })
     }
 
+    /// The same generator with its copy of the model (if it runs one) taking `n` Runge–Kutta
+    /// steps per sample interval instead of one (see `bondgraph::Replay::set_substeps`):
+    /// what fitting and judging a simulation error needs where the copy moves fast against
+    /// the samples. The generated code takes one.
+    #[must_use]
+    pub fn with_substeps(mut self, n: usize) -> Generator {
+        if let Some(copy) = &mut self.copy {
+            copy.replay.set_substeps(n);
+        }
+        self
+    }
+
     /// Runs the samples at `time` (raw column `k` of `raw` giving raw signal `k`, in the
     /// program's raw order) through the generator, [`BLOCK`] samples at a time, and hands
     /// each block's estimates to `each`; `bounds` as in [`Generator::push_block`].

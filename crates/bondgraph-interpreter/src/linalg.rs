@@ -26,6 +26,9 @@ impl Square {
 
     /// Adds `w · x xᵀ`.
     pub(crate) fn add_outer(&mut self, x: &[f64], w: f64) {
+        if self.n == 0 {
+            return;
+        }
         for (row, xi) in self.a.chunks_exact_mut(self.n).zip(x) {
             let wi = w * xi;
             if wi == 0.0 {

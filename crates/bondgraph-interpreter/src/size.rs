@@ -110,6 +110,11 @@ impl Sizing<'_> {
             raw: self.columns.iter().map(|c| &c[..end]).collect(),
         };
         let found = identify(self.c, self.program, start, &[record], &settings).ok()?;
+        // A parameter the fit ran away with (held at its start) is no size: a change of it
+        // alone does not explain the residuals, and a ratio of 1e198 would rank first.
+        if !found.lost.is_empty() {
+            return None;
+        }
         Some(Sized {
             component: component.to_string(),
             parameter,

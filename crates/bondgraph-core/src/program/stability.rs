@@ -17,7 +17,15 @@ use crate::symbolic::{Derivatives, Evaluator};
 pub enum Stability {
     /// Every mode decays: an initial error dies out.
     Decays,
-    /// Some mode does not decay (an eigenvalue with a real part of zero or more).
+    /// Every mode decays but those of combinations of states the copy conserves whatever its
+    /// inputs (a quantity it holds twice: the bench's twist, as the link's state and as its
+    /// encoders' integrals; a position measured beside a spring's stretch). An error in their
+    /// start stays as it is, neither dying out nor growing; from rest there is none, and a
+    /// parameter's error never makes one.
+    Conserved,
+    /// Some mode does not decay (an eigenvalue with a real part of zero or more), and the
+    /// inputs or the other states drive it: an error in the start or in a parameter stays
+    /// or grows (a free inertia's position drifts).
     Persists,
     /// The linearisation could not be evaluated (a value that is not finite at rest).
     Unknown,
@@ -29,6 +37,12 @@ impl Stability {
         match self {
             Stability::Decays => {
                 "linearised at rest, every mode of the copy decays: an error in its start dies out"
+            }
+            Stability::Conserved => {
+                "linearised at rest, every mode of the copy decays but for quantities it holds \
+                 twice and conserves (their rates cancel whatever the inputs): an error in their \
+                 start stays as it is, so the residual holds on records that start as the model \
+                 does in them (at rest), and an error of a parameter never moves them"
             }
             Stability::Persists => {
                 "linearised at rest, a mode of the copy does not decay: an error in its start \
@@ -70,14 +84,91 @@ impl Program {
                 .value(d);
             }
         }
-        if jacobian.iter().flatten().any(|v| !v.is_finite()) {
+        let mut inputs = vec![vec![0.0; copy.inputs.len()]; n];
+        for j in 0..copy.inputs.len() {
+            let column = super::CopyInput::new(j);
+            let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
+                Some(p.num(if leaf == Leaf::Input(column) {
+                    1.0
+                } else {
+                    0.0
+                }))
+            });
+            for (i, &rate) in copy.rates.iter().enumerate() {
+                let Some(d) = partial.of(&mut pool, rate) else {
+                    return Some(Stability::Unknown);
+                };
+                inputs[i][j] = Evaluator::new(&pool, |leaf| match leaf {
+                    Leaf::Parameter(p) => params[p.index()],
+                    _ => 0.0,
+                })
+                .value(d);
+            }
+        }
+        if (jacobian.iter().chain(&inputs).flatten()).any(|v| !v.is_finite()) {
             return Some(Stability::Unknown);
         }
-        Some(match hurwitz(&characteristic(&jacobian)) {
+        // A combination `w` of states with `wᵀA = 0` and `wᵀB = 0` is conserved: it is a
+        // mode at zero that nothing drives. Each such independent combination is one root at
+        // zero of the characteristic polynomial, taken out before the Routh test.
+        let stacked: Vec<Vec<f64>> = (jacobian.iter().zip(&inputs))
+            .map(|(a, b)| a.iter().chain(b).copied().collect())
+            .collect();
+        // Likewise a direction `v` with `Av = 0` that no simulated slot reads moves nothing
+        // the residuals see (the bench's two encoder integrals moved together, the twist
+        // unchanged): a mode at zero of no consequence.
+        let mut observed = jacobian.clone();
+        for slot in self.slots.values() {
+            if let super::Fill::Simulated(k) = slot.fill {
+                let mut row = vec![0.0; n];
+                if let Some(x) = row.get_mut(k.index()) {
+                    *x = 1.0;
+                }
+                observed.push(row);
+            }
+        }
+        let conserved = (n - rank(&stacked)) + (n - rank(&observed));
+        let polynomial = characteristic(&jacobian);
+        let scale = polynomial.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let at_zero = (polynomial.iter())
+            .take_while(|v| v.abs() <= 1e-9 * scale.max(f64::MIN_POSITIVE))
+            .count();
+        let removed = conserved.min(at_zero);
+        Some(match hurwitz(&polynomial[removed..]) {
+            true if removed > 0 => Stability::Conserved,
             true => Stability::Decays,
             false => Stability::Persists,
         })
     }
+}
+
+/// The rank of a matrix (rows of equal length), by Gaussian elimination with partial
+/// pivoting; a pivot below 1e-9 of the largest entry counts as zero.
+fn rank(rows: &[Vec<f64>]) -> usize {
+    let mut a: Vec<Vec<f64>> = rows.to_vec();
+    let width = a.first().map_or(0, Vec::len);
+    let largest = a.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    let tiny = 1e-9 * largest.max(f64::MIN_POSITIVE);
+    let mut rank = 0;
+    for column in 0..width {
+        let Some(pivot) =
+            (rank..a.len()).max_by(|&i, &j| a[i][column].abs().total_cmp(&a[j][column].abs()))
+        else {
+            break;
+        };
+        if a[pivot][column].abs() <= tiny {
+            continue;
+        }
+        a.swap(rank, pivot);
+        for i in rank + 1..a.len() {
+            let f = a[i][column] / a[rank][column];
+            for k in column..width {
+                a[i][k] -= f * a[rank][k];
+            }
+        }
+        rank += 1;
+    }
+    rank
 }
 
 /// The characteristic polynomial `det(λI − A)` of a square matrix, as `[c₀, …, cₙ = 1]`
@@ -154,14 +245,16 @@ mod tests {
     }
 
     /// The bench's copy holds the twist twice, as the link's state and as `int(y1) − N
-    /// int(y2)` in the dead zone: their difference is a mode that never decays. Two tanks
+    /// int(y2)` in the dead zone: their difference is conserved (a mode at zero nothing
+    /// drives), and the two integrals moved together leave the twist as it is (a mode at
+    /// zero nothing reads); every other mode decays. Two tanks
     /// joined by a smoothed valve (`tanh(e)·sqrt(|e|)`, which has no closed-form inverse, so
     /// a copy measures the first level) have no finite slope at rest. A model whose
     /// residuals need no copy has none.
     #[test]
     fn the_copies_of_the_models_are_told_apart() {
         let bench = include_str!("../../../../models/backlash_bench.bg");
-        assert_eq!(stability(bench), Some(Stability::Persists));
+        assert_eq!(stability(bench), Some(Stability::Conserved));
         let tanks = include_str!("../../../../models/two_tank.bg");
         let valve = "f = Cd12*sign(e)*sqrt(abs(e))";
         assert!(tanks.contains(valve));
@@ -182,6 +275,31 @@ mod tests {
         // λ⁴ + λ³ + λ² + λ + 1: all coefficients positive, roots on the right of the axis.
         assert!(!hurwitz(&[1.0, 1.0, 1.0, 1.0, 1.0]));
         assert!(hurwitz(&[2.0, 3.0, 1.0]));
+    }
+
+    /// A free mass driven by a force, its position measured: the position's mode is driven
+    /// and drifts. The same mass on a spring, its position measured beside the spring's
+    /// stretch: the two integrate the same speed, and their difference is conserved.
+    #[test]
+    fn a_driven_integrator_persists_and_a_quantity_held_twice_is_conserved() {
+        let free = "model m\nparam M = 2\nparam b = 1\ninput F\nSe f = F\nI m = M\n\
+                    R d = b\nDq x on v\nf -> 1:v -> m, d\n";
+        let options = Options {
+            residuals: ResidualSet::Simulated,
+            ..Options::default()
+        };
+        let at = |text: &str| {
+            let c = compile(text, "test.bg", &options).expect("valid").compiled;
+            let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+            c.program().copy_stability(&params)
+        };
+        assert_eq!(at(free), Some(Stability::Persists));
+        let spring = free
+            .replace("R d = b\n", "R d = b\nC k = 0.5\n")
+            .replace("m, d", "m, d, k");
+        assert_eq!(at(&spring), Some(Stability::Conserved));
+        assert_eq!(rank(&[vec![1.0, 2.0], vec![2.0, 4.0]]), 1);
+        assert_eq!(rank(&[vec![1.0, 0.0, 1.0], vec![0.0, 1.0, 0.0]]), 2);
     }
 
     /// The characteristic polynomial of a companion matrix is the one it was built from.

@@ -214,7 +214,8 @@ fn held_out_error(
 }
 
 /// Each simulated residual's RMS over the samples of each record from `from[k]` on, the copy
-/// run from the record's start with the parameters `values`: the simulation error.
+/// run from the record's start with the parameters `values` (as finely as the record needs:
+/// see `substeps`): the simulation error.
 /// Infinite where a residual is not a number somewhere there, or where the generator cannot
 /// be built.
 pub fn simulation_error(
@@ -228,10 +229,12 @@ pub fn simulation_error(
     let n = program.residuals.len();
     let mut sums = vec![0.0; n];
     let mut count = 0usize;
+    let substeps = super::substeps::substeps(c, program, values, records, &settings.fit);
     for (record, &first) in records.iter().zip(from) {
-        let Ok(mut generator) = Generator::new(c, program, values, &settings.fit) else {
+        let Ok(generator) = Generator::new(c, program, values, &settings.fit) else {
             return vec![f64::INFINITY; n];
         };
+        let mut generator = generator.with_substeps(substeps);
         let after = record.time.get(first).copied().unwrap_or(f64::INFINITY);
         generator.run(record.time, &record.raw, false, |estimates| {
             for (i, &at) in estimates.at().iter().enumerate() {

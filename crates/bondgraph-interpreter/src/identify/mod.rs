@@ -42,6 +42,7 @@ mod criterion;
 mod jumps;
 mod noise;
 mod scaling;
+mod substeps;
 
 pub use criterion::{
     identify_by, simulation_error, Chosen, Criteria, Criterion, Evidence, HELD_OUT,
@@ -284,13 +285,14 @@ pub fn identify(
         settings.free.iter().copied().filter(|&k| read[k]).collect()
     };
     let mut lost = Vec::new();
+    let substeps = substeps::substeps(c, program, start, records, &settings.fit);
     // Each round holds at least one more parameter, so there are at most as many rounds as
     // parameters.
     loop {
-        let problem = Problem::new(c, program, records, settings, start, &free);
+        let problem = Problem::new(c, program, records, settings, start, &free, substeps);
         let first = problem.evaluate(&vec![0.0; free.len()])?;
         problem.check_length(first.rows)?;
-        let (u, stop) = fit(c, program, records, settings, start, &free, &first)?;
+        let (u, stop) = fit(&problem, &first)?;
         let values = problem.values(&u);
         let ran: Vec<usize> = (free.iter().copied())
             .filter(|&k| problem.scalings[k].ran_away(start[k], values[k], RUNAWAY))
@@ -336,31 +338,32 @@ pub fn identify(
 /// starts from the fit of the one before. Where that path ends above the start's cost over
 /// the whole records (a short stretch's minimum that the whole does not share), the fit is
 /// made again from the start over the whole records, which can only go down.
-fn fit(
-    c: &Compiled,
-    program: &Program,
-    records: &[Record<'_>],
-    settings: &Settings,
-    start: &[f64],
-    free: &[usize],
-    first: &Samples,
-) -> Result<(Vec<f64>, (Stop, usize)), IdentifyError> {
+fn fit(problem: &Problem<'_>, first: &Samples) -> Result<(Vec<f64>, (Stop, usize)), IdentifyError> {
+    let Problem {
+        c,
+        program,
+        records,
+        start,
+        substeps,
+        ..
+    } = *problem;
+    let settings = problem.settings;
+    let free = &problem.free;
     let mut u = vec![0.0; free.len()];
     let total = records.iter().map(|r| r.time.len()).max().unwrap_or(0);
-    let mut length = Problem::new(c, program, records, settings, start, free).first_horizon();
+    let mut length = problem.first_horizon();
     // Over a span, the fit starts where the span does.
     if settings.span.is_some() {
         length = total;
     }
     while length < total {
         let heads: Vec<Record<'_>> = records.iter().map(|r| r.head(length)).collect();
-        let stage = Problem::new(c, program, &heads, settings, start, free);
+        let stage = Problem::new(c, program, &heads, settings, start, free, substeps);
         if stage.evaluate(&u).is_ok() {
             stage.minimise(&mut u)?;
         }
         length *= 2;
     }
-    let problem = Problem::new(c, program, records, settings, start, free);
     let staged = problem
         .evaluate(&u)
         .is_ok_and(|s| s.dropped <= first.dropped && s.cost() <= first.cost());
@@ -475,9 +478,12 @@ struct Problem<'a> {
     /// Each record's noise probe (see [`noise`]).
     probes: Vec<Option<Probe>>,
     fit: &'a Fit,
+    settings: &'a Settings,
     start: &'a [f64],
     /// How each parameter of the model moves with its fit coordinate.
     scalings: Vec<Scaling>,
+    /// Runge–Kutta steps per sample interval of the copy of the model, if one runs.
+    substeps: usize,
     /// The fitted parameters, by their place in the model.
     free: Vec<usize>,
     bounds: Vec<(f64, f64)>,
@@ -515,6 +521,7 @@ impl<'a> Problem<'a> {
         settings: &'a Settings,
         start: &'a [f64],
         free: &[usize],
+        substeps: usize,
     ) -> Problem<'a> {
         let scalings = scaling::scalings(c, start);
         let mut problem = Problem {
@@ -533,10 +540,12 @@ impl<'a> Problem<'a> {
                 })
                 .collect(),
             fit: &settings.fit,
+            settings,
             start,
             free: free.to_vec(),
             bounds: bounds(c, start, &scalings, settings.bounded),
             scalings,
+            substeps,
             fallback: Vec::new(),
             fixed: Vec::new(),
             left_out: Vec::new(),
@@ -666,7 +675,8 @@ impl Problem<'_> {
     ) -> Result<usize, IdentifyError> {
         let n = self.program.residuals.len();
         let mut generator = Generator::new(self.c, self.program, values, self.fit)
-            .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
+            .map_err(|e| IdentifyError::Estimator(e.to_string()))?
+            .with_substeps(self.substeps);
         let mut place = 0;
         let mut row = vec![0.0; n];
         // Over a span, a residual integrated from the start is taken from the span's start:
