@@ -47,9 +47,10 @@ pub(crate) struct IdentifyArgs {
     /// Samples in the Savitzky–Golay window of the estimates (odd).
     #[arg(long, value_name = "N", default_value_t = 11)]
     window: usize,
-    /// Samples the integrated residuals are integrated over.
-    #[arg(long, value_name = "N", default_value_t = 250)]
-    integration_window: usize,
+    /// Samples the integrated residuals are integrated over (default 250, or less on a
+    /// record too short for it: see docs/identification.md).
+    #[arg(long, value_name = "N")]
+    integration_window: Option<usize>,
     #[command(flatten)]
     choice: ResidualChoice,
     #[command(flatten)]
@@ -147,7 +148,10 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
                 window: args.window,
                 degree,
             },
-            integration: vec![Integration::Window(args.integration_window); c.arrs.len()],
+            integration: vec![
+                Integration::Window(integration_window(&args, &records));
+                c.arrs.len()
+            ],
         },
         free: free(&c, &args.only, &args.fix)?,
         bounded: args.bounded,
@@ -207,6 +211,24 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// The integration window: as given, else the default where the shortest record holds it,
+/// else the largest it holds (with a note).
+fn integration_window(args: &IdentifyArgs, records: &[Data]) -> usize {
+    if let Some(n) = args.integration_window {
+        return n;
+    }
+    let rows = records.iter().map(|d| d.time.len()).min().unwrap_or(0);
+    let (n, shrunk) = bondgraph_interpreter::integration_window_for(rows, args.window);
+    if shrunk {
+        report::note(format!(
+            "the records are short ({rows} samples): integrated residuals are integrated over \
+             {n} samples instead of {} (--integration-window sets it)",
+            bondgraph::Reference::DEFAULT_WINDOW
+        ));
+    }
+    n
+}
+
 /// Each validation record's simulation error per sensor, with the model's values and with
 /// the fit (its name, the sensors, and the two errors).
 struct Validation {
@@ -244,7 +266,6 @@ fn validate(
         }];
         let mut settings = settings.clone();
         settings.fit.step = data.step;
-        settings.fit.integration = vec![Integration::default(); sc.arrs.len()];
         let error = |values: &[f64]| simulation_error(sc, sp, values, &record, &[0], &settings);
         out.push(Validation {
             record: path.display().to_string(),

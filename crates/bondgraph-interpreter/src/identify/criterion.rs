@@ -18,7 +18,7 @@ use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::Compiled;
 
 use super::{identify, Identification, IdentifyError, Record, Settings};
-use crate::fit::Integration;
+use crate::fit::{Estimator, Integration};
 use crate::generator::Generator;
 
 /// Which error the fit minimises.
@@ -118,7 +118,7 @@ pub fn identify_by(
         (_, Err(why)) => Ok((equation(records)?, fallback(why))),
         (Criterion::Simulation, Ok((sc, sp, columns))) => {
             let views = views(records, &columns);
-            let settings = simulation_settings(settings, sc);
+            let settings = simulation_settings(settings, sc, sp);
             match identify(sc, sp, start, &views, &settings) {
                 Ok(found) => Ok((found, chosen(Criterion::Simulation, None))),
                 Err(e) => Ok((
@@ -139,7 +139,7 @@ pub fn identify_by(
         )),
         (Criterion::Evidence, Ok((sc, sp, columns))) => {
             let views = views(records, &columns);
-            let sim_settings = simulation_settings(settings, sc);
+            let sim_settings = simulation_settings(settings, sc, sp);
             let heads: Vec<Record<'_>> = (records.iter())
                 .map(|r| r.head(split(r.time.len())))
                 .collect();
@@ -226,6 +226,7 @@ pub fn simulation_error(
     from: &[usize],
     settings: &Settings,
 ) -> Vec<f64> {
+    let settings = &simulation_settings(settings, c, program);
     let n = program.residuals.len();
     let mut sums = vec![0.0; n];
     let mut count = 0usize;
@@ -260,10 +261,18 @@ pub fn simulation_error(
         .collect()
 }
 
-/// The settings of a simulation-error fit: one integration per residual (none is
-/// integrated, but the settings name one per residual).
-fn simulation_settings(settings: &Settings, c: &Compiled) -> Settings {
+/// The settings of a simulation-error fit: each sensor read as sampled (a smoother over
+/// a window would attenuate what the copy follows: at 9 samples per period, a window of 11
+/// takes most of a resonance away), and one integration per residual (none is integrated,
+/// but the settings name one per residual).
+fn simulation_settings(settings: &Settings, c: &Compiled, program: &Program) -> Settings {
     let mut s = settings.clone();
+    if program.top_order() == 0 {
+        s.fit.estimator = Estimator::SavitzkyGolay {
+            window: 1,
+            degree: 0,
+        };
+    }
     let first = s.fit.integration.first().copied().unwrap_or_default();
     s.fit.integration = vec![first; c.arrs.len()];
     if s.fit.integration.is_empty() {

@@ -374,6 +374,25 @@ fn fit(problem: &Problem<'_>, first: &Samples) -> Result<(Vec<f64>, (Stop, usize
     Ok((u, stop))
 }
 
+/// The integration window (in samples) for a record of `rows` samples fitted with an
+/// estimator window of `window`: the runtime's default (250) where the record holds five
+/// batches of eight times the two windows, else the largest that leaves them (at least 1),
+/// so that a short record (1,024 samples of a slow process) is fitted rather than refused.
+/// Whether it was shrunk is the second value.
+pub fn integration_window_for(rows: usize, window: usize) -> (usize, bool) {
+    let default = bondgraph::Reference::DEFAULT_WINDOW;
+    // The estimates are the samples less the window's; a few more for its rounding.
+    let estimates = rows.saturating_sub(2 * window);
+    let room = (estimates / (LEAST_BATCHES * 8))
+        .saturating_sub(window)
+        .max(1);
+    if room >= default {
+        (default, false)
+    } else {
+        (room, true)
+    }
+}
+
 /// The parameters to fit, by their place in `c`: those named in `only` (every one when it
 /// is empty) less those named in `fix`. A name the model does not declare is refused, with
 /// the nearest one it does.
