@@ -68,7 +68,7 @@ def duffing(rng, p):
     step, rows = 1 / (9 * f0), 2000
     t = np.arange(rows) * step
     frequencies = np.linspace(0.1, 1.6, 24) * f0
-    force = multisine(rng, t, frequencies, 0.0008)
+    force = multisine(rng, t, frequencies, 0.0004)
     ff = linear(t, force)
 
     def f(s, x):

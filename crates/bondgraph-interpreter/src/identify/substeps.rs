@@ -18,11 +18,16 @@ use crate::generator::Generator;
 /// Most steps per sample interval.
 pub(crate) const MOST_SUBSTEPS: usize = 64;
 
+/// How far the residuals may move between `n` and `2n` steps, relative to their RMS: the
+/// fit then makes up for the integrator's error by at most about that much of a
+/// parameter.
+const TOLERANCE: f64 = 1e-5;
+
 /// The samples of the first record the choice is made on.
 const TRIAL_ROWS: usize = 4096;
 
 /// The steps per sample interval past which the residuals of `program` with the parameters
-/// `values` move by less than a thousandth of their RMS over the first record's first
+/// `values` move by less than [`TOLERANCE`] of their RMS over the first record's first
 /// samples: 1 where the program runs no copy.
 pub(crate) fn substeps(
     c: &Compiled,
@@ -66,7 +71,7 @@ pub(crate) fn substeps(
         let rms =
             (finite.iter().map(|(_, b)| b * b).sum::<f64>() / finite.len().max(1) as f64).sqrt();
         let moved = finite.iter().fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-        if all && moved <= 1e-3 * rms.max(f64::MIN_POSITIVE) {
+        if all && moved <= TOLERANCE * rms.max(f64::MIN_POSITIVE) {
             return n;
         }
         n *= 2;
