@@ -331,3 +331,171 @@ fn a_faults_size_is_estimated_and_its_component_ranked_first() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A slide pushed by a force against viscous friction and a constant force, its speed (or
+/// its position) measured.
+fn slide(dir: &Path, sensor: &str) -> String {
+    let model = dir.join("slide.bg");
+    std::fs::write(
+        &model,
+        format!(
+            "model slide\nparam M = 2 [kg]\nparam Fv = 4 [N.s/m]\nparam offset = 2 [N]\n\
+             input U0 [N]\nSe drive = U0\nSe bias = -offset\nI mass = M\nR visc = Fv\n\
+             {sensor} on axis\ndrive -> 1:axis -> mass, visc\nbias -> axis\n"
+        ),
+    )
+    .expect("model");
+    model.display().to_string()
+}
+
+#[test]
+fn an_offset_is_found_across_zero_by_either_criterion() {
+    let dir = scratch("identify-offset");
+    let model = slide(&dir, "Df v");
+    // The plant's constant force is on the other side of zero from the model's.
+    let record = simulate(
+        &dir,
+        &model,
+        "M = 2.2\nFv = 4.4\noffset = -1.5\n",
+        "3*sin(0.7*t) + 2*sin(2.3*t)",
+        &["v"],
+    );
+    for criterion in ["equation", "simulation"] {
+        let out = bgc(&["identify", &model, &record, "--criterion", criterion]);
+        assert_eq!(code(&out), 0, "{criterion}: {}", stderr(&out));
+        let file = stdout(&out);
+        assert!(
+            file.contains(&format!("fitted by the {criterion} error")),
+            "{file}"
+        );
+        for (name, truth) in [("M", 2.2), ("Fv", 4.4), ("offset", -1.5)] {
+            let (value, half) = estimate(&file, name).unwrap_or_else(|| panic!("{file}"));
+            assert!(
+                (value - truth).abs() <= half && half < 0.05 * truth.abs(),
+                "{criterion}, {name}: {value} ± {half}, true {truth}\n{file}"
+            );
+        }
+        // The fit never ends above where it started.
+        let cost = file
+            .lines()
+            .find_map(|l| l.strip_prefix("# cost "))
+            .unwrap_or_else(|| panic!("{file}"));
+        let numbers: Vec<f64> = (cost.split([' ', ',']))
+            .filter_map(|w| w.parse().ok())
+            .collect();
+        assert!(numbers.len() >= 3 && numbers[2] <= numbers[1], "{cost}");
+    }
+    // Validated on another run of the plant: the fit's simulation error is the noise's.
+    let other = simulate_with(
+        &dir,
+        &model,
+        "M = 2.2\nFv = 4.4\noffset = -1.5\n",
+        "4*sin(0.3*t) + sin(3.1*t)",
+        &["v"],
+        &[],
+        "other.csv",
+        11,
+    );
+    let out = bgc(&[
+        "identify",
+        &model,
+        &record,
+        "--criterion",
+        "equation",
+        "--validate",
+        &other,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let file = stdout(&out);
+    let line = (file.lines())
+        .find(|l| l.starts_with("# validation on") && l.contains("v's simulation error"))
+        .unwrap_or_else(|| panic!("{file}"));
+    let numbers: Vec<f64> = (line.split([' ', ',']))
+        .filter_map(|w| w.parse().ok())
+        .collect();
+    let (model_error, fitted_error) = (numbers[numbers.len() - 2], numbers[numbers.len() - 1]);
+    assert!(
+        fitted_error < 0.015 && fitted_error < 0.5 * model_error,
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_position_that_drifts_is_fitted_by_its_equation_error_and_says_why() {
+    let dir = scratch("identify-drift");
+    let model = slide(&dir, "Dq x");
+    let record = simulate(
+        &dir,
+        &model,
+        "M = 2.2\noffset = 1\n",
+        "3*sin(0.7*t) + 2*sin(2.3*t)",
+        &[],
+    );
+    let out = bgc(&["identify", &model, &record]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let file = stdout(&out);
+    assert!(
+        file.contains("fitted by the equation error") && file.contains("does not forget its start"),
+        "{file}"
+    );
+    let (m, half) = estimate(&file, "M").unwrap_or_else(|| panic!("{file}"));
+    assert!((m - 2.2).abs() <= half.max(1e-6 * 2.2), "{file}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_short_slow_record_is_fitted_over_a_shorter_integration_window() {
+    let dir = scratch("identify-short");
+    let model = dir.join("tank.bg");
+    std::fs::write(
+        &model,
+        "model tank\nparam A = 1\nparam kp = 0.05\nparam c = 0.04\ninput u\n\
+         Sf pump = kp*u\nC tank = A\nR orifice : f = c*sqrt(e)\nDe h on t\n\
+         pump -> 0:t -> tank, orifice\n",
+    )
+    .expect("model");
+    let model = model.display().to_string();
+    let plant = dir.join("plant.txt");
+    std::fs::write(&plant, "c = 0.046\n").expect("plant");
+    let record = dir.join("record.csv").display().to_string();
+    // 1,024 samples every 4 s, as the cascaded-tanks benchmark gives them.
+    let out = bgc(&[
+        "simulate",
+        &model,
+        "--params",
+        &plant.display().to_string(),
+        "-e",
+        "duration 4092",
+        "-e",
+        "step 4",
+        "-e",
+        "input u = 5 + sin(t/300) + 0.8*sin(t/90)",
+        "-e",
+        "noise h 0.01",
+        "-o",
+        &record,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let out = bgc(&[
+        "identify",
+        &model,
+        &record,
+        "--fix",
+        "A",
+        "--criterion",
+        "equation",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("integrated over") && stderr(&out).contains("instead of 250"),
+        "{}",
+        stderr(&out)
+    );
+    let (c, half) = estimate(&stdout(&out), "c").unwrap_or_else(|| panic!("{}", stdout(&out)));
+    assert!(
+        (c - 0.046).abs() <= half && half < 0.002,
+        "c = {c} ± {half}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
