@@ -6,6 +6,7 @@
 mod calibrate;
 mod calibration;
 mod copy;
+mod deviation;
 mod fit;
 mod fold;
 mod generator;

@@ -17,21 +17,9 @@ pub const COUNT: usize = 64;
 /// record `bgc simulate` wrote with noise is not replicated with its own numbers.
 const SEED: u64 = 0x6263_6361_6c69_6272;
 
-/// One column's white-noise deviation, from its third differences: white noise gives them
-/// `20 σ²` (1 + 9 + 9 + 1), a signal smooth at the sampling rate next to nothing. The median
-/// of their magnitudes (over 0.6745 deviations) leaves out jumps and spikes; a column with no
-/// noise (an input as commanded) gets 0.
+/// One column's white-noise deviation (see [`crate::deviation`]).
 pub(crate) fn deviation(x: &[f64]) -> f64 {
-    let mut d: Vec<f64> = (x.windows(4))
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-        .filter(|v| v.is_finite())
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let mid = d.len() / 2;
-    let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-    *median / 0.6745 / 20f64.sqrt()
+    crate::deviation::deviation(x)
 }
 
 /// The healthy record and the deviation of each of its columns' noise.

@@ -146,7 +146,17 @@ pub fn identify_by(
             let sim_heads: Vec<Record<'_>> = (views.iter())
                 .map(|r| r.head(split(r.time.len())))
                 .collect();
-            let by_equation = match equation(&heads) {
+            // The heads are shorter than the records: their integration windows shrink as a
+            // short record's do, where the records' do not fit them.
+            let rows = heads.iter().map(|r| r.time.len()).min().unwrap_or(0);
+            let (room, _) = super::integration_window_for(rows, settings.fit.estimator.window());
+            let mut head_settings = settings.clone();
+            for i in &mut head_settings.fit.integration {
+                if let Integration::Window(n) = i {
+                    *n = (*n).min(room);
+                }
+            }
+            let by_equation = match identify(c, program, start, &heads, &head_settings) {
                 Ok(found) => found,
                 Err(e) => {
                     return Ok((

@@ -44,20 +44,9 @@ impl Probe {
     }
 }
 
-/// A signal's noise level from its second differences: their median absolute value over
-/// `Φ⁻¹(3/4) √6`, what white noise of that deviation gives. The median ignores the few
-/// samples where the signal itself bends (a square wave's edges); a smooth signal sampled
-/// fast contributes almost nothing, a noise-free one gives 0.
+/// A signal's noise level (see [`crate::deviation`]).
 pub(super) fn level(column: &[f64]) -> f64 {
-    let mut d: Vec<f64> = (column.windows(3))
-        .map(|w| (w[2] - 2.0 * w[1] + w[0]).abs())
-        .collect();
-    if d.is_empty() {
-        return 0.0;
-    }
-    let middle = d.len() / 2;
-    let median = *d.select_nth_unstable_by(middle, f64::total_cmp).1;
-    median / (0.674_489_750_196_081_7 * 6f64.sqrt())
+    crate::deviation::deviation(column)
 }
 
 /// Standard normal numbers (Box–Muller over a xorshift): the same on every run.
