@@ -499,3 +499,44 @@ fn a_short_slow_record_is_fitted_over_a_shorter_integration_window() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_model_is_simulated_on_a_records_inputs() {
+    let dir = scratch("simulate-record");
+    let model = slide(&dir, "Df v");
+    let plant = "M = 2.2\nFv = 4.4\noffset = -1.5\n";
+    let record = simulate(&dir, &model, plant, "3*sin(0.7*t)", &["v"]);
+    let values = dir.join("plant.txt").display().to_string();
+    let out = bgc(&["simulate", &model, "--record", &record, "--params", &values]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let text = stdout(&out);
+    assert!(text.starts_with("t,U0,v\n"), "{}", &text[..40.min(text.len())]);
+    // The plant's own values on its own inputs: the error is the sensor's noise (1e-2).
+    let note = (stderr(&out).lines())
+        .find(|l| l.contains("v's simulation error, RMS"))
+        .map(str::to_string)
+        .unwrap_or_else(|| panic!("{}", stderr(&out)));
+    let rms: f64 = note
+        .split("RMS ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next()?.parse().ok())
+        .unwrap_or_else(|| panic!("{note}"));
+    assert!((0.008..0.012).contains(&rms), "{note}");
+    // The model's own values are off the plant's: a larger error.
+    let out = bgc(&["simulate", &model, "--record", &record]);
+    assert!(stderr(&out).contains("simulation error, RMS"), "{}", stderr(&out));
+    assert!(!stderr(&out).contains(&format!("RMS {rms}")));
+    // A record of the inputs alone is simulated too, without an error to note.
+    let inputs = dir.join("inputs.csv");
+    let only: String = (std::fs::read_to_string(&record).expect("record").lines())
+        .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(",") + "\n")
+        .collect();
+    std::fs::write(&inputs, only).expect("inputs");
+    let out = bgc(&["simulate", &model, "--record", &inputs.display().to_string()]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    assert!(stdout(&out).starts_with("t,U0,v\n") && !stderr(&out).contains("RMS"));
+    // A scenario's statements make no sense beside a record.
+    let out = bgc(&["simulate", &model, "--record", &record, "-e", "duration 3"]);
+    assert_eq!(code(&out), 2, "{}", stderr(&out));
+    let _ = std::fs::remove_dir_all(&dir);
+}

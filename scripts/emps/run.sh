@@ -12,9 +12,8 @@ cargo build -q --release -p bgc
 bgc=target/release/bgc
 model=models/positioning_axis.bg
 
-echo "offset = 0" > "$out/start.params"
 "$bgc" identify "$model" "$emps/emps_train.csv" --column tau=force \
-    --params "$out/start.params" -o "$out/emps.params"
+    --validate "$emps/emps_pulses.csv" -o "$out/emps.params"
 cat "$out/emps.params"
 
 "$bgc" residuals "$model" "$emps/emps_pulses.csv" --column tau=force --params "$out/emps.params" \

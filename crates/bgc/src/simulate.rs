@@ -42,6 +42,19 @@ pub(crate) struct SimulateArgs {
     /// Also draw the inputs and measured signals, one panel each, into FILE (SVG).
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
+    /// Drive the model by a record's inputs instead of a scenario (CSV, Parquet, a MAT-file,
+    /// TDMS or MDF 4): the sensors' outputs of a copy of the model run from rest on the
+    /// inputs as sampled (linear between samples), at the record's instants; where the
+    /// record also holds a sensor, its simulation error is noted.
+    #[arg(long, value_name = "RECORD", conflicts_with_all = ["scenario", "statements", "duration", "step", "seed", "solver", "plot"])]
+    record: Option<PathBuf>,
+    /// The record's time column, where it is not `t` (with --record).
+    #[arg(long, value_name = "NAME", default_value = "t", requires = "record")]
+    time: String,
+    /// The record's column of a signal named otherwise in the model, as `SIGNAL=COLUMN`
+    /// (with --record); repeat for more.
+    #[arg(long = "column", value_name = "SIGNAL=COLUMN", requires = "record")]
+    columns: Vec<String>,
 }
 
 /// The integration methods.
@@ -57,6 +70,9 @@ enum SolverArg {
 
 /// Runs `bgc simulate`.
 pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
+    if let Some(record) = &args.record {
+        return on_record(&args, record);
+    }
     if let Some(path) = &args.plot {
         crate::plot::check_path(path).map_err(report::usage)?;
     }
@@ -104,6 +120,193 @@ pub(crate) fn run(args: SimulateArgs) -> Result<(), Failure> {
         plot(path, &trajectory, &c, &scenario.fault_onsets())?;
     }
     Ok(())
+}
+
+/// `bgc simulate --record`: the model's outputs on a record's inputs, as CSV (time, inputs,
+/// each sensor's simulated value), with each recorded sensor's simulation error noted.
+fn on_record(args: &SimulateArgs, path: &std::path::Path) -> Result<(), Failure> {
+    let c = io::compile_with(
+        &args.model,
+        args.values.path(),
+        Derive::Everything,
+        Some(bondgraph_core::Limits::default()),
+        (ResidualSet::Simulated, Realise::default()),
+    )?;
+    io::succeeded(&c)?;
+    if c.arrs.is_empty() {
+        return Err(report::refused(format!(
+            "{}: a copy of the model cannot run on recorded inputs (its state equations are \
+             implicit, incomplete or read an input's derivative, or it has no detector)",
+            c.file_name
+        )));
+    }
+    let program = c.program();
+    let (data, measured) = record_columns(args, &program, path)?;
+    let raw: Vec<&[f64]> = data.iter().map(Vec::as_slice).collect();
+    let record = bondgraph_interpreter::Record {
+        time: &measured.time,
+        raw,
+    };
+    let values: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+    let outputs =
+        bondgraph_interpreter::simulate_record(&c, &program, &values, &record, measured.step)
+            .map_err(|e| report::refused(format!("{}: {e}", c.file_name)))?;
+    let diverged = (outputs.iter())
+        .filter_map(|o| o.iter().position(|v| !v.is_finite()))
+        .min();
+    if let Some(k) = diverged {
+        return Err(report::refused(format!(
+            "{}: the copy of the model is not a number from t = {} s of {} on (it diverged \
+             there): nothing is written",
+            c.file_name,
+            measured.time[k.min(measured.time.len() - 1)],
+            path.display()
+        )));
+    }
+    note_errors(&c, &program, &record, &outputs, &measured.present, path);
+    io::write(
+        args.output.as_deref(),
+        &record_csv(&c, &program, &record, &outputs, measured.step),
+    )
+}
+
+/// A record's time, step, and which of the program's raw signals it holds.
+struct Measured {
+    time: Vec<f64>,
+    step: f64,
+    present: Vec<bool>,
+}
+
+/// The program's raw columns from the record at `path`: the inputs (required), and each
+/// sensor where the record has it (zeros where not: the copy reads none).
+fn record_columns(
+    args: &SimulateArgs,
+    program: &bondgraph_core::program::Program,
+    path: &std::path::Path,
+) -> Result<(Vec<Vec<f64>>, Measured), Failure> {
+    use bondgraph_core::Signal;
+    let names: Vec<String> = program.raw.values().map(|r| r.name.clone()).collect();
+    let layout = crate::record::Layout::new(&names, &args.time, &args.columns)?;
+    let is_input: Vec<bool> = (program.raw.values())
+        .map(|r| matches!(r.signal, Signal::Input(_)))
+        .collect();
+    let (_, bytes) = io::read(path)?;
+    let name = path.display().to_string();
+    let loaded = |data: crate::record::Data| {
+        if let Some(note) = data.jitter_note() {
+            report::note(format!("{name}: {note}"));
+        }
+        data
+    };
+    // Every column at once where the record has them all; else the inputs alone.
+    if let Ok(data) = crate::record::Data::read(bytes.clone(), &layout, 1) {
+        let data = loaded(data);
+        let present = vec![true; names.len()];
+        let measured = Measured {
+            time: data.time,
+            step: data.step,
+            present,
+        };
+        return Ok((data.columns, measured));
+    }
+    let inputs = crate::record::Layout {
+        time: layout.time.clone(),
+        signals: (layout.signals.iter().zip(&is_input))
+            .filter(|(_, &i)| i)
+            .map(|(s, _)| s.clone())
+            .collect(),
+    };
+    let data = crate::record::Data::read(bytes, &inputs, 1)
+        .map_err(|e| report::refused(format!("{name}: {e}")))?;
+    let data = loaded(data);
+    let mut given = data.columns.into_iter();
+    let columns = (is_input.iter())
+        .map(|&i| {
+            if i {
+                given.next().unwrap_or_default()
+            } else {
+                vec![0.0; data.time.len()]
+            }
+        })
+        .collect();
+    let measured = Measured {
+        time: data.time,
+        step: data.step,
+        present: is_input,
+    };
+    Ok((columns, measured))
+}
+
+/// Notes each recorded sensor's simulation error (RMS).
+fn note_errors(
+    c: &Compiled,
+    program: &bondgraph_core::program::Program,
+    record: &bondgraph_interpreter::Record<'_>,
+    outputs: &[Vec<f64>],
+    present: &[bool],
+    path: &std::path::Path,
+) {
+    for (arr, simulated) in c.arrs.iter().zip(outputs) {
+        let Some(sensor) = arr.sensor.map(|s| c.sensors[s].name.as_str()) else {
+            continue;
+        };
+        let Some(j) = program.raw.values().position(|r| r.name == sensor) else {
+            continue;
+        };
+        if !present[j] {
+            continue;
+        }
+        let sum: f64 = (record.raw[j].iter().zip(simulated))
+            .map(|(y, s)| (y - s) * (y - s))
+            .sum();
+        let rms = (sum / simulated.len().max(1) as f64).sqrt();
+        report::note(format!(
+            "{}: {sensor}'s simulation error, RMS {} (the copy from rest on the recorded inputs)",
+            path.display(),
+            crate::identify::significant(rms)
+        ));
+    }
+}
+
+/// The CSV of a simulation on a record: time, the inputs as recorded, each sensor simulated.
+fn record_csv(
+    c: &Compiled,
+    program: &bondgraph_core::program::Program,
+    record: &bondgraph_interpreter::Record<'_>,
+    outputs: &[Vec<f64>],
+    step: f64,
+) -> String {
+    use bondgraph_core::Signal;
+    let inputs: Vec<(String, &[f64])> = (program.raw.values().zip(&record.raw))
+        .filter(|(r, _)| matches!(r.signal, Signal::Input(_)))
+        .map(|(r, column)| (r.name.clone(), *column))
+        .collect();
+    let sensors: Vec<String> = (c.arrs.iter())
+        .map(|a| {
+            a.sensor
+                .map_or_else(|| a.name.clone(), |s| c.sensors[s].name.clone())
+        })
+        .collect();
+    let mut out = String::new();
+    let header: Vec<&str> = std::iter::once("t")
+        .chain(inputs.iter().map(|(n, _)| n.as_str()))
+        .chain(sensors.iter().map(String::as_str))
+        .collect();
+    out.push_str(&header.join(","));
+    out.push('\n');
+    for (k, &t) in record.time.iter().enumerate() {
+        io::push_number(&mut out, io::tidy_time(t, step));
+        for (_, column) in &inputs {
+            out.push(',');
+            io::push_number(&mut out, column[k]);
+        }
+        for simulated in outputs {
+            out.push(',');
+            io::push_number(&mut out, simulated.get(k).copied().unwrap_or(f64::NAN));
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// Reports why the run stopped: at the scenario's line when its cause is written there (an

@@ -25,8 +25,8 @@ pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
 pub use identify::{
-    choose_free, identify, identify_by, integration_window_for, simulation_error, Chosen,
-    Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
+    choose_free, identify, identify_by, integration_window_for, simulate_record, simulation_error,
+    Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
     IdentifyError, Lost, Origin, Record, Settings, Span, Stop, HELD_OUT,
 };
 pub use size::{Sized, Sizing, SIZE_WINDOW};

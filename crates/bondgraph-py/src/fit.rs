@@ -1,10 +1,10 @@
 //! `identify` and `with_values`: the model's parameters fitted to healthy records, as `bgc
 //! identify` fits them, and a model's text with values of the caller's in place of its own.
 
-use bondgraph_core::ParameterValues;
+use bondgraph_core::{Compiled, Derive, Limits, Options, ParameterValues, Realise, ResidualSet};
 use bondgraph_interpreter::{
-    choose_free, identify as fit, Determined, Estimator, Fit, Integration, Origin, Record,
-    Settings, Span, Stop,
+    choose_free, identify_by, Criteria, Criterion, Determined, Estimator, Fit, Integration,
+    Origin, Record, Settings, Span, Stop,
 };
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::PyValueError;
@@ -34,7 +34,7 @@ fn span_of(span: Option<(f64, f64)>) -> PyResult<Option<Span>> {
 /// `model.signals()`, taken at `time`), as `bgc identify` does; a dict of the estimates,
 /// their intervals and the combinations the record does not determine.
 #[pyfunction]
-#[pyo3(signature = (model, time, columns, *, labels = None, window = 51, integration = 250, only = None, fix = None, span = None))]
+#[pyo3(signature = (model, time, columns, *, labels = None, window = 51, integration = 250, only = None, fix = None, span = None, criterion = "evidence"))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn identify<'py>(
     py: Python<'py>,
@@ -47,7 +47,14 @@ pub(crate) fn identify<'py>(
     only: Option<Vec<String>>,
     fix: Option<Vec<String>>,
     span: Option<(f64, f64)>,
+    criterion: &str,
 ) -> PyResult<Bound<'py, PyDict>> {
+    // A fault's size over a span is the equation error's business (the copy would have to
+    // start at the span).
+    let criterion = match criterion_of(criterion)? {
+        _ if span.is_some() => Criterion::Equation,
+        c => c,
+    };
     let c = &model.compiled;
     if c.residual_code_refused() || c.arrs.is_empty() {
         return Err(BgcError::new_err(format!(
@@ -78,8 +85,16 @@ pub(crate) fn identify<'py>(
     };
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let record = [Record { time, raw: data }];
-    let found = py
-        .detach(|| fit(c, &program, &start, &record, &settings))
+    let simulated = (criterion != Criterion::Equation)
+        .then(|| simulated_model(&model))
+        .flatten();
+    let simulated_program = simulated.as_ref().map(Compiled::program);
+    let criteria = Criteria {
+        equation: (c, &program),
+        simulation: simulated.as_ref().zip(simulated_program.as_ref()),
+    };
+    let (found, chosen) = py
+        .detach(|| identify_by(&criteria, &start, &record, &settings, criterion))
         .map_err(|e| errors::data(format!("{}: {e}", model.file)))?;
     let out = PyDict::new(py);
     let estimates = PyList::empty(py);
@@ -111,6 +126,20 @@ pub(crate) fn identify<'py>(
     out.set_item("samples", found.samples)?;
     out.set_item("batches", found.batches)?;
     out.set_item("converged", found.stop.0 == Stop::Converged)?;
+    out.set_item(
+        "criterion",
+        match chosen.criterion {
+            Criterion::Simulation => "simulation",
+            _ => "equation",
+        },
+    )?;
+    out.set_item("criterion_note", chosen.fallback.clone())?;
+    out.set_item("cost", found.cost)?;
+    let lost = PyList::empty(py);
+    for l in &found.lost {
+        lost.append((&l.name, l.towards))?;
+    }
+    out.set_item("lost", lost)?;
     out.set_item("iterations", found.stop.1)?;
     Ok(out)
 }
@@ -123,7 +152,33 @@ fn determined(d: &Determined) -> &'static str {
         Determined::No => "combination",
         Determined::Unread => "unread",
         Determined::Held => "held",
+        Determined::Lost => "lost",
     }
+}
+
+/// The criterion a keyword names.
+fn criterion_of(name: &str) -> PyResult<Criterion> {
+    match name {
+        "equation" => Ok(Criterion::Equation),
+        "simulation" => Ok(Criterion::Simulation),
+        "evidence" => Ok(Criterion::Evidence),
+        other => Err(PyValueError::new_err(format!(
+            "criterion={other:?}: expected \"equation\", \"simulation\" or \"evidence\""
+        ))),
+    }
+}
+
+/// The model compiled for its simulated residuals (the output error); `None` where it has
+/// none.
+fn simulated_model(model: &Model) -> Option<Compiled> {
+    let options = Options {
+        derive: Derive::Everything,
+        simplify: Some(Limits::default()),
+        residuals: ResidualSet::Simulated,
+        realise: Realise::default(),
+    };
+    let out = bondgraph_core::compile(&model.text, &model.file, &options).ok()?;
+    (!out.compiled.arrs.is_empty()).then_some(out.compiled)
 }
 
 /// The model `text` with the values `values` (name → value) in place of its own, the rest

@@ -309,3 +309,56 @@ fn views<'a>(records: &[Record<'a>], columns: &[usize]) -> Vec<Record<'a>> {
         })
         .collect()
 }
+
+/// The model's outputs simulated on a record's inputs: each simulated residual's output
+/// `ŷ` at every sample, the copy run from rest with the parameters `values` and stepped as
+/// finely as the record needs. `record`'s columns are in `program`'s raw order (a simulated
+/// residuals' program); a sensor's column may hold anything (zeros where the record has no
+/// such column): the copy never reads a sensor, and `ŷ = y − r`.
+pub fn simulate_record(
+    c: &Compiled,
+    program: &Program,
+    values: &[f64],
+    record: &Record<'_>,
+    step: f64,
+) -> Result<Vec<Vec<f64>>, IdentifyError> {
+    let settings = Settings {
+        fit: crate::fit::Fit {
+            step,
+            estimator: Estimator::SavitzkyGolay {
+                window: 1,
+                degree: 0,
+            },
+            integration: vec![Integration::default(); program.residuals.len()],
+        },
+        free: Vec::new(),
+        bounded: false,
+        span: None,
+    };
+    let settings = simulation_settings(&settings, c, program);
+    let records = std::slice::from_ref(record);
+    let substeps = super::substeps::substeps(c, program, values, records, &settings.fit);
+    let generator = Generator::new(c, program, values, &settings.fit)
+        .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
+    let mut generator = generator.with_substeps(substeps);
+    // Each simulated residual's sensor, by its raw column.
+    let sensors: Vec<Option<usize>> = (c.arrs.iter())
+        .map(|a| {
+            let name = c.sensors[a.sensor?].name.as_str();
+            program.raw.values().position(|r| r.name == name)
+        })
+        .collect();
+    let n = program.residuals.len();
+    let mut out = vec![Vec::with_capacity(record.time.len()); n];
+    let mut row = 0;
+    generator.run(record.time, &record.raw, false, |estimates| {
+        for i in 0..estimates.len() {
+            for (k, o) in out.iter_mut().enumerate() {
+                let y = sensors[k].map_or(0.0, |j| record.raw[j][row]);
+                o.push(y - estimates.residual(k)[i]);
+            }
+            row += 1;
+        }
+    });
+    Ok(out)
+}

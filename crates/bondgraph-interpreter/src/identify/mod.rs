@@ -45,7 +45,7 @@ mod scaling;
 mod substeps;
 
 pub use criterion::{
-    identify_by, simulation_error, Chosen, Criteria, Criterion, Evidence, HELD_OUT,
+    identify_by, simulate_record, simulation_error, Chosen, Criteria, Criterion, Evidence, HELD_OUT,
 };
 
 use noise::Probe;

@@ -390,10 +390,14 @@ class Identification:
     `values` maps every parameter to its fitted value (the model's where the record does not
     determine it); `estimates` has a row per parameter (``name``, ``model``, ``value``,
     ``half_width`` of its 95 % interval, ``std_error``, ``determined``: ``"yes"``,
-    ``"weakly"``, ``"combination"``, ``"unread"`` or ``"held"``); `undetermined` the
+    ``"weakly"``, ``"combination"``, ``"unread"``, ``"held"`` or ``"lost"``); `undetermined` the
     combinations the record does not separate (``scalings``: parameter → exponent, scaling
     each by ``s**exponent`` leaves every residual as it is; ``structural``: no record of
-    these sensors could separate them); `model` the model with the fitted values.
+    these sensors could separate them); `model` the model with the fitted values;
+    `criterion` the error minimised (``"equation"`` or ``"simulation"``); `cost` the
+    residuals' mean square over their noise before and after the fit (never higher after);
+    `lost` the parameters the fit ran away with, held at their starts (name, where it was
+    going).
     """
 
     values: Dict[str, float]
@@ -403,6 +407,9 @@ class Identification:
     condition: float
     converged: bool
     model: "Model"
+    criterion: str = "equation"
+    cost: "tuple[float, float]" = (0.0, 0.0)
+    lost: List["tuple[str, float]"] = field(default_factory=list)
 
     def to_pandas(self) -> Any:
         """The estimates as a DataFrame indexed by parameter."""
@@ -715,13 +722,18 @@ class Model:
         only: Optional[Sequence[str]] = None,
         fix: Optional[Sequence[str]] = None,
         span: Optional[Tuple[float, float]] = None,
+        criterion: str = "evidence",
     ) -> Identification:
         """Fits the parameters to a healthy record (a dict of arrays, a pandas or Polars
         DataFrame), as ``bgc identify`` does (see docs/identification.md): least squares on
         the residuals as they are evaluated, each over the noise it carries; 95 % intervals;
         the combinations the record does not determine. `only` and `fix` choose what is
         fitted; `window` is the Savitzky–Golay window, `integration_window` the window the
-        integrated residuals are taken over.
+        integrated residuals are taken over. `criterion` is the error minimised, as
+        ``bgc identify --criterion``: ``"equation"`` (the ARRs' residuals), ``"simulation"``
+        (each sensor against a copy of the model the recorded inputs drive from rest) or
+        ``"evidence"`` (whichever predicts the record's held-out last 30 % better); the one
+        used is the result's `criterion`.
 
         With `span=(from, to)` (seconds), only the residuals over that span are fitted, those
         integrated from the start taken from its start, as ``bgc residuals`` sizes a fault:
@@ -731,7 +743,7 @@ class Model:
         out = _native.identify(
             self._native, t, cols, labels=labels, window=window, integration=integration_window,
             only=list(only) if only else None, fix=list(fix) if fix else None,
-            span=tuple(span) if span is not None else None,
+            span=tuple(span) if span is not None else None, criterion=criterion,
         )
         values = {e["name"]: e["value"] for e in out["estimates"]}
         return Identification(
@@ -742,6 +754,9 @@ class Model:
             condition=out["condition"],
             converged=out["converged"],
             model=self.with_parameters(values),
+            criterion=out["criterion"],
+            cost=tuple(out["cost"]),
+            lost=[tuple(x) for x in out["lost"]],
         )
 
     def sensors(self, components: Optional[Sequence[str]] = None, goal: str = "isolable") -> Dict[str, Any]:
