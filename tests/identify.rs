@@ -510,7 +510,11 @@ fn a_model_is_simulated_on_a_records_inputs() {
     let out = bgc(&["simulate", &model, "--record", &record, "--params", &values]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let text = stdout(&out);
-    assert!(text.starts_with("t,U0,v\n"), "{}", &text[..40.min(text.len())]);
+    assert!(
+        text.starts_with("t,U0,v\n"),
+        "{}",
+        &text[..40.min(text.len())]
+    );
     // The plant's own values on its own inputs: the error is the sensor's noise (1e-2).
     let note = (stderr(&out).lines())
         .find(|l| l.contains("v's simulation error, RMS"))
@@ -524,7 +528,11 @@ fn a_model_is_simulated_on_a_records_inputs() {
     assert!((0.008..0.012).contains(&rms), "{note}");
     // The model's own values are off the plant's: a larger error.
     let out = bgc(&["simulate", &model, "--record", &record]);
-    assert!(stderr(&out).contains("simulation error, RMS"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("simulation error, RMS"),
+        "{}",
+        stderr(&out)
+    );
     assert!(!stderr(&out).contains(&format!("RMS {rms}")));
     // A record of the inputs alone is simulated too, without an error to note.
     let inputs = dir.join("inputs.csv");
@@ -532,7 +540,12 @@ fn a_model_is_simulated_on_a_records_inputs() {
         .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(",") + "\n")
         .collect();
     std::fs::write(&inputs, only).expect("inputs");
-    let out = bgc(&["simulate", &model, "--record", &inputs.display().to_string()]);
+    let out = bgc(&[
+        "simulate",
+        &model,
+        "--record",
+        &inputs.display().to_string(),
+    ]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     assert!(stdout(&out).starts_with("t,U0,v\n") && !stderr(&out).contains("RMS"));
     // A scenario's statements make no sense beside a record.

@@ -3,8 +3,8 @@
 
 use bondgraph_core::{Compiled, Derive, Limits, Options, ParameterValues, Realise, ResidualSet};
 use bondgraph_interpreter::{
-    choose_free, identify_by, Criteria, Criterion, Determined, Estimator, Fit, Integration,
-    Origin, Record, Settings, Span, Stop,
+    choose_free, identify_by, Criteria, Criterion, Determined, Estimator, Fit, Integration, Origin,
+    Record, Settings, Span, Stop,
 };
 use numpy::PyReadonlyArray1;
 use pyo3::exceptions::PyValueError;

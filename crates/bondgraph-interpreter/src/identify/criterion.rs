@@ -240,7 +240,9 @@ pub fn simulation_error(
     let n = program.residuals.len();
     let mut sums = vec![0.0; n];
     let mut count = 0usize;
-    let substeps = super::substeps::substeps(c, program, values, records, &settings.fit);
+    let substeps = records.first().map_or(1, |r| {
+        super::substeps::substeps(c, program, values, (r.time, &r.raw), &settings.fit)
+    });
     for (record, &first) in records.iter().zip(from) {
         let Ok(generator) = Generator::new(c, program, values, &settings.fit) else {
             return vec![f64::INFINITY; n];
@@ -337,7 +339,9 @@ pub fn simulate_record(
     };
     let settings = simulation_settings(&settings, c, program);
     let records = std::slice::from_ref(record);
-    let substeps = super::substeps::substeps(c, program, values, records, &settings.fit);
+    let substeps = records.first().map_or(1, |r| {
+        super::substeps::substeps(c, program, values, (r.time, &r.raw), &settings.fit)
+    });
     let generator = Generator::new(c, program, values, &settings.fit)
         .map_err(|e| IdentifyError::Estimator(e.to_string()))?;
     let mut generator = generator.with_substeps(substeps);

@@ -285,7 +285,9 @@ pub fn identify(
         settings.free.iter().copied().filter(|&k| read[k]).collect()
     };
     let mut lost = Vec::new();
-    let substeps = substeps::substeps(c, program, start, records, &settings.fit);
+    let substeps = records.first().map_or(1, |r| {
+        substeps::substeps(c, program, start, (r.time, &r.raw), &settings.fit)
+    });
     // Each round holds at least one more parameter, so there are at most as many rounds as
     // parameters.
     loop {

@@ -11,7 +11,6 @@
 use bondgraph_core::program::Program;
 use bondgraph_core::Compiled;
 
-use super::Record;
 use crate::fit::Fit;
 use crate::generator::Generator;
 
@@ -27,28 +26,28 @@ const TOLERANCE: f64 = 1e-5;
 const TRIAL_ROWS: usize = 4096;
 
 /// The steps per sample interval past which the residuals of `program` with the parameters
-/// `values` move by less than [`TOLERANCE`] of their RMS over the first record's first
-/// samples: 1 where the program runs no copy.
+/// `values` move by less than [`TOLERANCE`] of their RMS over the first samples of a
+/// record (`time`, and its raw columns in the program's order): 1 where the program runs no
+/// copy.
 pub(crate) fn substeps(
     c: &Compiled,
     program: &Program,
     values: &[f64],
-    records: &[Record<'_>],
+    (time, raw): (&[f64], &[&[f64]]),
     fit: &Fit,
 ) -> usize {
-    let Some(record) = records.first() else {
-        return 1;
-    };
-    if program.copy.is_none() {
+    if program.copy.is_none() || time.is_empty() {
         return 1;
     }
-    let record = record.head(TRIAL_ROWS);
+    let rows = time.len().min(TRIAL_ROWS);
+    let (time, raw): (&[f64], Vec<&[f64]>) =
+        (&time[..rows], raw.iter().map(|c| &c[..rows]).collect());
     let run = |n: usize| -> Option<Vec<f64>> {
         let mut generator = Generator::new(c, program, values, fit)
             .ok()?
             .with_substeps(n);
         let mut out = Vec::new();
-        generator.run(record.time, &record.raw, false, |estimates| {
+        generator.run(time, &raw, false, |estimates| {
             for k in 0..estimates.residual_count() {
                 out.extend_from_slice(estimates.residual(k));
             }
