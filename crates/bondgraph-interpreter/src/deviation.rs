@@ -29,7 +29,7 @@ const QUIETER: f64 = 0.7;
 
 /// The column's white-noise deviation (0 where it has none: an input as commanded).
 pub(crate) fn deviation(x: &[f64]) -> f64 {
-    (ORDERS.iter())
+    let found = (ORDERS.iter())
         .map(|&(order, gain)| {
             let d = differences(x, order);
             let whole = median_abs(&mut d.clone()) / 0.6745 / gain.sqrt();
@@ -45,9 +45,12 @@ pub(crate) fn deviation(x: &[f64]) -> f64 {
                 _ => whole,
             }
         })
-        .fold(f64::INFINITY, f64::min)
-        .min(f64::MAX)
-        .max(0.0)
+        .fold(f64::INFINITY, f64::min);
+    if found.is_finite() {
+        found.max(0.0)
+    } else {
+        0.0
+    }
 }
 
 /// The `order`-th differences of `x` (finite ones only).

@@ -160,10 +160,12 @@ fn rank(rows: &[Vec<f64>]) -> usize {
             continue;
         }
         a.swap(rank, pivot);
-        for i in rank + 1..a.len() {
-            let f = a[i][column] / a[rank][column];
-            for k in column..width {
-                a[i][k] -= f * a[rank][k];
+        let (done, below) = a.split_at_mut(rank + 1);
+        let top = &done[rank];
+        for row in below {
+            let f = row[column] / top[column];
+            for (x, t) in row.iter_mut().zip(top).skip(column) {
+                *x -= f * t;
             }
         }
         rank += 1;
