@@ -8,7 +8,9 @@ development), the plant's free parameters are drawn uniformly within ±20 % of t
 (numpy's default_rng(seed)); scipy's solve_ivp (LSODA, rtol 1e-10, atol 1e-12) integrates it
 from rest, its inputs linear between the recorded samples (what a first-order hold gives, and
 what bgc's copy of the model assumes); Gaussian noise of the stated level is added to each
-sensor. `bgc identify` then fits the model, started from its own values, by each criterion.
+sensor. `bgc identify` then fits the model, started from its own values, by each criterion,
+and validates the fit on another run of the plant (other input phases, other noise): its
+simulation error over the sensor's noise (1 is a model as good as the noise allows).
 A parameter counts as recovered within 2 % of the plant's value; an interval holds when the
 plant's value lies within the estimate ± its half-width.
 
@@ -141,6 +143,9 @@ PLANTS = {
 # The bench's parameters its two encoders determine.
 DETERMINED = ("ke", "N", "j0", "gamma")
 
+VALIDATION = re.compile(r"# validation on \S+: (\w+)'s simulation error RMS \S+ with the "
+                        r"model's values, (\S+) fitted")
+
 LINE = re.compile(r"^(\w+) = (\S+)\s+# (.*)$")
 
 
@@ -180,8 +185,18 @@ def main():
                     columns[s] = y + sigma[s] * rng.standard_normal(len(y))
                 np.savetxt(path, np.column_stack(list(columns.values())), delimiter=",",
                            header=",".join(columns), comments="", fmt="%.12g")
+                # Another run of the same plant (other input phases, other noise), to
+                # validate on: the simulation error the benchmarks publish.
+                other = os.path.join(folder, "%s_%d_validation.csv" % (name, seed))
+                t2, inputs2, sensors2, _ = simulate(rng, plant)
+                columns2 = {"t": t2, **inputs2}
+                for s, y in sensors2.items():
+                    columns2[s] = y + sigma[s] * rng.standard_normal(len(y))
+                np.savetxt(other, np.column_stack(list(columns2.values())), delimiter=",",
+                           header=",".join(columns2), comments="", fmt="%.12g")
                 for criterion in a.criteria:
-                    args = [a.bgc, "identify", model, path, "--criterion", criterion]
+                    args = [a.bgc, "identify", model, path, "--criterion", criterion,
+                            "--validate", other]
                     if name == "bench":
                         args += ["--window", "51"]
                     for k in fixed:
@@ -194,6 +209,8 @@ def main():
                               out.returncode, out.stderr.strip().splitlines()[-1:]))
                         continue
                     found, cost = parse(out.stdout)
+                    for sensor, fitted in VALIDATION.findall(out.stdout):
+                        row.setdefault("validation", []).append(float(fitted) / sigma[sensor])
                     bad = cost is None or not (cost[1] <= cost[0]) or any(
                         not np.isfinite(v) for v, _, _ in found.values())
                     row["bad"] += bad
@@ -220,6 +237,11 @@ def main():
                           name, criterion, row["within"], row["count"],
                           100 * row["within"] / n, row["held"], 100 * row["held"] / n,
                           row["bad"], row["runs"]), flush=True)
+                if row.get("validation"):
+                    v = np.array(row["validation"])
+                    print("  %s, %s error: simulation error on the validation records, over "
+                          "the sensor's noise: median %.3f, largest %.3f" % (
+                              name, criterion, np.median(v), v.max()), flush=True)
 
 
 if __name__ == "__main__":
