@@ -497,6 +497,18 @@ fn a_short_slow_record_is_fitted_over_a_shorter_integration_window() {
         (c - 0.046).abs() <= half && half < 0.002,
         "c = {c} ± {half}"
     );
+    // With one level sensor the section, the pump's gain and the orifice scale together: the
+    // whole relation scales, its noise with it, and no record can separate them.
+    let out = bgc(&["identify", &model, &record, "--criterion", "equation"]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let file = stdout(&out);
+    let note = (file.lines())
+        .find(|l| l.starts_with("# not determined apart"))
+        .unwrap_or_else(|| panic!("{file}"));
+    assert!(
+        note.contains("A·s, kp·s, c·s") && note.contains("no record of these sensors"),
+        "{note}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

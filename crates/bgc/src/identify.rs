@@ -505,18 +505,26 @@ fn outside(c: &Compiled, e: &bondgraph_interpreter::Estimate) -> String {
 /// What a combination the records do not determine means, in the parameters' names.
 fn undetermined(c: &Compiled, found: &Identification, combination: &Combination) -> String {
     let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
-    let signed = |k: usize| found.estimates.get(k).is_some_and(|e| e.signed);
+    // A parameter at 0 moves by a shift (`offset + 0.5·s`, to first order); one that moves
+    // by a shift of its start's size moves, to first order, by a factor: its exponent is the
+    // coordinate's times its start's size over its value.
+    let additive = |k: usize| {
+        found
+            .estimates
+            .get(k)
+            .is_some_and(|e| e.signed && e.start == 0.0)
+    };
+    let exponent = |k: usize, x: f64| match found.estimates.get(k) {
+        // d ln(value) = |start| du / value, where the combination is found (the fit).
+        Some(e) if e.signed && e.value != 0.0 => x * e.start.abs() / e.value,
+        _ => x,
+    };
     // Exponents to two decimals: those that round to 0 barely take part.
     let moves: Vec<String> = (combination.scalings.iter())
-        .map(|&(k, x)| (k, (x * 100.0).round() / 100.0))
+        .map(|&(k, x)| (k, (exponent(k, x) * 100.0).round() / 100.0))
         .filter(|&(_, e)| e != 0.0)
         .map(|(k, e)| match e {
-            // A parameter that moves by a shift moves by its start's size times `s` along it.
-            e if signed(k) => {
-                let size = found.estimates[k].start.abs();
-                let size = if size == 0.0 { 1.0 } else { size };
-                format!("{} + {}·s", names[k], significant(e * size))
-            }
+            e if additive(k) => format!("{} + {}·s", names[k], significant(e)),
             1.0 => format!("{}·s", names[k]),
             -1.0 => format!("{}/s", names[k]),
             e if e > 0.0 => format!("{}·s^{e}", names[k]),

@@ -1077,38 +1077,99 @@ impl Problem<'_> {
             .collect()
     }
 
-    /// Whether moving the parameters along `scalings` leaves every expression of the
-    /// program as it is, to first order, at random values of its signals: then no record
-    /// can separate them. The move is small (1e-4 in log-scaling), so that a combination
-    /// the ARRs hold as a sum (`R1 + R2`), flat only to first order along a scaling, counts
-    /// too; a direction the ARRs see changes an expression by about the move, 1e-4 of its
-    /// terms, one they do not by its square.
+    /// Whether moving the parameters along `scalings` leaves every residual as it is up to
+    /// a constant factor of its own, to first order, at random values of its signals: then
+    /// no record can separate them (a residual scaled by a constant is scaled with its
+    /// noise, and the whitened fit does not see it: a tank's section, its pump's gain and
+    /// its orifice's coefficient scaled together). An integral's integrand may scale too,
+    /// by a constant, the integral then with it; an implicit law may scale (its root stays);
+    /// the copy's rates must stay as they are. The move is small (1e-4 in log-scaling), so
+    /// that a combination the ARRs hold as a sum (`R1 + R2`), flat only to first order along
+    /// a scaling, counts too; a direction the ARRs see changes an expression's ratio by
+    /// about the move, one they do not by its square.
     fn structural(&self, scalings: &[(usize, f64)], values: &[f64]) -> bool {
         let mut moved = values.to_vec();
         for &(k, x) in scalings {
             moved[k] = self.scalings[k].value(values[k], 1e-4 * x);
         }
-        let roots = self.program.parametrised();
         let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        (0..3).all(|_| {
-            let point: Vec<f64> = (0..self.program.slots.len())
-                .map(|_| 0.5 + uniform(&mut state))
-                .collect();
-            let at = |params: &[f64]| {
-                let mut e = Evaluator::new(&self.program.code, |leaf: Leaf| match leaf {
-                    Leaf::Slot(s) => point[s.index()],
-                    Leaf::Parameter(p) => params[p.index()],
-                    Leaf::Time => 0.7,
-                    Leaf::State(_) | Leaf::Input(_) => 0.3,
-                });
-                roots.iter().map(|&r| e.value(r)).collect::<Vec<f64>>()
-            };
-            let (a, b) = (at(values), at(&moved));
-            a.iter().zip(&b).all(|(x, y)| {
-                (x - y).abs() <= 1e-6 * x.abs().max(y.abs()).max(1e-300)
-                    || (x.is_nan() && y.is_nan())
+        let ratios: Option<Vec<Vec<Option<f64>>>> = (0..3)
+            .map(|_| {
+                let point: Vec<f64> = (0..self.program.slots.len())
+                    .map(|_| 0.5 + uniform(&mut state))
+                    .collect();
+                self.ratios(&point, values, &moved)
             })
+            .collect();
+        let Some(ratios) = ratios else {
+            return false;
+        };
+        // Each expression's ratio, the same at every point.
+        (0..ratios[0].len()).all(|r| {
+            let seen: Vec<f64> = ratios.iter().filter_map(|p| p[r]).collect();
+            seen.windows(2)
+                .all(|w| (w[0] - w[1]).abs() <= 1e-6 * w[0].abs().max(w[1].abs()))
         })
+    }
+
+    /// At one point of the signals (`point`, a value per slot), each expression's ratio of
+    /// its value with the parameters `moved` to its value with `values` (`None` where both
+    /// vanish): the integrands' first, then the laws', then the residuals' (their integrals
+    /// scaled by their integrands' ratios). `None` where an expression that must stay as it
+    /// is (the copy's rates) does not, or one vanishes with one set and not the other.
+    fn ratios(&self, point: &[f64], values: &[f64], moved: &[f64]) -> Option<Vec<Option<f64>>> {
+        let program = self.program;
+        let value = |params: &[f64], scale: &[f64], code| {
+            Evaluator::new(&program.code, |leaf: Leaf| match leaf {
+                Leaf::Slot(s) => point[s.index()] * scale[s.index()],
+                Leaf::Parameter(p) => params[p.index()],
+                Leaf::Time => 0.7,
+                Leaf::State(_) | Leaf::Input(_) => 0.3,
+            })
+            .value(code)
+        };
+        let ratio = |a: f64, b: f64| -> Option<Option<f64>> {
+            let tiny = 1e-300;
+            match (a.abs() <= tiny, b.abs() <= tiny) {
+                (true, true) => Some(None),
+                (false, false) if a.is_finite() && b.is_finite() => Some(Some(b / a)),
+                _ if a.is_nan() && b.is_nan() => Some(None),
+                _ => None,
+            }
+        };
+        let ones = vec![1.0; program.slots.len()];
+        let mut scale = ones.clone();
+        let mut out = Vec::new();
+        for (h, slot) in program.slots.iter() {
+            let code = match slot.fill {
+                bondgraph_core::program::Fill::Integral(code) => code,
+                bondgraph_core::program::Fill::Root { residual, .. } => residual,
+                _ => continue,
+            };
+            let r = ratio(value(values, &ones, code), value(moved, &ones, code))?;
+            if matches!(slot.fill, bondgraph_core::program::Fill::Integral(_)) {
+                scale[h.index()] = r.unwrap_or(1.0);
+            }
+            out.push(r);
+        }
+        for residual in &program.residuals {
+            let (a, b) = (
+                value(values, &ones, residual.code),
+                value(moved, &scale, residual.code),
+            );
+            out.push(ratio(a, b)?);
+        }
+        if let Some(copy) = &program.copy {
+            for &rate in &copy.rates {
+                let (a, b) = (value(values, &ones, rate), value(moved, &ones, rate));
+                let same = (a - b).abs() <= 1e-6 * a.abs().max(b.abs()).max(1e-300)
+                    || (a.is_nan() && b.is_nan());
+                if !same {
+                    return None;
+                }
+            }
+        }
+        Some(out)
     }
 }
 
