@@ -136,7 +136,8 @@ fn on_record(args: &SimulateArgs, path: &std::path::Path) -> Result<(), Failure>
     if c.arrs.is_empty() {
         return Err(report::refused(format!(
             "{}: a copy of the model cannot run on recorded inputs (its state equations are \
-             implicit, incomplete or read an input's derivative, or it has no detector)",
+             implicit, incomplete or read an input's derivative, it has no detector, or its \
+             detectors times its equations pass 2e7)",
             c.file_name
         )));
     }

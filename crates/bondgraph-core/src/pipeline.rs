@@ -81,60 +81,62 @@ pub(crate) fn candidate_list(model: &BondGraph) -> (Vec<Candidate>, usize) {
 /// product (about a second at this bound).
 const MAX_SIMULATED_WORK: usize = 20_000_000;
 
-/// Adds to `list` every detector's simulated residual, asked for as they are (the output
-/// error): none where a copy of the model cannot be run (see [`simulated::simulated`]).
-fn every_simulated(
+/// Each detector's simulated residual, with its candidate (the components it shows): none
+/// where a copy of the model cannot be run (see [`simulated::simulated`]) or past
+/// [`MAX_SIMULATED_WORK`].
+fn simulated_candidates(
     model: &BondGraph,
     (integral, state): (&Causal, &StateSpace),
+    components: &[Component],
+) -> (Vec<Simulated>, Vec<Candidate>) {
+    let work = state.outputs.len() * integral.system.equations.len();
+    if work > MAX_SIMULATED_WORK {
+        return (Vec::new(), Vec::new());
+    }
+    let index = crate::fdi::RowIndex::new(components);
+    let found = simulated::simulated(model, integral, state);
+    let with = (found.iter().enumerate())
+        .map(|(k, s)| Candidate {
+            origin: Origin::Simulated(k),
+            without: Vec::new(),
+            order: 0,
+            rows: simulated::rows(s, components, &index),
+        })
+        .collect();
+    (found, with)
+}
+
+/// Adds to `list` every detector's simulated residual, asked for as they are (the output
+/// error).
+fn every_simulated(
+    model: &BondGraph,
+    simulation: (&Causal, &StateSpace),
     fsm: &Fsm,
     list: &mut Vec<Candidate>,
 ) -> Vec<Simulated> {
     let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
-    let index = crate::fdi::RowIndex::new(&components);
-    let found = simulated::simulated(model, integral, state);
-    list.extend(found.iter().enumerate().map(|(k, s)| Candidate {
-        origin: Origin::Simulated(k),
-        without: Vec::new(),
-        order: 0,
-        rows: simulated::rows(s, &components, &index),
-    }));
+    let (found, with) = simulated_candidates(model, simulation, &components);
+    list.extend(with);
     found
 }
 
 /// Adds to `list` the detectors' simulated residuals, when together they tell apart classes
 /// that the derived residuals do not: a residual that needs a copy of the model run from a
 /// known state is kept for what no relation of measured signals can show. Returns those
-/// added. Not tried when the derived residuals reach the structural classes already, nor
-/// past [`MAX_SIMULATED_WORK`].
+/// added. Not tried when the derived residuals reach the structural classes already.
 fn add_simulated(
     model: &BondGraph,
-    (integral, state): (&Causal, &StateSpace),
+    simulation: (&Causal, &StateSpace),
     fsm: &Fsm,
     list: &mut Vec<Candidate>,
 ) -> Vec<Simulated> {
     let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
     let n = components.len();
     let before = candidates::classes_of(&list.iter().collect::<Vec<_>>(), n);
-    let work = state.outputs.len() * integral.system.equations.len();
-    if before.classes.len() >= fsm.possible.classes.len() || work > MAX_SIMULATED_WORK {
+    if before.classes.len() >= fsm.possible.classes.len() {
         return Vec::new();
     }
-    let index = crate::fdi::RowIndex::new(&components);
-    let found = simulated::simulated(model, integral, state);
-    let rows: Vec<Vec<usize>> = found
-        .iter()
-        .map(|s| simulated::rows(s, &components, &index))
-        .collect();
-    let with: Vec<Candidate> = rows
-        .into_iter()
-        .enumerate()
-        .map(|(k, rows)| Candidate {
-            origin: Origin::Simulated(k),
-            without: Vec::new(),
-            order: 0,
-            rows,
-        })
-        .collect();
+    let (found, with) = simulated_candidates(model, simulation, &components);
     let all: Vec<&Candidate> = list.iter().chain(&with).collect();
     if candidates::classes_of(&all, n).classes.len() <= before.classes.len() {
         return Vec::new();

@@ -64,47 +64,16 @@ impl Program {
         let copy = self.copy.as_ref()?;
         let n = copy.rates.len();
         let mut pool = self.code.clone();
-        let mut jacobian = vec![vec![0.0; n]; n];
-        for (j, column) in (0..n).map(|j| (j, CopyState::new(j))) {
-            let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
-                Some(p.num(if leaf == Leaf::State(column) {
-                    1.0
-                } else {
-                    0.0
-                }))
-            });
-            for (i, &rate) in copy.rates.iter().enumerate() {
-                let Some(d) = partial.of(&mut pool, rate) else {
-                    return Some(Stability::Unknown);
-                };
-                jacobian[i][j] = Evaluator::new(&pool, |leaf| match leaf {
-                    Leaf::Parameter(p) => params[p.index()],
-                    _ => 0.0,
-                })
-                .value(d);
-            }
-        }
-        let mut inputs = vec![vec![0.0; copy.inputs.len()]; n];
-        for j in 0..copy.inputs.len() {
-            let column = super::CopyInput::new(j);
-            let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
-                Some(p.num(if leaf == Leaf::Input(column) {
-                    1.0
-                } else {
-                    0.0
-                }))
-            });
-            for (i, &rate) in copy.rates.iter().enumerate() {
-                let Some(d) = partial.of(&mut pool, rate) else {
-                    return Some(Stability::Unknown);
-                };
-                inputs[i][j] = Evaluator::new(&pool, |leaf| match leaf {
-                    Leaf::Parameter(p) => params[p.index()],
-                    _ => 0.0,
-                })
-                .value(d);
-            }
-        }
+        let states: Vec<Leaf> = (0..n).map(|j| Leaf::State(CopyState::new(j))).collect();
+        let drives: Vec<Leaf> = (0..copy.inputs.len())
+            .map(|j| Leaf::Input(super::CopyInput::new(j)))
+            .collect();
+        let (Some(jacobian), Some(inputs)) = (
+            rest_partials(&mut pool, &copy.rates, &states, params),
+            rest_partials(&mut pool, &copy.rates, &drives, params),
+        ) else {
+            return Some(Stability::Unknown);
+        };
         if (jacobian.iter().chain(&inputs).flatten()).any(|v| !v.is_finite()) {
             return Some(Stability::Unknown);
         }
@@ -140,6 +109,32 @@ impl Program {
             false => Stability::Persists,
         })
     }
+}
+
+/// The partial derivatives of each of `rates` (rows) with respect to each of `leaves`
+/// (columns), at rest (every leaf but the parameters at 0); `None` where one cannot be
+/// taken.
+fn rest_partials(
+    pool: &mut crate::symbolic::Pool<Leaf>,
+    rates: &[super::Code],
+    leaves: &[Leaf],
+    params: &[f64],
+) -> Option<Vec<Vec<f64>>> {
+    let mut out = vec![vec![0.0; leaves.len()]; rates.len()];
+    for (j, &column) in leaves.iter().enumerate() {
+        let mut partial = Derivatives::partial(|p: &mut crate::symbolic::Pool<Leaf>, leaf| {
+            Some(p.num(if leaf == column { 1.0 } else { 0.0 }))
+        });
+        for (i, &rate) in rates.iter().enumerate() {
+            let d = partial.of(pool, rate)?;
+            out[i][j] = Evaluator::new(pool, |leaf| match leaf {
+                Leaf::Parameter(p) => params[p.index()],
+                _ => 0.0,
+            })
+            .value(d);
+        }
+    }
+    Some(out)
 }
 
 /// The rank of a matrix (rows of equal length), by Gaussian elimination with partial

@@ -79,7 +79,7 @@ impl Criteria<'_> {
             _ => Some(
                 "the model has no simulated residual (its state equations are implicit, \
                  incomplete or read an input's derivative, so a copy of it cannot run on \
-                 recorded inputs)",
+                 recorded inputs; or its detectors times its equations pass 2e7)",
             ),
         }
     }
