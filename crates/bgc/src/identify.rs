@@ -427,7 +427,19 @@ fn parameter_file(
                     .into()
             }
             Determined::Unread => "no residual reads it: model's value".into(),
-            Determined::Held => "held (--only/--fix)".into(),
+            Determined::Held => match &c
+                .parameters
+                .values()
+                .nth(e.parameter)
+                .and_then(|p| p.carried.clone())
+            {
+                Some(fault) => format!(
+                    "held at its healthy value: the {} (`with`), fitted only if named (--only {})",
+                    fault.describe(),
+                    e.name
+                ),
+                None => "held (--only/--fix)".into(),
+            },
             Determined::Lost => lost(found, e),
         };
         let _ = writeln!(out, "{} = {value}  # {note}", e.name);

@@ -25,15 +25,25 @@ pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, spa
     for (k, s) in sized.iter().enumerate() {
         let _ = write!(
             text,
-            "\n   {:>2}  {}: {}; {:.3} (was {:.3})",
+            "\n   {:>2}  {}{}: {}; {:.3} (was {:.3})",
             k + 1,
             s.component,
+            carried(c, s.parameter),
             estimates(c, &s.found, model).join(", "),
             s.found.cost.1,
             s.found.cost.0
         );
     }
     report::note(text);
+}
+
+/// ` (sensor gain)` where the parameter sized is a fault a detector or a source carries.
+fn carried(c: &Compiled, parameter: usize) -> String {
+    (c.parameters.values().nth(parameter))
+        .and_then(|p| p.carried.as_ref())
+        .map_or_else(String::new, |f| {
+            format!(" ({})", f.fault.describe(f.sensor))
+        })
 }
 
 /// `j0 = 0.61 rad ± 0.02, 3.050× the model's 0.2 (+0.41 rad)` for each parameter fitted.

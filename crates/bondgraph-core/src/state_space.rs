@@ -4,7 +4,7 @@ use std::collections::HashMap;
 
 use crate::causality::equations::{Relation, Var};
 use crate::causality::solve::Use;
-use crate::causality::{report, Causal};
+use crate::causality::{carried, report, Causal};
 use crate::diagnostic::{Code, Diagnostic, Severity};
 use crate::graph::{BondGraph, DetectorKind, NodeId, NodeKind};
 use crate::symbolic::{ExprId, Leaf, Pool, Simplifier, StateIx, VarId};
@@ -74,12 +74,14 @@ pub(crate) fn state_space_of(model: &BondGraph, causal: &Causal) -> StateSpace {
                 .detector_junction(id)
                 .and_then(|j| causal.value(Var::Common(j)))
                 .unwrap_or(nan);
+            let faults = &model.node(id).faults;
             if kind.integrals() == 0 {
-                outputs.push((id, value));
+                outputs.push((id, carried::reading(&mut pool, faults, value)));
             } else {
                 let state = StateIx((storage + integrands.len()) as u32);
                 integrands.push((id, value));
-                outputs.push((id, pool.leaf(Leaf::State(state))));
+                let state = pool.leaf(Leaf::State(state));
+                outputs.push((id, carried::reading(&mut pool, faults, state)));
             }
         }
     }

@@ -5,10 +5,10 @@
 //! the record.
 
 use bondgraph_core::program::Program;
-use bondgraph_core::Compiled;
+use bondgraph_core::{Carried, Compiled};
 
 use crate::fit::{Estimator, Fit, Integration};
-use crate::identify::{identify, Identification, Origin, Record, Settings, Span};
+use crate::identify::{identify, Determined, Identification, Origin, Record, Settings, Span};
 
 /// The Savitzky–Golay window the sizes are fitted with (as the model is by `--calibrate`).
 pub const SIZE_WINDOW: usize = 51;
@@ -71,8 +71,17 @@ impl Sizing<'_> {
         from: f64,
         to: f64,
     ) -> Option<Sized> {
-        [Origin::Span, Origin::Record]
-            .into_iter()
+        // A drift counts from its onset: integrated from the record's start, the model's
+        // `drift·t` would have drifted since t = 0, and no drift rate could fit both.
+        let drift = (self.c.parameters.values().nth(parameter))
+            .and_then(|p| p.carried.as_ref())
+            .is_some_and(|f| f.fault == Carried::Drift);
+        let origins: &[Origin] = if drift {
+            &[Origin::Span]
+        } else {
+            &[Origin::Span, Origin::Record]
+        };
+        (origins.iter().copied())
             .filter_map(|origin| {
                 self.fit_from(component, parameter, start, Span { from, to, origin })
             })
@@ -98,7 +107,7 @@ impl Sizing<'_> {
                 // lasts accumulates over it, the noise only as its square root.
                 integration: vec![Integration::Start; self.c.arrs.len()],
             },
-            free: vec![parameter],
+            free: self.fitted_with(parameter),
             bounded: false,
             span: Some(span),
         };
@@ -113,6 +122,18 @@ impl Sizing<'_> {
         // A parameter the fit ran away with (held at its start) is no size: a change of it
         // alone does not explain the residuals, and a ratio of 1e198 would rank first.
         if !found.lost.is_empty() {
+            return None;
+        }
+        // One no residual reads (an encoder's bias where only its speed is read) explains
+        // nothing: its unchanged cost is no fit, however low.
+        let fitted = (found.estimates.iter()).any(|e| {
+            e.parameter == parameter
+                && matches!(
+                    e.determined,
+                    Determined::Yes | Determined::Weakly | Determined::No
+                )
+        });
+        if !fitted {
             return None;
         }
         Some(Sized {
@@ -151,6 +172,23 @@ impl Sizing<'_> {
             from += span;
         }
         out
+    }
+}
+
+impl Sizing<'_> {
+    /// The parameters fitted when `parameter` is sized: itself, and for a sensor's drift the
+    /// same sensor's bias, since a drift that began at some instant reads from then on as
+    /// `drift·t` less the bias it would have had by then.
+    fn fitted_with(&self, parameter: usize) -> Vec<usize> {
+        let carried =
+            |k: usize| (self.c.parameters.values().nth(k)).and_then(|p| p.carried.clone());
+        let mut free = vec![parameter];
+        if let Some(drift) = carried(parameter).filter(|f| f.fault == Carried::Drift) {
+            free.extend((0..self.params.len()).filter(|&k| {
+                carried(k).is_some_and(|f| f.fault == Carried::Bias && f.by == drift.by)
+            }));
+        }
+        free
     }
 }
 

@@ -6,6 +6,7 @@ use std::collections::{BTreeSet, HashMap};
 
 use petgraph::Direction::{Incoming, Outgoing};
 
+use super::carried;
 use super::mode::Mode;
 use crate::expr::{BinOp, Expr};
 use crate::graph::{
@@ -630,7 +631,9 @@ impl<'m> Builder<'m> {
         };
         let var = self.var(Var::Common(junction));
         // A `Dq` or `Dp` measures the integral: the junction's variable is its derivative.
-        let value = self.sys.pool.leaf(Leaf::Sensor(node, kind.integrals()));
+        let measured = self.sys.pool.leaf(Leaf::Sensor(node, kind.integrals()));
+        let faults = &self.model.node(node).faults;
+        let value = carried::from_reading(&mut self.sys.pool, faults, measured, kind.integrals());
         self.push(node, Relation::Assign { var, value }, Vec::new());
     }
 
@@ -645,6 +648,13 @@ impl<'m> Builder<'m> {
                 } else {
                     self.var(Var::Flow(b))
                 };
+                let faults = &self.model.node(node).faults;
+                if !faults.0.is_empty() {
+                    let value = self.expr(law.expr(), &mut |_| None, &mut used);
+                    let value = carried::applied(&mut self.sys.pool, faults, value);
+                    self.push(node, Relation::Assign { var, value }, used);
+                    return;
+                }
                 if let Some((l, k)) = scaled_let(law.expr(), self.free) {
                     let k = match k {
                         Scale::By(k) => self.expr(k, &mut |_| None, &mut used),

@@ -4,6 +4,7 @@
 //! equations) and [`Mode::Diagnosis`] (storage in derivative causality, detectors inverted into
 //! sources of their measured signal: for ARRs). See [`solve`] for the order of assignment.
 
+pub(crate) mod carried;
 pub(crate) mod equations;
 mod mode;
 pub(crate) mod report;

@@ -130,6 +130,9 @@ pub(crate) fn components(model: &BondGraph) -> Vec<Component> {
             {
                 direct.extend(deep[l.index()].iter().copied());
             }
+            // A source's gain and offset (`with`) are its own, as an actuator's faults.
+            direct.extend(node.faults.0.iter().map(|(_, p)| *p));
+            all.extend(node.faults.0.iter().map(|(_, p)| *p));
             element_params.extend(direct.iter().copied());
             let read = deep_lets(model, law.expr()).into_iter();
             modulating.extend(read.filter(|l| !constant[l.index()]));
@@ -171,13 +174,15 @@ pub(crate) fn components(model: &BondGraph) -> Vec<Component> {
     for id in model.nodes() {
         let node = model.node(id);
         if let NodeKind::Detector(kind) = node.kind {
+            // Its bias, gain and drift (`with`): a sensor's faults as parameters.
+            let own: Vec<ParamId> = node.faults.0.iter().map(|(_, p)| *p).collect();
             out.push(Component {
                 name: node.name.clone(),
                 kind: ComponentKind::Detector(kind),
                 node: Some(id),
                 modulation: None,
-                parameters: Vec::new(),
-                all_parameters: Vec::new(),
+                parameters: own.clone(),
+                all_parameters: own,
                 signals: vec![node.name.clone()],
             });
         }

@@ -8,10 +8,11 @@ use std::collections::HashSet;
 use petgraph::graph::{DiGraph, NodeIndex};
 
 use super::bonds;
+use super::faults::{self, Carrier};
 use super::laws::{element_law, Context, Resolver, Variability};
 use super::model::{
-    BondGraph, DetectorKind, ElementKind, Input, InputId, JunctionKind, Let, LetId, Node, NodeId,
-    NodeKind, Param, ParamId, Signal,
+    BondGraph, DetectorKind, ElementKind, Faults, Input, InputId, JunctionKind, Let, LetId, Node,
+    NodeId, NodeKind, Param, ParamId, Signal,
 };
 use super::scope::{Scope, SignalSlot};
 use super::validate;
@@ -276,10 +277,12 @@ impl<'a> Lowerer<'a, '_> {
         let mut uncertain = HashSet::new();
         for pending in std::mem::take(&mut self.pending) {
             let kind = self.node_kind(&pending, &variability, &mut attachments);
+            let faults = self.faults(&pending);
             let failed = kind.is_none();
             let index = graph.add_node(Node {
                 name: pending.name.name.clone(),
                 kind: kind.unwrap_or(NodeKind::Junction(JunctionKind::Zero)),
+                faults,
                 description: pending.description,
                 span: pending.name.span,
             });
@@ -407,6 +410,24 @@ impl<'a> Lowerer<'a, '_> {
                 Some(NodeKind::Detector(kind))
             }
         }
+    }
+
+    /// The sensor or actuator faults a detector or a source states with `with`.
+    fn faults(&mut self, pending: &Pending<'a>) -> Faults {
+        let (carrier, decl) = match pending.what {
+            PendingKind::Junction(_) => return Faults::default(),
+            PendingKind::Detector(_, decl) => (Carrier::Sensor, decl),
+            PendingKind::Element(kind, decl) if kind.is_source() => (Carrier::Actuator, decl),
+            PendingKind::Element(_, decl) => (Carrier::Other, decl),
+        };
+        faults::resolve(
+            carrier,
+            &decl.name,
+            &decl.faults,
+            &self.scope,
+            &mut self.used,
+            self.diagnostics,
+        )
     }
 
     fn warn_unused(&mut self, model: &BondGraph) {

@@ -360,6 +360,65 @@ pub(crate) enum NodeKind {
     Detector(DetectorKind),
 }
 
+/// A fault a detector or a source carries, as its `with` clause states it: each is a
+/// parameter of the model whose nominal value is the healthy one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Carried {
+    /// A detector's bias: it reads `gain·x + bias + drift·t` for the junction's `x`.
+    Bias,
+    /// A detector's or a source's gain (a source applies `gain·value + offset`).
+    Gain,
+    /// A detector's drift, a bias that grows with time (per second).
+    Drift,
+    /// A source's offset: what it applies beside its value.
+    Offset,
+}
+
+impl Carried {
+    /// The word of the `with` clause.
+    pub fn name(self) -> &'static str {
+        match self {
+            Carried::Bias => "bias",
+            Carried::Gain => "gain",
+            Carried::Drift => "drift",
+            Carried::Offset => "offset",
+        }
+    }
+
+    /// The fault called `name`, if any.
+    pub(crate) fn from_name(name: &str) -> Option<Carried> {
+        Some(match name {
+            "bias" => Carried::Bias,
+            "gain" => Carried::Gain,
+            "drift" => Carried::Drift,
+            "offset" => Carried::Offset,
+            _ => return None,
+        })
+    }
+
+    /// What it does to what the component measures or applies.
+    pub fn describe(self, sensor: bool) -> &'static str {
+        match (self, sensor) {
+            (Carried::Bias, _) => "sensor bias",
+            (Carried::Gain, true) => "sensor gain",
+            (Carried::Gain, false) => "actuator gain",
+            (Carried::Drift, _) => "sensor drift",
+            (Carried::Offset, _) => "actuator offset",
+        }
+    }
+}
+
+/// The faults a node carries, by parameter; empty for most nodes.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Faults(pub Vec<(Carried, ParamId)>);
+
+impl Faults {
+    /// The parameter of `fault`, if the node carries it.
+    pub(crate) fn get(&self, fault: Carried) -> Option<ParamId> {
+        self.0.iter().find(|(f, _)| *f == fault).map(|(_, p)| *p)
+    }
+}
+
 /// A node with its name.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Node {
@@ -367,6 +426,8 @@ pub(crate) struct Node {
     pub name: String,
     /// What it is.
     pub kind: NodeKind,
+    /// The faults it carries (`with`): detectors and sources only.
+    pub faults: Faults,
     /// What it is for, as the user described it.
     pub description: Option<String>,
     /// Where it is declared (for a junction: its first mention).

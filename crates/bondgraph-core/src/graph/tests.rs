@@ -170,3 +170,51 @@ fn structure_is_checked_per_kind() {
         [Code::Direction]
     );
 }
+
+const FAULTY_RLC: &str = "model rlc\nparam R1 = 2\nparam L1 = 3\nparam C1 = 4\ninput V\n\
+    param kv = 1\nparam ib = 0\nparam ig = 1\nparam id = 0\n\
+    Se s = V with gain = kv\nR r = R1\nI l = L1\nC c = C1\n\
+    Df i on loop with bias = ib, gain = ig, drift = id\ns -> 1:loop -> r, l\nloop -[9]-> c\n";
+
+#[test]
+fn sensors_and_sources_carry_their_faults_as_parameters() {
+    let m = lowered(FAULTY_RLC);
+    let param = |name: &str| {
+        let k = m.params.iter().position(|p| p.name == name).expect("param");
+        ParamId(k as u32)
+    };
+    let i = &m.node(node(&m, "i")).faults;
+    assert_eq!(i.get(Carried::Bias), Some(param("ib")));
+    assert_eq!(i.get(Carried::Gain), Some(param("ig")));
+    assert_eq!(i.get(Carried::Drift), Some(param("id")));
+    assert_eq!(
+        m.node(node(&m, "s")).faults.get(Carried::Gain),
+        Some(param("kv"))
+    );
+    assert!(m.node(node(&m, "r")).faults.0.is_empty());
+}
+
+#[test]
+fn a_fault_clause_is_checked_word_by_word() {
+    let with = |from: &str, to: &str| codes(&FAULTY_RLC.replace(from, to));
+    // A source has no drift, a detector no offset, an `R` no fault clause at all.
+    assert_eq!(
+        with("V with gain = kv", "V with drift = kv"),
+        [Code::BadLaw]
+    );
+    assert_eq!(with("drift = id", "offset = id"), [Code::BadLaw]);
+    assert_eq!(with("R r = R1", "R r = R1 with gain = kv"), [Code::BadLaw]);
+    // Each fault once, each bound to a parameter.
+    assert_eq!(with("drift = id", "gain = id"), [Code::Duplicate]);
+    assert_eq!(with("gain = kv", "gain = V"), [Code::BadReference]);
+    assert_eq!(with("gain = kv", "gain = nowhere"), [Code::BadReference]);
+}
+
+#[test]
+fn with_stays_a_name_outside_the_clause() {
+    let m = lowered(
+        &RLC.replace("param R1 = 2", "param with = 2")
+            .replace("R r = R1", "R r = with"),
+    );
+    assert_eq!(law(&m, "r"), "with");
+}

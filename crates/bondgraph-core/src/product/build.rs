@@ -160,14 +160,27 @@ impl<'m> Builder<'m> {
     }
 
     fn parameters(&self) -> Arena<Parameter> {
+        let mut carried = vec![None; self.model.params.len()];
+        for id in self.model.nodes() {
+            let node = self.model.node(id);
+            let sensor = matches!(node.kind, NodeKind::Detector(_));
+            for &(fault, p) in &node.faults.0 {
+                carried[p.index()] = Some(CarriedFault {
+                    fault,
+                    by: node.name.clone(),
+                    sensor,
+                });
+            }
+        }
         let mut out = Arena::default();
-        for p in &self.model.params {
+        for (p, carried) in self.model.params.iter().zip(carried) {
             out.push(Parameter {
                 name: p.name.clone(),
                 value: p.value,
                 unit: p.unit.clone(),
                 uncertainty: p.uncertainty,
                 shared: p.shared,
+                carried,
                 description: p.description.clone(),
                 span: p.span,
             });

@@ -19,6 +19,7 @@ pub(crate) use realise::realise;
 pub use realise::time_rate;
 
 use crate::diagnostic::{Diagnostics, LineCol, LineIndex, Span};
+pub use crate::graph::Carried;
 use crate::symbolic::{ExprId, Pool};
 
 /// A leaf of a product expression: a name the user gave, never a solver's unknown.
@@ -67,10 +68,31 @@ pub struct Parameter {
     /// Whether the model marks it `shared`: several components read it on purpose (a gear
     /// ratio), and a change of it is not warned about.
     pub shared: bool,
+    /// The sensor or actuator fault it stands for, if a detector's or a source's `with`
+    /// names it: held at its healthy value when a model is identified, sized with the rest.
+    pub carried: Option<CarriedFault>,
     /// What it is, as the user described it.
     pub description: Option<String>,
     /// Where it is declared.
     pub span: Span,
+}
+
+/// A parameter that stands for a fault a detector or a source carries (`with bias = qb`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CarriedFault {
+    /// Which fault.
+    pub fault: Carried,
+    /// The detector or source that carries it.
+    pub by: String,
+    /// Whether that is a detector (a sensor fault) rather than a source (an actuator's).
+    pub sensor: bool,
+}
+
+impl CarriedFault {
+    /// `sensor gain of q`, `actuator offset of drive`.
+    pub fn describe(&self) -> String {
+        format!("{} of {}", self.fault.describe(self.sensor), self.by)
+    }
 }
 
 /// A known input signal.

@@ -119,6 +119,8 @@ pub(crate) struct ElementDecl {
     pub name: Ident,
     /// What follows the name.
     pub body: ElementBody,
+    /// `with bias = qb, gain = qg`: the faults it may carry, each `(fault, parameter)`.
+    pub faults: Vec<(Ident, Ident)>,
     /// What it is.
     pub description: Option<String>,
 }

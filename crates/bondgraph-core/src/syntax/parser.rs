@@ -283,10 +283,15 @@ impl Builder<'_> {
         let name = self.ident(nth(&mut inner, Rule::ident));
         let mut body = ast::ElementBody::None;
         let mut description = None;
+        let mut faults = Vec::new();
         for p in inner {
             let rule = p.as_rule();
             if rule == Rule::description {
                 description = Some(inner_text(p));
+                continue;
+            }
+            if rule == Rule::with_clause {
+                faults = self.faults(p.into_inner());
                 continue;
             }
             let mut parts = p.into_inner();
@@ -307,8 +312,21 @@ impl Builder<'_> {
             kind,
             name,
             body,
+            faults,
             description,
         }
+    }
+
+    /// The `fault = parameter` pairs of a `with` clause.
+    fn faults(&mut self, inner: Pairs<'_, Rule>) -> Vec<(ast::Ident, ast::Ident)> {
+        inner
+            .filter(|p| p.as_rule() == Rule::fault_item)
+            .map(|p| {
+                let mut parts = p.into_inner();
+                let fault = self.ident(nth(&mut parts, Rule::ident));
+                (fault, self.ident(nth(&mut parts, Rule::ident)))
+            })
+            .collect()
     }
 
     fn chain(&mut self, inner: Pairs<'_, Rule>) -> ast::Chain {
@@ -714,6 +732,9 @@ fn rule_name(rule: Rule) -> Option<&'static str> {
         Rule::kw_model => "`model`",
         Rule::kw_param => "`param`",
         Rule::kw_shared => "`shared`",
+        Rule::kw_with => "`with`",
+        Rule::with_clause => "`with FAULT = PARAMETER`",
+        Rule::fault_item => "`FAULT = PARAMETER`",
         Rule::kw_input => "`input`",
         Rule::kw_let => "`let`",
         Rule::kw_on => "`on`",

@@ -65,7 +65,7 @@ pub struct Settings {
     /// How the residuals are estimated while fitting.
     pub fit: Fit,
     /// The parameters to fit, by their place in the model; empty: every one the residual
-    /// program reads.
+    /// program reads but the sensors' and actuators' faults (`with`).
     pub free: Vec<usize>,
     /// Keep each parameter within the model's `+- x%` where it gives one.
     pub bounded: bool,
@@ -280,7 +280,8 @@ pub fn identify(
 ) -> Result<Identification, IdentifyError> {
     let read = read_parameters(program, start.len());
     let mut free: Vec<usize> = if settings.free.is_empty() {
-        (0..start.len()).filter(|&k| read[k]).collect()
+        let plant: Vec<bool> = c.parameters.values().map(|p| p.carried.is_none()).collect();
+        (0..start.len()).filter(|&k| read[k] && plant[k]).collect()
     } else {
         settings.free.iter().copied().filter(|&k| read[k]).collect()
     };
@@ -395,8 +396,8 @@ pub fn integration_window_for(rows: usize, window: usize) -> (usize, bool) {
     }
 }
 
-/// The parameters to fit, by their place in `c`: those named in `only` (every one when it
-/// is empty) less those named in `fix`. A name the model does not declare is refused, with
+/// The parameters to fit, by their place in `c`: those named in `only` (when it is empty,
+/// every one but the sensors' and actuators' faults) less those named in `fix`. A name the model does not declare is refused, with
 /// the nearest one it does.
 pub fn choose_free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<usize>, String> {
     let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
@@ -409,8 +410,14 @@ pub fn choose_free(c: &Compiled, only: &[String], fix: &[String]) -> Result<Vec<
     };
     let only = only.iter().map(place).collect::<Result<Vec<_>, _>>()?;
     let fixed = fix.iter().map(place).collect::<Result<Vec<_>, _>>()?;
+    // A sensor's or an actuator's fault (`with`) is a departure from health, not a property
+    // of the plant: held at its healthy value unless named (an encoder's gain and the mass
+    // it reads scale one relation together, and could never both be learned).
     let candidates: Vec<usize> = if only.is_empty() {
-        (0..names.len()).collect()
+        (c.parameters.values().enumerate())
+            .filter(|(_, p)| p.carried.is_none())
+            .map(|(k, _)| k)
+            .collect()
     } else {
         only
     };
