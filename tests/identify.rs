@@ -565,3 +565,83 @@ fn a_model_is_simulated_on_a_records_inputs() {
     assert_eq!(code(&out), 2, "{}", stderr(&out));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The DC motor with its supply's and its two sensors' faults stated (`with`), at the values
+/// given (the healthy ones: gains 1, the others 0).
+fn motor_with_faults(dir: &Path, values: &str) -> String {
+    let text = std::fs::read_to_string(crate::common::root().join("models/dc_motor.bg"))
+        .expect("dc_motor")
+        .replace("U0 \"supply\"", "U0 with gain = kv \"supply\"")
+        .replace(
+            "on elec  \"armature current\"",
+            "on elec with bias = ib, gain = ig, drift = idr",
+        )
+        .replace(
+            "on shaft \"motor speed\"",
+            "on shaft with bias = yb, gain = yg",
+        );
+    let model = dir.join("motor.bg");
+    std::fs::write(&model, format!("{text}{values}")).expect("model");
+    model.display().to_string()
+}
+
+#[test]
+fn a_model_whose_sensors_and_supply_are_off_their_healthy_values_is_consistent() {
+    // Read through faults that are present, every relation still vanishes on the model's
+    // own trajectories: what the detectors read in simulation and what the ARRs undo agree.
+    let dir = scratch("identify-carried-verify");
+    let model = motor_with_faults(
+        &dir,
+        "param kv = 0.9\nparam ib = 0.05\nparam ig = 1.1\nparam idr = 0.01\n\
+         param yb = -0.2\nparam yg = 0.95\n",
+    );
+    let out = bgc(&["verify", &model]);
+    assert_eq!(code(&out), 0, "{}{}", stdout(&out), stderr(&out));
+    let out = bgc(&[&model]);
+    let text = stdout(&out);
+    assert!(text.contains("ke * (i - ib - idr * t) / ig"), "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn sensor_and_actuator_faults_are_sized_and_named_as_such() {
+    let dir = scratch("identify-carried-size");
+    let healthy_values = "param kv = 1\nparam ib = 0\nparam ig = 1\nparam idr = 0\n\
+                          param yb = 0\nparam yg = 1\n";
+    let model = motor_with_faults(&dir, healthy_values);
+    let input = "6 + 12*sin(0.5*t) + 3*sin(7*t)";
+    let noise = ["i", "y1"];
+    let healthy = simulate_with(&dir, &model, "", input, &noise, &[], "healthy.csv", 1);
+    // Injected as the scenario's signal faults, not through the parameters that size them.
+    for (fault, line, truth) in [
+        (
+            "fault sensor y1 * 1.1 at 30",
+            "y1 (sensor gain): yg = ",
+            1.1,
+        ),
+        ("fault sensor i + 0.5 at 30", "i (sensor bias): ib = ", 0.5),
+        (
+            "fault actuator U0 * 0.8 at 30",
+            "U (actuator gain): kv = ",
+            0.8,
+        ),
+    ] {
+        let faulty = simulate_with(&dir, &model, "", input, &noise, &[fault], "faulty.csv", 2);
+        let mut args = vec!["residuals", &model, &faulty, "--calibrate", &healthy];
+        args.extend(FIXED);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let said = stderr(&out);
+        let first = (said.lines())
+            .skip_while(|l| !l.contains("the fault's size"))
+            .nth(1)
+            .unwrap_or_else(|| panic!("{said}"));
+        assert!(first.contains(line), "{fault}: {said}");
+        let value: f64 = (first.split(line).nth(1))
+            .and_then(|s| s.split_whitespace().next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("{first}"));
+        assert!((value / truth - 1.0).abs() < 0.1, "{fault}: {first}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

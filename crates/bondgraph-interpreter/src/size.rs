@@ -73,10 +73,7 @@ impl Sizing<'_> {
     ) -> Option<Sized> {
         // A drift counts from its onset: integrated from the record's start, the model's
         // `drift·t` would have drifted since t = 0, and no drift rate could fit both.
-        let drift = (self.c.parameters.values().nth(parameter))
-            .and_then(|p| p.carried.as_ref())
-            .is_some_and(|f| f.fault == Carried::Drift);
-        let origins: &[Origin] = if drift {
+        let origins: &[Origin] = if self.is_drift(parameter) {
             &[Origin::Span]
         } else {
             &[Origin::Span, Origin::Record]
@@ -95,6 +92,19 @@ impl Sizing<'_> {
         start: &[f64],
         span: Span,
     ) -> Option<Sized> {
+        // A drift is sized as one that began at the span's start: the record's clock is set
+        // to zero there, so that the model's `drift·t` is the drift since then (where no
+        // law reads the clock; otherwise the sensor's bias is fitted with it).
+        let shift = if self.is_drift(parameter) && !self.c.reads_time {
+            span.from
+        } else {
+            0.0
+        };
+        let span = Span {
+            from: span.from - shift,
+            to: span.to - shift,
+            origin: span.origin,
+        };
         let to = span.to;
         let settings = Settings {
             fit: Fit {
@@ -111,11 +121,12 @@ impl Sizing<'_> {
             bounded: false,
             span: Some(span),
         };
-        let end = (self.time.iter())
+        let time: Vec<f64> = self.time.iter().map(|t| t - shift).collect();
+        let end = (time.iter())
             .position(|&t| t > to)
-            .map_or(self.time.len(), |k| (k + WINDOW).min(self.time.len()));
+            .map_or(time.len(), |k| (k + WINDOW).min(time.len()));
         let record = Record {
-            time: &self.time[..end],
+            time: &time[..end],
             raw: self.columns.iter().map(|c| &c[..end]).collect(),
         };
         let found = identify(self.c, self.program, start, &[record], &settings).ok()?;
@@ -176,14 +187,22 @@ impl Sizing<'_> {
 }
 
 impl Sizing<'_> {
-    /// The parameters fitted when `parameter` is sized: itself, and for a sensor's drift the
-    /// same sensor's bias, since a drift that began at some instant reads from then on as
-    /// `drift·t` less the bias it would have had by then.
+    /// Whether `parameter` is a sensor's drift.
+    fn is_drift(&self, parameter: usize) -> bool {
+        (self.c.parameters.values().nth(parameter))
+            .and_then(|p| p.carried.as_ref())
+            .is_some_and(|f| f.fault == Carried::Drift)
+    }
+
+    /// The parameters fitted when `parameter` is sized: itself, and for a sensor's drift in a
+    /// model whose laws read the clock the same sensor's bias, since a drift that began at
+    /// some instant reads from then on as `drift·t` less the bias it would have had by then.
     fn fitted_with(&self, parameter: usize) -> Vec<usize> {
         let carried =
             |k: usize| (self.c.parameters.values().nth(k)).and_then(|p| p.carried.clone());
         let mut free = vec![parameter];
-        if let Some(drift) = carried(parameter).filter(|f| f.fault == Carried::Drift) {
+        let drift = carried(parameter).filter(|f| f.fault == Carried::Drift);
+        if let Some(drift) = drift.filter(|_| self.c.reads_time) {
             free.extend((0..self.params.len()).filter(|&k| {
                 carried(k).is_some_and(|f| f.fault == Carried::Bias && f.by == drift.by)
             }));

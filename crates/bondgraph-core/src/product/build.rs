@@ -33,6 +33,23 @@ const MAX_PRINTED: u64 = 2_000_000;
 
 /// Builds the product of a valid model. `analysis` is `None` when only the model was asked
 /// for (`bgc check`).
+/// Whether a law or a `let` of `model` reads `t` (the drifts of its sensors aside).
+fn reads_time(model: &BondGraph) -> bool {
+    let mut reads = false;
+    let mut look = |e: &crate::graph::SignalExpr| {
+        e.for_each_leaf(&mut |s| reads |= matches!(s, crate::graph::Signal::Time));
+    };
+    for l in &model.lets {
+        look(&l.value);
+    }
+    for id in model.nodes() {
+        if let NodeKind::Element(_, law) = &model.node(id).kind {
+            look(law.expr());
+        }
+    }
+    reads
+}
+
 pub(crate) fn build(
     model: &BondGraph,
     analysis: Option<&Analysis<'_>>,
@@ -54,6 +71,7 @@ pub(crate) fn build(
         auxiliaries: Arena::default(),
         roots: Arena::default(),
         diagnosed: false,
+        reads_time: reads_time(model),
         components: Arena::default(),
         isolability: Isolability::default(),
         causality: Vec::new(),

@@ -700,6 +700,9 @@ pub struct Compiled {
     pub roots: Arena<Root>,
     /// Whether ARRs were derived at all (`false` when only the state equations were asked for).
     pub diagnosed: bool,
+    /// Whether a law or a `let` reads time `t` (a sensor's drift aside): a record's clock
+    /// then matters, not only its steps.
+    pub reads_time: bool,
     /// The rows of the fault signature matrix.
     pub components: Arena<Component>,
     /// The fault classes, with the ARRs and with every residual possible.
