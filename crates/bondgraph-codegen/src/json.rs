@@ -92,6 +92,20 @@ pub fn emit_with(c: &Compiled, form: FsmForm) -> String {
         .filter_map(|p| Some(format!("{}: {}", string(&p.name), number(p.uncertainty?))))
         .collect();
     let _ = writeln!(out, "  \"uncertainties\": {{{}}},", uncertain.join(", "));
+    // The parameters that stand for a detector's or a source's fault (`with`).
+    let carried: Vec<String> = (c.parameters.values())
+        .filter_map(|p| {
+            let f = p.carried.as_ref()?;
+            Some(format!(
+                "{}: {{\"fault\": {}, \"by\": {}, \"sensor\": {}}}",
+                string(&p.name),
+                string(f.fault.name()),
+                string(&f.by),
+                f.sensor
+            ))
+        })
+        .collect();
+    let _ = writeln!(out, "  \"carried\": {{{}}},", carried.join(", "));
     let _ = writeln!(
         out,
         "  \"inputs\": {},",
