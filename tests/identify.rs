@@ -612,6 +612,13 @@ fn sensor_and_actuator_faults_are_sized_and_named_as_such() {
     let input = "6 + 12*sin(0.5*t) + 3*sin(7*t)";
     let noise = ["i", "y1"];
     let healthy = simulate_with(&dir, &model, "", input, &noise, &[], "healthy.csv", 1);
+    // Calibrated once, as a monitor would be.
+    let kept = dir.join("kept.cal").display().to_string();
+    let mut args = vec!["residuals", &model, &healthy, "--calibrate", &healthy];
+    args.extend(FIXED);
+    args.extend(["--save-calibration", &kept, "-o", "/dev/null"]);
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
     // Injected as the scenario's signal faults, not through the parameters that size them.
     for (fault, line, truth) in [
         (
@@ -627,9 +634,7 @@ fn sensor_and_actuator_faults_are_sized_and_named_as_such() {
         ),
     ] {
         let faulty = simulate_with(&dir, &model, "", input, &noise, &[fault], "faulty.csv", 2);
-        let mut args = vec!["residuals", &model, &faulty, "--calibrate", &healthy];
-        args.extend(FIXED);
-        let out = bgc(&args);
+        let out = bgc(&["residuals", &model, &faulty, "--calibration", &kept]);
         assert_eq!(code(&out), 0, "{}", stderr(&out));
         let said = stderr(&out);
         let first = (said.lines())
