@@ -108,6 +108,12 @@ fn a_changed_plant_is_recovered_within_its_intervals_and_read_back() {
         );
     }
     assert!(!file.contains("not determined"), "{file}");
+    // Each interval allows for the estimators' bias, read from the fit with the windows
+    // halved (51 samples to 25, the integration's 250 to 125), and stays narrow here.
+    assert!(
+        file.contains("with the windows halved (estimator 25, integration 125 samples)"),
+        "{file}"
+    );
     // The file is read back: the fitted model's residuals are smaller on the same record.
     let rms = |extra: &[&str]| {
         let mut args = vec!["residuals", "models/dc_motor.bg", &record];

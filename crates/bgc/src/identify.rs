@@ -355,6 +355,9 @@ fn parameter_file(
         },
         found.stop.1
     );
+    if let Some(line) = reach_line(c, found) {
+        let _ = writeln!(out, "# {line}");
+    }
     if found.jumps > 0 && found.left_out > 0 {
         let _ = writeln!(
             out,
@@ -557,6 +560,39 @@ fn undetermined(c: &Compiled, found: &Identification, combination: &Combination)
 
 /// `x` to 6 significant digits, as the language reads numbers back (in exponent form when
 /// it is very small or large).
+/// What halving the estimators' windows moved, by which the intervals were widened.
+fn reach_line(c: &Compiled, found: &Identification) -> Option<String> {
+    let reach = found.reach.as_ref()?;
+    let moves: Vec<String> = (reach.values.iter())
+        .filter(|(k, _)| {
+            matches!(
+                found.estimates[*k].determined,
+                Determined::Yes | Determined::Weakly
+            )
+        })
+        .map(|&(k, v)| {
+            let name = c.parameters.values().nth(k).map_or("", |p| p.name.as_str());
+            let moved = v - found.values[k];
+            let sign = if moved >= 0.0 { "+" } else { "" };
+            format!("{name} {sign}{}", significant(moved))
+        })
+        .collect();
+    if moves.is_empty() {
+        return None;
+    }
+    let (window, integration) = reach.windows;
+    let integration = if integration > 0 {
+        format!(", integration {integration}")
+    } else {
+        String::new()
+    };
+    Some(format!(
+        "the estimators' bias: with the windows halved (estimator {window}{integration} \
+         samples) the fit moves {}; each interval is widened by twice that",
+        moves.join(", ")
+    ))
+}
+
 pub(crate) fn significant(x: f64) -> String {
     if !x.is_finite() {
         return "inf".into();

@@ -27,7 +27,7 @@ pub use generator::{Estimates, Generator, BLOCK};
 pub use identify::{
     choose_free, identify, identify_by, integration_window_for, simulate_record, simulation_error,
     Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
-    IdentifyError, Lost, Origin, Record, Settings, Span, Stop, HELD_OUT,
+    IdentifyError, Lost, Origin, Reach, Record, Settings, Span, Stop, HELD_OUT,
 };
 pub use size::{Sized, Sizing, SIZE_WINDOW};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};

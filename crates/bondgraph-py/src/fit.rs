@@ -105,6 +105,13 @@ pub(crate) fn identify<'py>(
         row.set_item("value", e.value)?;
         row.set_item("half_width", e.half_width)?;
         row.set_item("std_error", e.std_error)?;
+        // Where the fit with the estimators' windows halved took it (its move, twice over,
+        // is in the half-width); None where no window was halved.
+        let halved = (found.reach.iter())
+            .flat_map(|r| &r.values)
+            .find(|(k, _)| *k == e.parameter)
+            .map(|&(_, v)| v);
+        row.set_item("halved_windows", halved)?;
         row.set_item("determined", determined(&e.determined))?;
         estimates.append(row)?;
     }

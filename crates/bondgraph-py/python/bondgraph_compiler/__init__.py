@@ -389,7 +389,10 @@ class Identification:
 
     `values` maps every parameter to its fitted value (the model's where the record does not
     determine it); `estimates` has a row per parameter (``name``, ``model``, ``value``,
-    ``half_width`` of its 95 % interval, ``std_error``, ``determined``: ``"yes"``,
+    ``half_width`` of its 95 % interval (the noise's and the model error's, widened by twice
+    the move of the fit made again with the estimators' windows halved, whose value is
+    ``halved_windows``: the estimators' bias), ``std_error`` (before that widening),
+    ``determined``: ``"yes"``,
     ``"weakly"``, ``"combination"``, ``"unread"``, ``"held"`` or ``"lost"``); `undetermined` the
     combinations the record does not separate (``scalings``: parameter → exponent, scaling
     each by ``s**exponent`` leaves every residual as it is; ``structural``: no record of
