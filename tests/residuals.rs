@@ -1337,3 +1337,62 @@ fn a_stated_rate_sets_the_crossing_probability_of_the_thresholds() {
     assert!(file.contains("\ncrossing 0.158"), "{file}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A heated tank sampled every 0.5 s, its wall's loss tripled at 1,500 s: the default 5-s
+/// size span would hold 10 samples, fewer than a size's estimator reads, and nothing was
+/// sized, silently. The span is widened to the 102 samples a size needs, with a note, and
+/// the wall's coefficient is sized first, within 5 % of the truth, its interval holding it.
+#[test]
+fn a_slow_plants_fault_is_sized_over_a_span_its_step_allows() {
+    const MODEL: &str = "models/heated_tank.bg";
+    let dir = scratch("slow-size");
+    let simulate = |name: &str, extra: &[&str]| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", MODEL, "-e", "duration 3000", "-e", "step 0.5"];
+        for s in [
+            "initial q_tank = 0.025",
+            "initial q_heat = 3.1e6",
+            "input Qin = 1e-4*(1 - cos(0.0043*t) + 0.3*sin(0.0097*t)^2)",
+            "input Tin = 15 + 3*sin(0.006*t)",
+            "input Qh = 6000*(1 - cos(0.008*t))",
+            "input Tamb = 20 + 2*sin(0.002*t)",
+            "noise p 5",
+            "noise qout 1e-7",
+            "noise T 0.01",
+        ]
+        .iter()
+        .chain(extra)
+        {
+            args.extend(["-e", s]);
+        }
+        args.extend(["-o", &path]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    let healthy = simulate("healthy.csv", &["seed 1"]);
+    let faulty = simulate("faulty.csv", &["seed 2", "fault UA = 3*UA at 1500"]);
+    let out = bgc(&["residuals", MODEL, &faulty, "--calibrate", &healthy]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(
+        said.contains("--size-span 5 s holds 10 samples at this record's step (0.5 s): fitted over 51 s instead"),
+        "{said}"
+    );
+    let first = (said.lines())
+        .skip_while(|l| !l.contains("the fault's size: each candidate"))
+        .nth(1)
+        .unwrap_or_else(|| panic!("nothing sized: {said}"));
+    let number = |after: &str| -> f64 {
+        let at = first.find(after).unwrap_or_else(|| panic!("{first}")) + after.len();
+        let text = (first[at..].split_whitespace().next())
+            .expect("a number")
+            .trim_end_matches(',');
+        text.parse().unwrap_or_else(|_| panic!("{first}"))
+    };
+    assert!(first.contains("wall: UA = "), "{said}");
+    let (value, half) = (number("UA = "), number("± "));
+    assert!((value / 180.0 - 1.0).abs() < 0.05, "{first}");
+    assert!((value - 180.0).abs() <= half, "{first}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

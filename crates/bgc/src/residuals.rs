@@ -17,6 +17,7 @@ use bondgraph_interpreter::{
     Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
 };
 
+use crate::identify::significant;
 use crate::io;
 use crate::options::ResidualChoice;
 use crate::record::{Data, Layout};
@@ -181,7 +182,8 @@ pub(crate) struct ResidualArgs {
     /// alarm, and the candidates ranked by how well that explains every residual.
     #[arg(long)]
     no_size: bool,
-    /// The seconds from the first alarm the fault's size is fitted over.
+    /// The seconds from the first alarm the fault's size is fitted over (at least 102
+    /// samples: twice the sizes' estimator window).
     #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
     size_span: f64,
     /// Also follow the best candidate's parameters over successive spans to the record's
@@ -772,7 +774,19 @@ fn size_fault(
         columns: data.columns.iter().map(Vec::as_slice).collect(),
         step: data.step,
     };
-    let span = args.size_span;
+    let span = sizing.span(args.size_span);
+    if span > args.size_span {
+        report::note(format!(
+            "the fault's size: --size-span {} s holds {} samples at this record's step ({} s): \
+             fitted over {} s instead, the {} samples a size needs at least (twice its \
+             estimator's window)",
+            significant(args.size_span),
+            (args.size_span / data.step).floor(),
+            significant(data.step),
+            significant(span),
+            bondgraph_interpreter::SIZE_SAMPLES
+        ));
+    }
     let sized = sizing.candidates(ranked, first, span);
     crate::size::note(c, &sized, params, first, span);
     let Some(best) = sized.first() else {

@@ -14,6 +14,12 @@ use crate::report::{self, Failure};
 /// The note of the candidates' sizes.
 pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, span: f64) {
     if sized.is_empty() {
+        report::note(format!(
+            "the fault's size: no candidate could be fitted over {span} s from {} s (the \
+             record ends before the span holds the samples a size needs, or no candidate \
+             has a parameter the residuals read)",
+            significant(first)
+        ));
         return;
     }
     let mut text = format!(

@@ -14,6 +14,11 @@ use crate::identify::{identify, Determined, Identification, Origin, Record, Sett
 pub const SIZE_WINDOW: usize = 51;
 const WINDOW: usize = SIZE_WINDOW;
 
+/// The fewest samples a span of a size holds: twice the estimator's window, so that a
+/// fault's size reads more than one window of estimates (a heater sampled every 0.5 s held
+/// 10 samples in the default 5 s, and nothing was sized).
+pub const SIZE_SAMPLES: usize = 2 * SIZE_WINDOW;
+
 /// One candidate's fit over a span.
 pub struct Sized {
     /// The component.
@@ -154,9 +159,17 @@ impl Sizing<'_> {
         })
     }
 
+    /// The span (seconds) a size is fitted over when `span` is asked for: at least
+    /// [`SIZE_SAMPLES`] of the record's steps.
+    pub fn span(&self, span: f64) -> f64 {
+        span.max(SIZE_SAMPLES as f64 * self.step)
+    }
+
     /// Each candidate of `ranked` (component names, best first, as the episode ranks them)
-    /// that has parameters, fitted alone over `span` seconds from `first`, best fit first.
+    /// that has parameters, fitted alone over `span` seconds from `first` (widened to
+    /// [`Sizing::span`]), best fit first.
     pub fn candidates(&self, ranked: &[String], first: f64, span: f64) -> Vec<Sized> {
+        let span = self.span(span);
         let mut sized: Vec<Sized> = (ranked.iter())
             .filter_map(|name| self.fit(name, self.params, first, first + span))
             .collect();
@@ -164,10 +177,12 @@ impl Sizing<'_> {
         sized
     }
 
-    /// The parameter `best` sized, fitted over successive windows of `span` seconds from
+    /// The parameter `best` sized, fitted over successive windows of `span` seconds (widened
+    /// to [`Sizing::span`]) from
     /// `first` to the record's end, each from the fit of the one before: the same parameter
     /// throughout, so that its trend is one series.
     pub fn follow(&self, best: &Sized, first: f64, span: f64) -> Vec<(f64, f64, Sized)> {
+        let span = self.span(span);
         let end = self.time.last().copied().unwrap_or(first);
         let mut start = self.params.to_vec();
         let mut out = Vec::new();

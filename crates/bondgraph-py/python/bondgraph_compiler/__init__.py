@@ -648,7 +648,9 @@ class Model:
 
         Size: once some residual alarms, each candidate of the episode has each of its
         parameters fitted alone over `size_span` seconds from the first alarm's samples on
-        (``None``: not sized), as ``bgc residuals`` does: `Residuals.sizes`, best fit first.
+        (``None``: not sized; at least 102 samples, twice the sizes' estimator window, where
+        the record's step leaves fewer), as ``bgc residuals`` does: `Residuals.sizes`, best
+        fit first.
         """
         # The bounds are derived for the relations as written: the CLI switches too.
         native = (self._as_written() if adaptive else self)._native
