@@ -894,3 +894,55 @@ fn completions_are_printed_for_the_usual_shells() {
     }
     assert_eq!(code(&bgc(&["completions", "cmd"])), 2);
 }
+
+/// The README's residuals example, run as written (its files in a scratch directory): the
+/// record it monitors raises no alarm before its fault (the dead zone tripled at 10 s), and
+/// alarms after it.
+#[test]
+fn the_readmes_residuals_example_raises_no_alarm_before_its_fault() {
+    let readme = std::fs::read_to_string(root().join("README.md")).expect("README");
+    let block = (readme.split("```sh\n"))
+        .filter_map(|b| b.split("```").next())
+        .find(|b| b.contains("scenarios/bench_dead_zone.scn -o bench.csv"))
+        .expect("the README's residuals example");
+    let dir = scratch("readme-residuals");
+    let mut last = String::new();
+    for line in block.lines().filter(|l| l.starts_with("bgc ")) {
+        // What the example writes and reads of its own goes to the scratch directory.
+        let args: Vec<String> = (line.split_whitespace().skip(1))
+            .map(|a| {
+                let own = (a.ends_with(".csv") || a.ends_with(".svg"))
+                    && !a.starts_with("models/")
+                    && !a.starts_with("scenarios/");
+                if own {
+                    dir.join(a).display().to_string()
+                } else {
+                    a.to_string()
+                }
+            })
+            .collect();
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{line}: {}", stderr(&out));
+        last = stdout(&out);
+    }
+    let mut lines = last.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let alarms: Vec<usize> = (0..header.len())
+        .filter(|&k| header[k].starts_with("alarm_"))
+        .collect();
+    let (mut early, mut late) = (Vec::new(), 0);
+    for line in lines {
+        let cells: Vec<&str> = line.split(',').collect();
+        let t: f64 = cells[0].parse().expect("time");
+        let on = alarms.iter().any(|&k| cells[k] == "1");
+        // An estimate reads half its window (201 samples of 1 ms) ahead of its instant.
+        if on && t < 10.0 - 0.101 {
+            early.push(t);
+        }
+        late += usize::from(on && t > 11.0);
+    }
+    assert!(early.is_empty(), "alarms before the fault from {early:?}");
+    assert!(late > 100, "{late} samples in alarm after the fault");
+    let _ = std::fs::remove_dir_all(&dir);
+}

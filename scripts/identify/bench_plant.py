@@ -102,9 +102,11 @@ def drifting(p, u, ramps):
 
 
 def simulate(params, input="square", seconds=200.0, faults=(), ramps=(), seed=0,
-             sigma=1e-4, step=1e-3):
+             sigma=1e-4, step=1e-3, counts=0):
     """faults: (name, factor, at) steps; ramps: (name, start_value, end_value, t0, t1)
-    linear drifts of a parameter's value (held at the end value after t1)."""
+    linear drifts of a parameter's value (held at the end value after t1); counts: where
+    given, both speeds as encoders of that many counts per revolution read them (`counted`:
+    no other noise)."""
     u, period = INPUTS[input]
     n = int(round(seconds / step)) + 1
     t = np.arange(n) * step
@@ -144,7 +146,19 @@ def simulate(params, input="square", seconds=200.0, faults=(), ramps=(), seed=0,
     rng = np.random.default_rng(seed)
     y1 = out[:, 1] + sigma * rng.standard_normal(n)
     y2 = out[:, 3] + sigma * rng.standard_normal(n)
+    if counts:
+        y1, y2 = (counted(out[:, k], step, counts, rng) for k in (1, 3))
     return t, U0, y1, y2
+
+
+def counted(speed, step, counts, rng):
+    """A shaft's speed as an incremental encoder of `counts` per revolution reads it: the
+    angle (the speed integrated by the trapezoid rule, from a random phase of the first
+    count) counted, and the speed taken as the counts' difference over one sample."""
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * step)))
+    quantum = 2 * np.pi / counts
+    seen = np.floor(angle / quantum + rng.uniform()) * quantum
+    return np.concatenate(([0.0], np.diff(seen) / step))
 
 
 def write_csv(path, t, U0, y1, y2):
@@ -174,6 +188,8 @@ def main():
     ap.add_argument("--draw", type=int)
     ap.add_argument("--fault", action="append", default=[])
     ap.add_argument("--ramp", action="append", default=[])
+    ap.add_argument("--counts", type=int, default=0,
+                    help="encoders of this many counts per revolution (speed from counts)")
     a = ap.parse_args()
     params = draw(a.draw) if a.draw is not None else dict(MODEL)
     ramps = []
@@ -182,7 +198,7 @@ def main():
         ramps.append((name, float(v0), float(v1), float(t0), float(t1)))
     print(" ".join("%s=%.6g" % kv for kv in params.items()), file=sys.stderr)
     write_csv(a.out, *simulate(params, a.input, a.seconds, parse_faults(a.fault), ramps,
-                               a.seed, a.sigma))
+                               a.seed, a.sigma, counts=a.counts))
 
 
 if __name__ == "__main__":
