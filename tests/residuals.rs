@@ -1396,3 +1396,66 @@ fn a_slow_plants_fault_is_sized_over_a_span_its_step_allows() {
     assert!((value - 180.0).abs() <= half, "{first}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// On the bench without its motor current, calibration's fit holds `Re, L, Je, fe, K, Js,
+/// fs` only together (one common scaling): a fault's size on one of them is a ratio, and
+/// the note says so, from the calibration and from the calibration kept.
+#[test]
+fn a_size_on_parameters_determined_only_together_is_a_ratio() {
+    const MODEL: &str = "models/backlash_bench.bg";
+    let dir = scratch("ratio-only");
+    let simulate = |name: &str, extra: &[&str]| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", MODEL, "scenarios/bench_healthy.scn"];
+        args.extend(["--duration", "13"]);
+        for e in extra {
+            args.extend(["-e", e]);
+        }
+        args.extend(["-o", &path]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    let healthy = simulate("healthy.csv", &[]);
+    let faulty = simulate("faulty.csv", &["seed 9", "fault Re = 1.5*Re at 7"]);
+    let kept = dir.join("bench.cal").display().to_string();
+    let calibrated = bgc(&[
+        "residuals",
+        MODEL,
+        &faulty,
+        "--calibrate",
+        &healthy,
+        "--save-calibration",
+        &kept,
+        "-o",
+        &dir.join("r.csv").display().to_string(),
+    ]);
+    assert_eq!(code(&calibrated), 0, "{}", stderr(&calibrated));
+    let file = std::fs::read_to_string(&kept).expect("kept");
+    assert!(file.contains("\ncombined Re L Je fe K Js fs\n"), "{file}");
+    let again = bgc(&["residuals", MODEL, &faulty, "--calibration", &kept]);
+    assert_eq!(code(&again), 0, "{}", stderr(&again));
+    for said in [stderr(&calibrated), stderr(&again)] {
+        let sizes: Vec<&str> = (said.lines())
+            .skip_while(|l| !l.contains("the fault's size: each candidate"))
+            .skip(1)
+            .collect();
+        let at = (sizes.iter())
+            .position(|l| l.contains("Rm: Re = "))
+            .unwrap_or_else(|| panic!("Re not sized: {said}"));
+        assert!(
+            sizes[at + 1].contains(
+                "only the ratio is determined: calibration's record holds Re only together \
+                 with L, Je, fe, K, Js, fs"
+            ),
+            "{said}"
+        );
+        // The motor's constant is determined by itself: no such line after it.
+        if let Some(k) = sizes.iter().position(|l| l.contains("motor: ke = ")) {
+            assert!(!sizes
+                .get(k + 1)
+                .is_some_and(|l| l.contains("only the ratio")));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

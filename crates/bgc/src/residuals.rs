@@ -285,6 +285,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         levels,
         conditioning,
         cusum,
+        combined,
         ..
     } = chosen;
     let generator = |integration: &[Integration]| {
@@ -448,10 +449,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             &args,
             &c,
             &program,
-            &params,
+            (&params, &combined),
             &data,
-            first + lookahead,
-            &ranked,
+            (first + lookahead, &ranked),
         )?;
         out = crate::size::fill(out, &known);
     }
@@ -543,6 +543,8 @@ struct Chosen {
     conditioning: Option<Conditioning>,
     /// Each residual's CUSUM beside its threshold, where calibration made one.
     cusum: Vec<Option<CusumLevels>>,
+    /// The parameters calibration's fit found determined only together (by place).
+    combined: Vec<Vec<usize>>,
 }
 
 impl Chosen {
@@ -566,6 +568,7 @@ impl Chosen {
             crossing: Walk::CROSSING,
             conditioning: None,
             cusum: vec![None; c.arrs.len()],
+            combined: Vec::new(),
         })
     }
 
@@ -604,6 +607,13 @@ impl Chosen {
                     walk: self.walks[k],
                     typical: (self.conditioning.as_ref()).and_then(|c| c.typical[k]),
                     cusum: self.cusum[k],
+                })
+                .collect(),
+            combined: (self.combined.iter())
+                .map(|places| {
+                    (places.iter())
+                        .filter_map(|&k| c.parameters.values().nth(k).map(|p| p.name.clone()))
+                        .collect()
                 })
                 .collect(),
         })
@@ -683,6 +693,7 @@ fn kept(
         crossing: kept.crossing,
         conditioning: kept.conditioning(),
         cusum: kept.decisions.iter().map(|d| d.cusum).collect(),
+        combined: kept.combined_places(),
     })
 }
 
@@ -739,6 +750,7 @@ fn calibrated(
         params: chosen.params,
         conditioning: chosen.conditioning,
         cusum: chosen.cusum,
+        combined: chosen.combined,
     })
 }
 
@@ -761,10 +773,9 @@ fn size_fault(
     args: &ResidualArgs,
     c: &Compiled,
     program: &bondgraph_core::program::Program,
-    params: &[f64],
+    (params, combined): (&[f64], &[Vec<usize>]),
     data: &Data,
-    first: f64,
-    ranked: &[String],
+    (first, ranked): (f64, &[String]),
 ) -> Result<Vec<crate::size::Known>, Failure> {
     let sizing = bondgraph_interpreter::Sizing {
         c,
@@ -788,7 +799,7 @@ fn size_fault(
         ));
     }
     let sized = sizing.candidates(ranked, first, span);
-    crate::size::note(c, &sized, params, first, span);
+    crate::size::note(c, &sized, (params, combined), first, span);
     let Some(best) = sized.first() else {
         return Ok(Vec::new());
     };

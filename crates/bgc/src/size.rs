@@ -11,8 +11,15 @@ use crate::identify::significant;
 use crate::io;
 use crate::report::{self, Failure};
 
-/// The note of the candidates' sizes.
-pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, span: f64) {
+/// The note of the candidates' sizes; `combined`, the parameters calibration found
+/// determined only together (by place), whose sizes are ratios only.
+pub(crate) fn note(
+    c: &Compiled,
+    sized: &[Sized],
+    (model, combined): (&[f64], &[Vec<usize>]),
+    first: f64,
+    span: f64,
+) {
     if sized.is_empty() {
         report::note(format!(
             "the fault's size: no candidate could be fitted over {span} s from {} s (the \
@@ -39,8 +46,34 @@ pub(crate) fn note(c: &Compiled, sized: &[Sized], model: &[f64], first: f64, spa
             s.found.cost.1,
             s.found.cost.0
         );
+        if let Some(others) = ratio_only(c, s.parameter, combined) {
+            let _ = write!(
+                text,
+                "\n        only the ratio is determined: calibration's record holds {} only \
+                 together with {others}, so its value rests on theirs",
+                name(c, s.parameter)
+            );
+        }
     }
     report::note(text);
+}
+
+/// The other parameters of the combination `parameter` is determined only in, where it is.
+fn ratio_only(c: &Compiled, parameter: usize, combined: &[Vec<usize>]) -> Option<String> {
+    let with = combined.iter().find(|places| places.contains(&parameter))?;
+    let others: Vec<&str> = (with.iter())
+        .filter(|&&k| k != parameter)
+        .map(|&k| name(c, k))
+        .collect();
+    (!others.is_empty()).then(|| others.join(", "))
+}
+
+/// A parameter's name, by its place.
+fn name(c: &Compiled, parameter: usize) -> &str {
+    c.parameters
+        .values()
+        .nth(parameter)
+        .map_or("", |p| p.name.as_str())
 }
 
 /// ` (sensor gain)` where the parameter sized is a fault a detector or a source carries.

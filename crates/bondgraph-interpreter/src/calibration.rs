@@ -15,12 +15,15 @@
 //! estimator savitzky-golay 201 3
 //! param ke 0.5082694886183107
 //! noise y1 1.0e-4
+//! combined Re L Je fe K Js fs
 //! arr ARR1 start 7.1e-3 walk 1.2e-6 3.4e-11
 //! arr ARR2 250 1.5e-2 typical 2.2e-5
 //! ```
 //!
 //! `noise SIGNAL DEVIATION`: a signal's noise as read on the healthy record, for the samples
 //! where a residual is singular (see `Conditioning`); none where no residual can be.
+//! `combined NAME…`: parameters the calibration's fit found determined only together (the
+//! records hold them only in combination), so that a fault's size on one is a ratio only.
 //! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE [drift PER_SAMPLE]] [typical SENSITIVITY]
 //! [cusum SIGMA DRIFT LEVEL]`: the integration is `start`, a window in samples, or `-` for a
 //! residual not integrated; the threshold is `-` for none, and for a residual with a walk it
@@ -74,6 +77,9 @@ pub struct Calibration {
     pub noise: Vec<(String, f64)>,
     /// Each residual's integration and threshold, in the model's order.
     pub decisions: Vec<Decision>,
+    /// The combinations of parameters the calibration's fit found determined only together,
+    /// by name (`combined NAME NAME…`): a fault's size on one of them is a ratio only.
+    pub combined: Vec<Vec<String>>,
 }
 
 /// The 64-bit FNV-1a hash of `bytes`: enough to tell one model's text from another's
@@ -121,6 +127,9 @@ impl Calibration {
         }
         for (name, deviation) in &self.noise {
             out += &format!("noise {name} {}\n", number(*deviation));
+        }
+        for names in &self.combined {
+            out += &format!("combined {}\n", names.join(" "));
         }
         for d in &self.decisions {
             let integration = match d.integration {
@@ -188,6 +197,7 @@ struct Parts {
     params: Vec<(String, f64)>,
     noise: Vec<(String, f64)>,
     decisions: Vec<Decision>,
+    combined: Vec<Vec<String>>,
 }
 
 impl Parts {
@@ -226,6 +236,12 @@ impl Parts {
             ["noise", name, deviation] => self
                 .noise
                 .push((name.to_string(), non_negative(deviation)?)),
+            ["combined", first, rest @ ..] if !rest.is_empty() => self.combined.push(
+                std::iter::once(first)
+                    .chain(rest)
+                    .map(|n| n.to_string())
+                    .collect(),
+            ),
             ["arr", name, integration, threshold, rest @ ..] => {
                 let integration = match *integration {
                     "-" => None,
@@ -308,6 +324,7 @@ impl Parts {
             params: self.params,
             noise: self.noise,
             decisions: self.decisions,
+            combined: self.combined,
         })
     }
 }
@@ -477,6 +494,16 @@ impl Calibration {
     pub fn values(&self) -> Vec<f64> {
         self.params.iter().map(|(_, v)| *v).collect()
     }
+
+    /// The combinations of [`Calibration::combined`] by the parameters' places (a name
+    /// that is not a parameter of the calibration is left out).
+    pub fn combined_places(&self) -> Vec<Vec<usize>> {
+        let place = |n: &String| self.params.iter().position(|(p, _)| p == n);
+        (self.combined.iter())
+            .map(|names| names.iter().filter_map(place).collect::<Vec<_>>())
+            .filter(|c| c.len() > 1)
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -496,6 +523,7 @@ mod tests {
             },
             params: vec![("ke".into(), 0.508_269_488_618_310_7), ("N".into(), 5.0)],
             noise: vec![("y1".into(), 1e-4), ("U0".into(), 0.0)],
+            combined: vec![vec!["ke".into(), "N".into()]],
             decisions: vec![
                 Decision {
                     name: "ARR1".into(),
@@ -544,7 +572,7 @@ mod tests {
     fn a_bad_line_is_refused_with_its_number_and_what_was_expected() {
         let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
         let e = Calibration::parse(&text).unwrap_err();
-        assert!(e.starts_with("line 14: `arr ARR3 0 0.015`"), "{e}");
+        assert!(e.starts_with("line 15: `arr ARR3 0 0.015`"), "{e}");
         assert!(e.contains("expected a count of samples"), "{e}");
         let e = Calibration::parse("model x").unwrap_err();
         assert!(e.contains("expected `bgc-calibration 1`"), "{e}");

@@ -35,6 +35,8 @@ struct Settings {
     adaptive: bool,
     /// Each residual's memory, in samples (`Fit::memories`): what an episode waits for.
     memories: Vec<usize>,
+    /// The parameters a calibration's fit found determined only together (by place).
+    combined: Vec<Vec<usize>>,
 }
 
 /// What one pass gives, flat, before it becomes numpy arrays.
@@ -261,6 +263,7 @@ pub(crate) fn residuals<'py>(
         debounce,
         adaptive,
         memories: Vec::new(),
+        combined: Vec::new(),
     };
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let mut notes = Vec::new();
@@ -288,6 +291,7 @@ pub(crate) fn residuals<'py>(
         settings.walks = chosen.walks;
         settings.conditioning = chosen.conditioning;
         settings.cusum = chosen.cusum;
+        settings.combined = chosen.combined;
         params = chosen.params;
         notes = chosen.notes;
     }
@@ -362,7 +366,10 @@ pub(crate) fn residuals<'py>(
     };
     let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
-    out.set_item("sizes", size_dicts(py, c, &params, &sized)?)?;
+    out.set_item(
+        "sizes",
+        size_dicts(py, c, (&params, &settings.combined), &sized)?,
+    )?;
     out.set_item("has_threshold", has)?;
     out.set_item("notes", notes)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
@@ -432,6 +439,7 @@ fn kept(
     settings.estimator = kept.estimator;
     settings.conditioning = kept.conditioning();
     settings.cusum = kept.decisions.iter().map(|d| d.cusum).collect();
+    settings.combined = kept.combined_places();
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
         if settings.thresholds[k].is_none() {
@@ -467,7 +475,7 @@ fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) 
 fn size_dicts<'py>(
     py: Python<'py>,
     c: &bondgraph_core::Compiled,
-    model: &[f64],
+    (model, combined): (&[f64], &[Vec<usize>]),
     sized: &[Sized],
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let names: Vec<&str> = c.parameters.values().map(|p| p.name.as_str()).collect();
@@ -489,6 +497,18 @@ fn size_dicts<'py>(
             let reference = model.get(s.parameter).copied().unwrap_or(0.0);
             d.set_item("model", reference)?;
             d.set_item("cost", s.found.cost.1)?;
+            // The parameters it is determined only together with (calibration's fit): its
+            // size is then a ratio only.
+            let with: Vec<&str> = (combined.iter())
+                .find(|places| places.contains(&s.parameter))
+                .map(|places| {
+                    (places.iter())
+                        .filter(|&&k| k != s.parameter)
+                        .filter_map(|&k| names.get(k).copied())
+                        .collect()
+                })
+                .unwrap_or_default();
+            d.set_item("determined_with", with)?;
             Ok(d)
         })
         .collect()

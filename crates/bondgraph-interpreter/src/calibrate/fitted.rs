@@ -17,7 +17,9 @@ const FIT_WINDOW: usize = 51;
 
 /// The parameters fitted to the healthy record (its first [`FIT_ROWS`] samples), said on
 /// standard error: what moved, by how much, and what the record does not determine. Where
-/// the fit cannot be done, the model's values, with the reason.
+/// the fit cannot be done, the model's values, with the reason. Second, the combinations the
+/// fit found the parameters determined only in (each by the parameters' places): their
+/// values rest on one another's, and a fault's size on them is a ratio only.
 pub(super) fn fit_model(
     c: &Compiled,
     program: &Program,
@@ -25,7 +27,7 @@ pub(super) fn fit_model(
     healthy: &Samples<'_>,
     settled: Option<f64>,
     notes: &mut Vec<String>,
-) -> Vec<f64> {
+) -> (Vec<f64>, Vec<Vec<usize>>) {
     let rows = healthy.len().min(FIT_ROWS);
     let window = FIT_WINDOW.min((rows / 20) | 1).max(11);
     let settings = Settings {
@@ -59,9 +61,12 @@ pub(super) fn fit_model(
                 "thresholds set on the model's values, which could not be fitted to the \
                  healthy record ({e})"
             ));
-            return params.to_vec();
+            return (params.to_vec(), Vec::new());
         }
     };
+    let combined: Vec<Vec<usize>> = (found.undetermined.iter())
+        .map(|c| c.scalings.iter().map(|&(k, _)| k).collect())
+        .collect();
     let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
     if let Some(why) = implausible(params, &found.values, (&names, &found.rms)) {
         notes.push(format!(
@@ -69,7 +74,7 @@ pub(super) fn fit_model(
              says the record does not determine them (bgc identify says which) or the model \
              is not the plant, not that the plant is a few percent off it"
         ));
-        return params.to_vec();
+        return (params.to_vec(), combined);
     }
     let moved: Vec<String> = (found.estimates.iter())
         .filter(|e| matches!(e.determined, Determined::Yes | Determined::Weakly))
@@ -112,7 +117,7 @@ pub(super) fn fit_model(
             .collect::<Vec<_>>()
             .join(", ")
     ));
-    found.values
+    (found.values, combined)
 }
 
 /// How far a calibration's fit may move a parameter, as a factor either way: it is there to

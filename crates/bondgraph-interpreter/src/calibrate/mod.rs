@@ -94,6 +94,9 @@ pub struct Choices {
 pub struct Calibrated {
     /// The model's parameter values (fitted, unless kept).
     pub params: Vec<f64>,
+    /// The combinations of parameters the fit found determined only together (each by the
+    /// parameters' places): a fault's size on one of them is a ratio only.
+    pub combined: Vec<Vec<usize>>,
     /// The signals' estimator.
     pub estimator: Estimator,
     /// Each residual's integration (unused for those not integrated).
@@ -164,6 +167,7 @@ pub fn calibrate(
         step,
         choices,
         params: params.to_vec(),
+        combined: Vec::new(),
         notes: Vec::new(),
     };
     if conditioned {
@@ -181,7 +185,7 @@ pub fn calibrate(
             (Some(a), Some(b)) => Some(a.max(b)),
             (a, b) => a.or(b),
         };
-        on.params = fitted::fit_model(c, program, params, healthy, from, &mut notes);
+        (on.params, on.combined) = fitted::fit_model(c, program, params, healthy, from, &mut notes);
     }
     notes.append(&mut on.notes);
     on.notes = notes;
@@ -232,6 +236,7 @@ pub fn calibrate(
     let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
         params: on.params,
+        combined: on.combined,
         estimator,
         integration,
         walks,
@@ -280,6 +285,7 @@ struct Calibrating<'a> {
     step: f64,
     choices: &'a Choices,
     params: Vec<f64>,
+    combined: Vec<Vec<usize>>,
     notes: Vec<String>,
 }
 

@@ -267,7 +267,9 @@ class Residuals:
         self._roots: List[str] = out["roots"]
         #: The fault's size once some residual alarms: per candidate component, the parameter
         #: whose change alone best explains the residuals over the span after the first alarm
-        #: (dicts: component, parameter, value, half_width, model, cost), best fit first.
+        #: (dicts: component, parameter, value, half_width, model, cost, determined_with: the
+        #: parameters calibration's record holds it only together with, whose values its
+        #: own rests on: then only the ratio to `model` is determined), best fit first.
         self.sizes: List[Dict[str, Any]] = list(out.get("sizes", []))
         #: What a calibration chose and why (`calibrate`), a sentence each, as
         #: ``bgc residuals --calibrate`` says them on standard error.
