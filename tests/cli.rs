@@ -944,5 +944,36 @@ fn the_readmes_residuals_example_raises_no_alarm_before_its_fault() {
     }
     assert!(early.is_empty(), "alarms before the fault from {early:?}");
     assert!(late > 100, "{late} samples in alarm after the fault");
+    // Calibrated instead on the bench driven by a ±4 V sine, the record goes beyond what
+    // calibration saw from its start, and its alarms before the fault are said to come after.
+    let other = dir.join("sine.csv").display().to_string();
+    let model = "models/backlash_bench.bg";
+    let out = bgc(&[
+        "simulate",
+        model,
+        "scenarios/paper_section5_healthy.scn",
+        "-o",
+        &other,
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let bench = dir.join("bench.csv").display().to_string();
+    let out = bgc(&[
+        "residuals",
+        model,
+        &bench,
+        "--calibrate",
+        &other,
+        "--no-size",
+    ]);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let said = stderr(&out);
+    let beyond = (said.lines())
+        .find(|l| l.contains("the record goes beyond what the healthy record covered"))
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(beyond.contains("U0 from 0 s"), "{beyond}");
+    assert!(
+        beyond.contains("comes after it left: it may be the record's"),
+        "{beyond}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

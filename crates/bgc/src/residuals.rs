@@ -13,7 +13,7 @@ use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
     calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
-    Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Samples,
+    Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Range, Samples,
     Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
 };
 
@@ -286,6 +286,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         conditioning,
         cusum,
         combined,
+        ranges,
         ..
     } = chosen;
     let generator = |integration: &[Integration]| {
@@ -441,7 +442,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     });
     let (mut out, named) = out;
     named.report(&rows, &c);
-    if let Some((first, ranked)) = named.ranked(&rows, &c).filter(|_| !args.no_size) {
+    let ranked = named.ranked(&rows, &c);
+    say_beyond(&c, &ranges, &data, ranked.as_ref().map(|r| r.0), &data_name);
+    if let Some((first, ranked)) = ranked.filter(|_| !args.no_size) {
         // The estimates at an instant read half a window ahead: the samples from the first
         // alarm's plus that on hold the fault.
         let lookahead = (window.saturating_sub(1) / 2) as f64 * data.step;
@@ -545,6 +548,8 @@ struct Chosen {
     cusum: Vec<Option<CusumLevels>>,
     /// The parameters calibration's fit found determined only together (by place).
     combined: Vec<Vec<usize>>,
+    /// Each raw signal's range on the healthy record, where calibration read it.
+    ranges: Vec<Option<Range>>,
 }
 
 impl Chosen {
@@ -569,6 +574,7 @@ impl Chosen {
             conditioning: None,
             cusum: vec![None; c.arrs.len()],
             combined: Vec::new(),
+            ranges: Vec::new(),
         })
     }
 
@@ -615,6 +621,9 @@ impl Chosen {
                         .filter_map(|&k| c.parameters.values().nth(k).map(|p| p.name.clone()))
                         .collect()
                 })
+                .collect(),
+            ranges: (c.program().raw.values().zip(&self.ranges))
+                .filter_map(|(r, range)| Some((r.name.clone(), (*range)?)))
                 .collect(),
         })
     }
@@ -694,6 +703,7 @@ fn kept(
         conditioning: kept.conditioning(),
         cusum: kept.decisions.iter().map(|d| d.cusum).collect(),
         combined: kept.combined_places(),
+        ranges: kept.ranges_for(&raw_names(c).iter().map(String::as_str).collect::<Vec<_>>()),
     })
 }
 
@@ -751,7 +761,24 @@ fn calibrated(
         conditioning: chosen.conditioning,
         cusum: chosen.cusum,
         combined: chosen.combined,
+        ranges: chosen.ranges,
     })
+}
+
+/// The program's raw signals' names, in its order.
+fn raw_names(c: &Compiled) -> Vec<String> {
+    c.program().raw.values().map(|r| r.name.clone()).collect()
+}
+
+/// Says where the record goes beyond what the healthy record covered, if it does.
+fn say_beyond(c: &Compiled, ranges: &[Option<Range>], data: &Data, alarm: Option<f64>, name: &str) {
+    let columns: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
+    let found = bondgraph_interpreter::beyond(ranges, &columns);
+    let names = raw_names(c);
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    if let Some(text) = bondgraph_interpreter::beyond_said(&names, &found, &data.time, alarm) {
+        report::note(format!("{name}: {text}"));
+    }
 }
 
 /// The healthy record's column mapping: `--column`'s, with each signal `--calibrate-column`

@@ -16,6 +16,7 @@
 //! param ke 0.5082694886183107
 //! noise y1 1.0e-4
 //! combined Re L Je fe K Js fs
+//! range y1 -4.1 12.7
 //! arr ARR1 start 7.1e-3 walk 1.2e-6 3.4e-11
 //! arr ARR2 250 1.5e-2 typical 2.2e-5
 //! ```
@@ -24,13 +25,15 @@
 //! where a residual is singular (see `Conditioning`); none where no residual can be.
 //! `combined NAME…`: parameters the calibration's fit found determined only together (the
 //! records hold them only in combination), so that a fault's size on one is a ratio only.
+//! `range SIGNAL LEAST MOST`: a signal's range on the healthy record, what the thresholds
+//! hold over (a record beyond it is said to be).
 //! `arr NAME INTEGRATION THRESHOLD [walk FLOOR RATE [drift PER_SAMPLE]] [typical SENSITIVITY]
 //! [cusum SIGMA DRIFT LEVEL]`: the integration is `start`, a window in samples, or `-` for a
 //! residual not integrated; the threshold is `-` for none, and for a residual with a walk it
 //! is in the walk's deviations, plus the drift allowed for times the samples from the start; `typical`, the residual's median sensitivity to that noise on the
 //! healthy record; `cusum`, the sequential test beside the threshold (`--cusum`).
 
-use crate::calibrate::{Conditioning, CusumLevels};
+use crate::calibrate::{Conditioning, CusumLevels, Range};
 use crate::fit::{Estimator, Integration};
 use crate::walk::Walk;
 
@@ -80,6 +83,9 @@ pub struct Calibration {
     /// The combinations of parameters the calibration's fit found determined only together,
     /// by name (`combined NAME NAME…`): a fault's size on one of them is a ratio only.
     pub combined: Vec<Vec<String>>,
+    /// Each raw signal's range on the healthy record (`range SIGNAL LEAST MOST`), in the
+    /// program's order; what the thresholds hold over.
+    pub ranges: Vec<(String, Range)>,
 }
 
 /// The 64-bit FNV-1a hash of `bytes`: enough to tell one model's text from another's
@@ -130,6 +136,9 @@ impl Calibration {
         }
         for names in &self.combined {
             out += &format!("combined {}\n", names.join(" "));
+        }
+        for (name, r) in &self.ranges {
+            out += &format!("range {name} {} {}\n", number(r.least), number(r.most));
         }
         for d in &self.decisions {
             let integration = match d.integration {
@@ -198,6 +207,7 @@ struct Parts {
     noise: Vec<(String, f64)>,
     decisions: Vec<Decision>,
     combined: Vec<Vec<String>>,
+    ranges: Vec<(String, Range)>,
 }
 
 impl Parts {
@@ -236,6 +246,13 @@ impl Parts {
             ["noise", name, deviation] => self
                 .noise
                 .push((name.to_string(), non_negative(deviation)?)),
+            ["range", name, least, most] => {
+                let (least, most) = (finite(least)?, finite(most)?);
+                if least > most {
+                    return Err(format!("`{least} {most}`: expected the least value first"));
+                }
+                self.ranges.push((name.to_string(), Range { least, most }));
+            }
             ["combined", first, rest @ ..] if !rest.is_empty() => self.combined.push(
                 std::iter::once(first)
                     .chain(rest)
@@ -325,6 +342,7 @@ impl Parts {
             noise: self.noise,
             decisions: self.decisions,
             combined: self.combined,
+            ranges: self.ranges,
         })
     }
 }
@@ -495,6 +513,14 @@ impl Calibration {
         self.params.iter().map(|(_, v)| *v).collect()
     }
 
+    /// Each raw signal's range of [`Calibration::ranges`], for the signals `names` (the
+    /// program's raw signals, in order): `None` for one the file does not give.
+    pub fn ranges_for(&self, names: &[&str]) -> Vec<Option<Range>> {
+        (names.iter())
+            .map(|n| self.ranges.iter().find(|(s, _)| s == n).map(|(_, r)| *r))
+            .collect()
+    }
+
     /// The combinations of [`Calibration::combined`] by the parameters' places (a name
     /// that is not a parameter of the calibration is left out).
     pub fn combined_places(&self) -> Vec<Vec<usize>> {
@@ -524,6 +550,13 @@ mod tests {
             params: vec![("ke".into(), 0.508_269_488_618_310_7), ("N".into(), 5.0)],
             noise: vec![("y1".into(), 1e-4), ("U0".into(), 0.0)],
             combined: vec![vec!["ke".into(), "N".into()]],
+            ranges: vec![(
+                "y1".into(),
+                Range {
+                    least: -4.0,
+                    most: 12.5,
+                },
+            )],
             decisions: vec![
                 Decision {
                     name: "ARR1".into(),
@@ -572,7 +605,7 @@ mod tests {
     fn a_bad_line_is_refused_with_its_number_and_what_was_expected() {
         let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
         let e = Calibration::parse(&text).unwrap_err();
-        assert!(e.starts_with("line 15: `arr ARR3 0 0.015`"), "{e}");
+        assert!(e.starts_with("line 16: `arr ARR3 0 0.015`"), "{e}");
         assert!(e.contains("expected a count of samples"), "{e}");
         let e = Calibration::parse("model x").unwrap_err();
         assert!(e.contains("expected `bgc-calibration 1`"), "{e}");

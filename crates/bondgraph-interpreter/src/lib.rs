@@ -17,9 +17,9 @@ mod step;
 mod walk;
 
 pub use calibrate::{
-    calibrate, window_of, CalibrateError, Calibrated, Choices, Conditioning, CusumLevels,
-    EstimatorKind, FalseAlarms, Samples, Singular, GAIN, INTEGRATIONS, MODULATING_DEFAULT,
-    REPLICAS, WINDOWS, WITHIN,
+    beyond, beyond_said, calibrate, window_of, Beyond, CalibrateError, Calibrated, Choices,
+    Conditioning, CusumLevels, EstimatorKind, FalseAlarms, Range, Samples, Singular, GAIN,
+    INTEGRATIONS, MODULATING_DEFAULT, REPLICAS, WINDOWS, WITHIN,
 };
 pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};

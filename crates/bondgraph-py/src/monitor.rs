@@ -6,9 +6,9 @@ use std::collections::HashMap;
 
 use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_interpreter::{
-    calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning, CusumLevels,
-    Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration,
-    Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
+    beyond, beyond_said, calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning,
+    CusumLevels, Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration,
+    Range, Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -37,6 +37,8 @@ struct Settings {
     memories: Vec<usize>,
     /// The parameters a calibration's fit found determined only together (by place).
     combined: Vec<Vec<usize>>,
+    /// Each raw signal's range on the healthy record (a calibration's).
+    ranges: Vec<Option<Range>>,
 }
 
 /// What one pass gives, flat, before it becomes numpy arrays.
@@ -264,6 +266,7 @@ pub(crate) fn residuals<'py>(
         adaptive,
         memories: Vec::new(),
         combined: Vec::new(),
+        ranges: Vec::new(),
     };
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let mut notes = Vec::new();
@@ -292,6 +295,7 @@ pub(crate) fn residuals<'py>(
         settings.conditioning = chosen.conditioning;
         settings.cusum = chosen.cusum;
         settings.combined = chosen.combined;
+        settings.ranges = chosen.ranges;
         params = chosen.params;
         notes = chosen.notes;
     }
@@ -364,6 +368,13 @@ pub(crate) fn residuals<'py>(
         Some(span) => py.detach(|| sizes(&sizing, &pass, c.arrs.len(), lookahead, span)),
         None => Vec::new(),
     };
+    // As the CLI says it: where the record goes beyond what calibration saw.
+    let first_alarm = (pass.alarms.chunks(c.arrs.len().max(1)).zip(&pass.at))
+        .find(|(on, _)| on.iter().any(|&a| a))
+        .map(|(_, &t)| t);
+    let raw: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    let found = beyond(&settings.ranges, &data);
+    notes.extend(beyond_said(&raw, &found, time, first_alarm));
     let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
     out.set_item(
@@ -440,6 +451,9 @@ fn kept(
     settings.conditioning = kept.conditioning();
     settings.cusum = kept.decisions.iter().map(|d| d.cusum).collect();
     settings.combined = kept.combined_places();
+    let program = model.compiled.program();
+    let raw: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
+    settings.ranges = kept.ranges_for(&raw);
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
         if settings.thresholds[k].is_none() {

@@ -7,6 +7,7 @@ mod choose;
 mod error;
 mod fitted;
 mod levels;
+mod range;
 mod rate;
 mod replicas;
 mod samples;
@@ -23,6 +24,7 @@ use crate::walk::Walk;
 
 pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS, WITHIN};
 pub use error::CalibrateError;
+pub use range::{beyond, said as beyond_said, Beyond, Range};
 pub use rate::FalseAlarms;
 pub use replicas::COUNT as REPLICAS;
 use samples::Healthy;
@@ -97,6 +99,9 @@ pub struct Calibrated {
     /// The combinations of parameters the fit found determined only together (each by the
     /// parameters' places): a fault's size on one of them is a ratio only.
     pub combined: Vec<Vec<usize>>,
+    /// Each raw signal's range on the healthy record, in the program's order: what the
+    /// thresholds were set over.
+    pub ranges: Vec<Option<Range>>,
     /// The signals' estimator.
     pub estimator: Estimator,
     /// Each residual's integration (unused for those not integrated).
@@ -235,6 +240,7 @@ pub fn calibrate(
     let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
     let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
+        ranges: range::ranges(healthy, 0),
         params: on.params,
         combined: on.combined,
         estimator,
