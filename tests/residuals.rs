@@ -345,7 +345,12 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
 
 /// Simulates the bench with `args` (a scenario, options) into `path`.
 fn simulate_bench(args: &[&str], path: &str) {
-    let mut all = vec!["simulate", BENCH];
+    simulate_model(BENCH, args, path);
+}
+
+/// Simulates `model` with `args` (a scenario, options, `-e` statements) into `path`.
+fn simulate_model(model: &str, args: &[&str], path: &str) {
+    let mut all = vec!["simulate", model];
     all.extend(args);
     all.extend(["-o", path]);
     let out = bgc(&all);
@@ -1378,7 +1383,7 @@ fn a_slow_plants_fault_is_sized_over_a_span_its_step_allows() {
     let dir = scratch("slow-size");
     let simulate = |name: &str, extra: &[&str]| {
         let path = dir.join(name).display().to_string();
-        let mut args = vec!["simulate", MODEL, "-e", "duration 3000", "-e", "step 0.5"];
+        let mut args = vec!["-e", "duration 3000", "-e", "step 0.5"];
         for s in [
             "initial q_tank = 0.025",
             "initial q_heat = 3.1e6",
@@ -1395,9 +1400,7 @@ fn a_slow_plants_fault_is_sized_over_a_span_its_step_allows() {
         {
             args.extend(["-e", s]);
         }
-        args.extend(["-o", &path]);
-        let out = bgc(&args);
-        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        simulate_model(MODEL, &args, &path);
         path
     };
     let healthy = simulate("healthy.csv", &["seed 1"]);
@@ -1432,18 +1435,14 @@ fn a_slow_plants_fault_is_sized_over_a_span_its_step_allows() {
 /// the note says so, from the calibration and from the calibration kept.
 #[test]
 fn a_size_on_parameters_determined_only_together_is_a_ratio() {
-    const MODEL: &str = "models/backlash_bench.bg";
     let dir = scratch("ratio-only");
     let simulate = |name: &str, extra: &[&str]| {
         let path = dir.join(name).display().to_string();
-        let mut args = vec!["simulate", MODEL, "scenarios/bench_healthy.scn"];
-        args.extend(["--duration", "13"]);
+        let mut args = vec!["scenarios/bench_healthy.scn", "--duration", "13"];
         for e in extra {
             args.extend(["-e", e]);
         }
-        args.extend(["-o", &path]);
-        let out = bgc(&args);
-        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        simulate_bench(&args, &path);
         path
     };
     let healthy = simulate("healthy.csv", &[]);
@@ -1451,7 +1450,7 @@ fn a_size_on_parameters_determined_only_together_is_a_ratio() {
     let kept = dir.join("bench.cal").display().to_string();
     let calibrated = bgc(&[
         "residuals",
-        MODEL,
+        BENCH,
         &faulty,
         "--calibrate",
         &healthy,
@@ -1463,7 +1462,7 @@ fn a_size_on_parameters_determined_only_together_is_a_ratio() {
     assert_eq!(code(&calibrated), 0, "{}", stderr(&calibrated));
     let file = std::fs::read_to_string(&kept).expect("kept");
     assert!(file.contains("\ncombined Re L Je fe K Js fs\n"), "{file}");
-    let again = bgc(&["residuals", MODEL, &faulty, "--calibration", &kept]);
+    let again = bgc(&["residuals", BENCH, &faulty, "--calibration", &kept]);
     assert_eq!(code(&again), 0, "{}", stderr(&again));
     for said in [stderr(&calibrated), stderr(&again)] {
         let sizes: Vec<&str> = (said.lines())

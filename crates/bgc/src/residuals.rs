@@ -266,14 +266,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         None => None,
     };
     let chosen = match (&args.calibration, &healthy) {
-        (Some(path), _) => kept(&args, &c, path, &data)?,
+        (Some(path), _) => kept(&args, (&c, &program), path, &data)?,
         (None, Some((name, record))) => {
             calibrated(&args, &c, &program, params, &data, (name, record))?
         }
         (None, None) => Chosen::from_options(&args, &c, &program, params)?,
     };
     if let (Some(path), Some((name, record))) = (&args.save_calibration, &healthy) {
-        let text = chosen.kept(&args, &c, name, record)?.write();
+        let text = chosen.kept(&args, (&c, &program), name, record)?.write();
         io::write(Some(path.as_path()), &text)?;
     }
     let Chosen {
@@ -443,7 +443,13 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let (mut out, named) = out;
     named.report(&rows, &c);
     let ranked = named.ranked(&rows, &c);
-    say_beyond(&c, &ranges, &data, ranked.as_ref().map(|r| r.0), &data_name);
+    say_beyond(
+        &program,
+        &ranges,
+        &data,
+        ranked.as_ref().map(|r| r.0),
+        &data_name,
+    );
     if let Some((first, ranked)) = ranked.filter(|_| !args.no_size) {
         // The estimates at an instant read half a window ahead: the samples from the first
         // alarm's plus that on hold the fault.
@@ -582,7 +588,7 @@ impl Chosen {
     fn kept(
         &self,
         args: &ResidualArgs,
-        c: &Compiled,
+        (c, program): (&Compiled, &Program),
         name: &str,
         healthy: &Data,
     ) -> Result<Calibration, Failure> {
@@ -600,7 +606,7 @@ impl Chosen {
                 .zip(self.params.iter().copied())
                 .collect(),
             noise: match &self.conditioning {
-                Some(conditioning) => (c.program().raw.values().map(|r| r.name.clone()))
+                Some(conditioning) => (program.raw.values().map(|r| r.name.clone()))
                     .zip(conditioning.deviations.iter().copied())
                     .collect(),
                 None => Vec::new(),
@@ -622,7 +628,7 @@ impl Chosen {
                         .collect()
                 })
                 .collect(),
-            ranges: (c.program().raw.values().zip(&self.ranges))
+            ranges: (program.raw.values().zip(&self.ranges))
                 .filter_map(|(r, range)| Some((r.name.clone(), (*range)?)))
                 .collect(),
         })
@@ -647,7 +653,7 @@ fn degree(args: &ResidualArgs, program: &Program) -> u32 {
 /// a calibration is for the model it was made on, its residuals and its step.
 fn kept(
     args: &ResidualArgs,
-    c: &Compiled,
+    (c, program): (&Compiled, &Program),
     path: &std::path::Path,
     data: &Data,
 ) -> Result<Chosen, Failure> {
@@ -703,7 +709,7 @@ fn kept(
         conditioning: kept.conditioning(),
         cusum: kept.decisions.iter().map(|d| d.cusum).collect(),
         combined: kept.combined_places(),
-        ranges: kept.ranges_for(&raw_names(c).iter().map(String::as_str).collect::<Vec<_>>()),
+        ranges: kept.ranges_for(&raw_names(program)),
     })
 }
 
@@ -766,16 +772,21 @@ fn calibrated(
 }
 
 /// The program's raw signals' names, in its order.
-fn raw_names(c: &Compiled) -> Vec<String> {
-    c.program().raw.values().map(|r| r.name.clone()).collect()
+fn raw_names(program: &Program) -> Vec<&str> {
+    program.raw.values().map(|r| r.name.as_str()).collect()
 }
 
 /// Says where the record goes beyond what the healthy record covered, if it does.
-fn say_beyond(c: &Compiled, ranges: &[Option<Range>], data: &Data, alarm: Option<f64>, name: &str) {
+fn say_beyond(
+    program: &Program,
+    ranges: &[Option<Range>],
+    data: &Data,
+    alarm: Option<f64>,
+    name: &str,
+) {
     let columns: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
     let found = bondgraph_interpreter::beyond(ranges, &columns);
-    let names = raw_names(c);
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    let names = raw_names(program);
     if let Some(text) = bondgraph_interpreter::beyond_said(&names, &found, &data.time, alarm) {
         report::note(format!("{name}: {text}"));
     }

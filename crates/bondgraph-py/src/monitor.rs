@@ -271,7 +271,7 @@ pub(crate) fn residuals<'py>(
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let mut notes = Vec::new();
     if let Some((text, name, choice)) = &calibration {
-        params = kept(&model, text, name, choice, step, &mut settings)?;
+        params = kept(&model, text, name, choice, (step, &names), &mut settings)?;
     }
     if let Some(healthy) = &calibrate {
         let choices = Choices {
@@ -372,9 +372,8 @@ pub(crate) fn residuals<'py>(
     let first_alarm = (pass.alarms.chunks(c.arrs.len().max(1)).zip(&pass.at))
         .find(|(on, _)| on.iter().any(|&a| a))
         .map(|(_, &t)| t);
-    let raw: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
     let found = beyond(&settings.ranges, &data);
-    notes.extend(beyond_said(&raw, &found, time, first_alarm));
+    notes.extend(beyond_said(&names, &found, time, first_alarm));
     let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
     out.set_item(
@@ -429,14 +428,15 @@ fn calibrated(
 /// Applies a kept calibration (the text of a file `bgc residuals --calibrate ...
 /// --save-calibration` wrote, named `name`) to `settings`, as `bgc residuals --calibration`
 /// does: its estimator, integrations, walks and thresholds (a threshold given here wins);
-/// with its parameter values. Refused for another model's text, other residuals
-/// (`choice`), another step or a wrong line.
+/// with its parameter values; `raw`, the program's raw signals' names, for the ranges.
+/// Refused for another model's text, other residuals (`choice`), another step or a wrong
+/// line.
 fn kept(
     model: &Model,
     text: &str,
     name: &str,
     choice: &(String, String),
-    step: f64,
+    (step, raw): (f64, &[&str]),
     settings: &mut Settings,
 ) -> PyResult<Vec<f64>> {
     let c = &model.compiled;
@@ -451,9 +451,7 @@ fn kept(
     settings.conditioning = kept.conditioning();
     settings.cusum = kept.decisions.iter().map(|d| d.cusum).collect();
     settings.combined = kept.combined_places();
-    let program = model.compiled.program();
-    let raw: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
-    settings.ranges = kept.ranges_for(&raw);
+    settings.ranges = kept.ranges_for(raw);
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
         if settings.thresholds[k].is_none() {

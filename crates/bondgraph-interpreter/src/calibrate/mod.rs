@@ -240,7 +240,7 @@ pub fn calibrate(
     let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
     let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
-        ranges: range::ranges(healthy, 0),
+        ranges: range::ranges(healthy),
         params: on.params,
         combined: on.combined,
         estimator,

@@ -40,12 +40,12 @@ pub struct Beyond {
     pub samples: usize,
 }
 
-/// Each column's range over the samples from `from` on (`None` for a column with no finite
-/// value there).
-pub(crate) fn ranges(healthy: &Samples<'_>, from: usize) -> Vec<Option<Range>> {
+/// Each column's range over the whole record, start-up included (a plant at rest is a state
+/// calibration saw); `None` for a column with no finite value.
+pub(crate) fn ranges(healthy: &Samples<'_>) -> Vec<Option<Range>> {
     (healthy.columns.iter())
         .map(|column| {
-            let seen = column.iter().skip(from).filter(|x| x.is_finite());
+            let seen = column.iter().filter(|x| x.is_finite());
             seen.fold(None, |r: Option<Range>, &x| {
                 Some(r.map_or(Range { least: x, most: x }, |r| Range {
                     least: r.least.min(x),
@@ -140,7 +140,7 @@ mod tests {
             columns: vec![&healthy],
             step: 1.0,
         };
-        let ranges = ranges(&samples, 0);
+        let ranges = ranges(&samples);
         // Within the slack (5 % of the width) is seen; beyond it is not.
         let record = [0.0, 4.2, 3.0, -9.0, 18.0, 1.0];
         let found = beyond(&ranges, &[&record]);
