@@ -247,14 +247,18 @@ impl Case {
         let out = bgc(&args);
         assert_eq!(code(&out), 0, "{}: {}", self.model, stderr(&out));
         let n = self.json["arrs"].as_array().expect("arrs").len();
-        stdout(&out)
-            .lines()
+        let text = stdout(&out);
+        // Found by name: held residuals add columns after the alarms.
+        let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
+        let at = |name: &str| header.iter().position(|h| *h == name).expect(name);
+        let suspects = at("suspects");
+        text.lines()
             .skip(1)
             .map(|line| {
                 let cells: Vec<&str> = line.split(',').collect();
                 let t: f64 = cells[0].parse().expect("time");
                 let on = (0..n).map(|k| cells[1 + 2 * n + k] == "1").collect();
-                let suspects = cells[2 + 3 * n]
+                let suspects = cells[suspects]
                     .split(' ')
                     .filter(|c| !c.is_empty())
                     .map(str::to_string)

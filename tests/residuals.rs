@@ -26,6 +26,13 @@ fn table(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
     (header, columns)
 }
 
+/// The `candidates` column's place in `bgc residuals`' output (held residuals add columns
+/// after the alarms).
+fn candidates_column(text: &str) -> usize {
+    let header = text.lines().next().unwrap_or("");
+    (header.split(',').position(|h| h == "candidates")).expect("a candidates column")
+}
+
 fn column<'a>(t: &'a (Vec<String>, Vec<Vec<f64>>), name: &str) -> &'a [f64] {
     let k = t.0.iter().position(|h| h == name).expect("column");
     &t.1[k]
@@ -321,6 +328,7 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
     ]);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let text = stdout(&out);
+    let candidates = candidates_column(&text);
     let mut alarms_before = 0;
     let mut named = 0;
     for line in text.lines().skip(1) {
@@ -330,7 +338,7 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
         if t < 9.8 && alarm {
             alarms_before += 1;
         }
-        if t > 10.2 && cells[6] == "1" && cells[7].split(' ').any(|c| c == "w") {
+        if t > 10.2 && cells[6] == "1" && cells[candidates].split(' ').any(|c| c == "w") {
             named += 1;
         }
     }
@@ -622,13 +630,14 @@ fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
         stderr(&out)
     );
     let (mut before, mut named, mut motor) = (0, 0, 0);
+    let candidates = candidates_column(&stdout(&out));
     for line in stdout(&out).lines().skip(1) {
         let cells: Vec<&str> = line.split(',').collect();
         let t: f64 = cells[0].parse().expect("time");
         if t < 9.7 && (cells[5] == "1" || cells[6] == "1") {
             before += 1;
         }
-        if t > 10.5 && cells[7] == "link w" {
+        if t > 10.5 && cells[candidates] == "link w" {
             named += 1;
         }
         if t > 10.5 && cells[5] == "1" {
@@ -667,66 +676,57 @@ fn square_wave(path: &str, seed: &str, fault: bool) {
     simulate_bench(&args, path);
 }
 
-/// `--calibrate` alone integrates the bench's ARR2 over a window of about the time a fault
-/// should show within (2 s): a tripled dead zone is in alarm within it, with no alarm before
-/// it on another seed; between the square input's edges, at steady speed, its rate shows
-/// nothing and the alarm clears once the window has passed the edge. From the start
-/// (`--integration-window start`), ARR2 is the link's law itself and stays in alarm for as
-/// long as the fault lasts, at the price of a threshold that grows with the record.
+/// `--calibrate` alone tests the bench's ARR2 twice: over a short window for onsets, and from
+/// the start, as it reads the twist integrated from the start (its integral from there is
+/// the link's law itself). A tripled dead zone is in alarm within 2 s, with no alarm before
+/// it on another seed; between the square input's edges, at steady speed, the short window
+/// shows nothing (the rate reads the dead zone only while the twist crosses it), and the
+/// hold keeps the alarm for as long as the fault lasts. Before holds, the window chosen for
+/// the most margin from 1 s to 2 s after a fault (2,000 samples) let the alarm go 2.2 s
+/// after each edge.
 #[test]
-fn calibrate_alone_shows_a_wider_dead_zone_within_its_window_and_from_the_start_for_good() {
+fn calibrate_alone_holds_a_wider_dead_zone_in_alarm_for_as_long_as_it_lasts() {
     let dir = scratch("steady");
     let record = dir.join("fault.csv").display().to_string();
     let healthy = dir.join("healthy.csv").display().to_string();
     square_wave(&record, "2", true);
     square_wave(&healthy, "1", false);
-    // `watched`: the alarm columns that must stay quiet before the fault.
-    let shares = |extra: &[&str], watched: &[usize]| {
-        // The alarms are checked here, not the sizes.
-        let mut args = vec![
-            "residuals",
-            BENCH,
-            &record,
-            "--calibrate",
-            &healthy,
-            "--no-size",
-        ];
-        args.extend(extra);
-        let out = bgc(&args);
-        assert_eq!(code(&out), 0, "{}", stderr(&out));
-        let (mut before, mut after, mut on, mut first) = (0, 0, 0, f64::INFINITY);
-        for line in stdout(&out).lines().skip(1) {
-            let cells: Vec<&str> = line.split(',').collect();
-            let t: f64 = cells[0].parse().expect("time");
-            // Centred estimates read up to half their window (at most 501 samples) ahead.
-            if t < 30.0 && watched.iter().any(|&k| cells[k] == "1") {
-                before += 1;
-            }
-            if cells[6] == "1" {
-                first = first.min(t);
-            }
-            if t > 31.25 {
-                after += 1;
-                on += usize::from(cells[6] == "1");
-            }
+    // The alarms are checked here, not the sizes.
+    let args = [
+        "residuals",
+        BENCH,
+        &record,
+        "--calibrate",
+        &healthy,
+        "--no-size",
+    ];
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let (mut before, mut after, mut on, mut first) = (0, 0, 0, f64::INFINITY);
+    for line in stdout(&out).lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let t: f64 = cells[0].parse().expect("time");
+        // Centred estimates read up to half their window (at most 501 samples) ahead.
+        if t < 30.0 && (cells[5] == "1" || cells[6] == "1") {
+            before += 1;
         }
-        assert_eq!(before, 0, "false alarms before the fault");
-        (stderr(&out), on as f64 / after as f64, first)
-    };
-    let (said, windowed, first) = shares(&[], &[5, 6]);
-    assert!(said.contains("ARR2 over 2000"), "{said}");
+        if cells[6] == "1" {
+            first = first.min(t);
+        }
+        if t > 31.25 {
+            after += 1;
+            on += usize::from(cells[6] == "1");
+        }
+    }
+    assert_eq!(before, 0, "false alarms before the fault");
+    let said = stderr(&out);
+    assert!(said.contains("ARR2 from the start (it reads"), "{said}");
     assert!(
         (30.0..32.25).contains(&first),
         "ARR2 first in alarm at {first} s"
     );
-    assert!(windowed < 0.9, "over a window: {windowed}");
-    // ARR1 too is then from the start, which a fault of the dead zone does not concern: on
-    // this 60-s record its threshold (a walk's, fitted on 60 s) is crossed twice at 20 s.
-    let (_, from_start, _) = shares(&["--integration-window", "start"], &[6]);
-    assert!(
-        from_start >= 0.95,
-        "ARR2 in alarm in {from_start} of the samples"
-    );
+    let share = on as f64 / after as f64;
+    assert!(share >= 0.95, "ARR2 in alarm in {share} of the samples");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -778,7 +778,8 @@ fn brief_alarms_outside_a_signature_do_not_decide_the_class() {
         let end = alarms[at..].find(' ').expect("number");
         alarms[at..at + end].parse().expect("share")
     };
-    assert!(share("ARR1") > 5.0, "ARR1 briefly in alarm: {said}");
+    // The glitches' alarms end with them: ARR1's onset window is a few samples long.
+    assert!(share("ARR1") > 0.5, "ARR1 briefly in alarm: {said}");
     let first = (said.lines())
         .find(|l| l.trim_start().starts_with("1  "))
         .expect("a ranking");

@@ -13,8 +13,8 @@ use bondgraph_core::program::{Program, Stability};
 use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
     calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
-    Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration, Mismatch, Range, Samples,
-    Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
+    Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding, Integration, Mismatch,
+    Range, Samples, Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
 };
 
 use crate::identify::significant;
@@ -287,6 +287,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         cusum,
         combined,
         ranges,
+        holds,
         ..
     } = chosen;
     let generator = |integration: &[Integration]| {
@@ -325,7 +326,15 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         integration: integration.clone(),
     })
     .memories(&c.arrs);
-    let mut generator = generator(&integration)?;
+    // A held residual is evaluated from the start: its onset test and its hold both read
+    // that running integral, each over its own reach.
+    let evaluated: Vec<Integration> = (integration.iter().zip(&holds))
+        .map(|(&i, h)| if h.is_some() { Integration::Start } else { i })
+        .collect();
+    let mut holding: Vec<Option<Holding>> = (holds.iter().zip(&integration))
+        .map(|(h, i)| h.map(|h| Holding::new(h, onset_samples(*i))))
+        .collect();
+    let mut generator = generator(&evaluated)?;
     let mut levels = levels;
     if args.adaptive {
         // Every residual with a bound gets a threshold: its margin defaults to 0.
@@ -348,6 +357,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let n = c.arrs.len();
     let raw: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
     let (mut residuals, mut bounds) = (vec![0.0; n], vec![0.0; n]);
+    let mut running = vec![0.0; n];
+    let mut held = Vec::new();
     let mut now: Vec<Option<f64>> = vec![None; n];
     let mut on = vec![false; n];
     let mut drawn = Drawn::new(n, args.plot.is_some());
@@ -370,7 +381,7 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         let (send, receive) = std::sync::mpsc::sync_channel::<Chunk>(4);
         let rows = &rows;
         let sizes = !args.no_size;
-        let head = header(&c, &roots, sizes);
+        let head = header(&c, &holds, &roots, sizes);
         let roots = &roots;
         let writer = scope.spawn(move || {
             let mut out = head;
@@ -386,6 +397,10 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
             for (j, (&e_at, &e_unsolved)) in e.at().iter().zip(e.unsolved()).enumerate() {
                 for (k, (r, b)) in residuals.iter_mut().zip(&mut bounds).enumerate() {
                     (*r, *b) = (e.residual(k)[j], e.bound(k)[j]);
+                    running[k] = *r;
+                    if let Some(h) = holding[k].as_mut() {
+                        *r = h.onset(*r);
+                    }
                 }
                 for (k, ((((now, on), alarm), walk), ((l, b), &r))) in (now.iter_mut())
                     .zip(&mut on)
@@ -414,6 +429,10 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     if let Some(test) = sequential[k].as_mut().filter(|_| !singular) {
                         *on |= test.update(r);
                     }
+                    if let Some(h) = holding[k].as_mut() {
+                        let onset = *on;
+                        *on |= h.update(running[k], estimates, onset, now.is_some());
+                    }
                 }
                 let at = io::tidy_time(e_at, data.step);
                 for (k, r) in residuals.iter().enumerate() {
@@ -423,6 +442,11 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     }
                 }
                 chunk.push(at, &residuals, &now, &on);
+                held.clear();
+                for h in holding.iter().flatten() {
+                    held.extend([h.value(), h.threshold()]);
+                }
+                chunk.held.extend_from_slice(&held);
                 chunk.unsolved.push(e_unsolved);
                 if let Some(slot) = e_unsolved {
                     let entry = unsolved.entry(slot).or_insert((0, at));
@@ -454,13 +478,17 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         // The estimates at an instant read half a window ahead: the samples from the first
         // alarm's plus that on hold the fault.
         let lookahead = (window.saturating_sub(1) / 2) as f64 * data.step;
+        // An intermittent fault is sized over its first alarm: a span past its end would
+        // average the fault with the healthy samples after it. The alarm ends up to half a
+        // window after the fault does, as it begins up to half a window before.
+        let until = named.quiet.map(|q| q - lookahead);
         let known = size_fault(
             &args,
             &c,
             &program,
             (&params, &combined),
             &data,
-            (first + lookahead, &ranked),
+            (first + lookahead, until, &ranked),
         )?;
         out = crate::size::fill(out, &known);
     }
@@ -507,6 +535,14 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// The onset window of a held residual, in samples: its integration's window.
+fn onset_samples(integration: Integration) -> usize {
+    match integration {
+        Integration::Window(n) => n,
+        Integration::Start => 1,
+    }
 }
 
 /// The record from `--from` on (all of it without), with at least `window` rows left.
@@ -556,6 +592,8 @@ struct Chosen {
     combined: Vec<Vec<usize>>,
     /// Each raw signal's range on the healthy record, where calibration read it.
     ranges: Vec<Option<Range>>,
+    /// Each integrated residual's hold, where calibration gave it one.
+    holds: Vec<Option<Hold>>,
 }
 
 impl Chosen {
@@ -581,6 +619,7 @@ impl Chosen {
             cusum: vec![None; c.arrs.len()],
             combined: Vec::new(),
             ranges: Vec::new(),
+            holds: vec![None; c.arrs.len()],
         })
     }
 
@@ -619,6 +658,7 @@ impl Chosen {
                     walk: self.walks[k],
                     typical: (self.conditioning.as_ref()).and_then(|c| c.typical[k]),
                     cusum: self.cusum[k],
+                    hold: self.holds[k],
                 })
                 .collect(),
             combined: (self.combined.iter())
@@ -710,6 +750,10 @@ fn kept(
         cusum: kept.decisions.iter().map(|d| d.cusum).collect(),
         combined: kept.combined_places(),
         ranges: kept.ranges_for(&raw_names(program)),
+        // A level given on the command line is the residual's only test.
+        holds: (kept.decisions.iter().zip(&given))
+            .map(|(d, g)| d.hold.filter(|_| g.is_none()))
+            .collect(),
     })
 }
 
@@ -768,6 +812,7 @@ fn calibrated(
         cusum: chosen.cusum,
         combined: chosen.combined,
         ranges: chosen.ranges,
+        holds: chosen.holds,
     })
 }
 
@@ -813,7 +858,7 @@ fn size_fault(
     program: &bondgraph_core::program::Program,
     (params, combined): (&[f64], &[Vec<usize>]),
     data: &Data,
-    (first, ranked): (f64, &[String]),
+    (first, until, ranked): (f64, Option<f64>, &[String]),
 ) -> Result<Vec<crate::size::Known>, Failure> {
     let sizing = bondgraph_interpreter::Sizing {
         c,
@@ -836,6 +881,27 @@ fn size_fault(
             bondgraph_interpreter::SIZE_SAMPLES
         ));
     }
+    let span = match until.map(|u| u - first).filter(|&d| d < span) {
+        Some(alarm) => {
+            let within = sizing.span(alarm);
+            report::note(format!(
+                "the fault's size: its first alarm ends {} s after it began, within --size-span \
+                 {} s: fitted over {} s, {}",
+                significant(alarm.max(0.0)),
+                significant(args.size_span),
+                significant(within),
+                if within > alarm {
+                    "the samples a size needs at least (twice its estimator's window): an \
+                     intermittent fault's size averages it with what follows"
+                } else {
+                    "the alarm's samples (an intermittent fault, sized over one of its \
+                     episodes)"
+                }
+            ));
+            within
+        }
+        None => span,
+    };
     let sized = sizing.candidates(ranked, first, span);
     crate::size::note(c, &sized, (params, combined), first, span);
     let Some(best) = sized.first() else {
@@ -945,7 +1011,7 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
     Ok(levels)
 }
 
-fn header(c: &Compiled, roots: &[(usize, String)], sizes: bool) -> String {
+fn header(c: &Compiled, holds: &[Option<Hold>], roots: &[(usize, String)], sizes: bool) -> String {
     let mut h = String::from("t");
     for a in &c.arrs {
         let _ = write!(h, ",{}", a.name);
@@ -955,6 +1021,9 @@ fn header(c: &Compiled, roots: &[(usize, String)], sizes: bool) -> String {
     }
     for a in &c.arrs {
         let _ = write!(h, ",alarm_{}", a.name);
+    }
+    for (a, _) in c.arrs.iter().zip(holds).filter(|(_, h)| h.is_some()) {
+        let _ = write!(h, ",hold_{0},hold_threshold_{0}", a.name);
     }
     h.push_str(",candidates,suspects,episode");
     if !roots.is_empty() {
@@ -978,6 +1047,8 @@ struct Chunk {
     residuals: Vec<f64>,
     levels: Vec<Option<f64>>,
     on: Vec<bool>,
+    /// Per row, each held residual's hold and its threshold.
+    held: Vec<f64>,
     /// Per row, when the model's ARRs read roots: the name of the first not found, if any.
     unsolved: Vec<Option<usize>>,
 }
@@ -1000,6 +1071,7 @@ impl Chunk {
         sizes: bool,
     ) {
         let n = self.residuals.len() / self.time.len().max(1);
+        let m = self.held.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
             let span = k * n..(k + 1) * n;
             let on = &self.on[span.clone()];
@@ -1020,6 +1092,12 @@ impl Chunk {
             for &a in on {
                 out.push_str(if a { ",1" } else { ",0" });
             }
+            for &v in &self.held[k * m..(k + 1) * m] {
+                out.push(',');
+                if v.is_finite() {
+                    io::push_number(out, v);
+                }
+            }
             named.cells(rows, t, on, out);
             if !roots.is_empty() {
                 out.push(',');
@@ -1037,6 +1115,11 @@ impl Chunk {
     }
 }
 
+/// The samples without an alarm after which a fault's first alarm has ended, for its size:
+/// those a size needs (a shorter lull, an onset test's flicker before the hold takes over,
+/// is not the fault's end).
+const QUIET: usize = bondgraph_interpreter::SIZE_SAMPLES;
+
 /// The candidates and suspects cells of the last alarm pattern, and the episode's candidates
 /// for the residuals seen in alarm so far: alarms change seldom, and naming them for every row
 /// would cost more than the rest of the row.
@@ -1049,6 +1132,10 @@ struct Named {
     episode: Option<Episode>,
     /// When the episode started.
     first: Option<f64>,
+    /// When its first alarm ended: the first estimate after it with none, of a stretch
+    /// with none of at least `QUIET` samples; and the stretch under way.
+    quiet: Option<f64>,
+    quieting: Option<(f64, usize)>,
     seen: Vec<bool>,
     episode_cell: String,
 }
@@ -1081,6 +1168,16 @@ impl Named {
         episode.push(on);
         if episode.started() {
             self.first.get_or_insert(t);
+            if self.quiet.is_none() {
+                self.quieting = match (on.contains(&true), self.quieting) {
+                    (true, _) => None,
+                    (false, None) => Some((t, 1)),
+                    (false, Some((since, n))) => Some((since, n + 1)),
+                };
+                if let Some((since, QUIET..)) = self.quieting {
+                    self.quiet = Some(since);
+                }
+            }
             let seen = episode.seen();
             if seen != self.seen || self.episode_cell.is_empty() {
                 self.episode_cell = format!(",{}", episode.candidates(fsm()).join(" "));

@@ -22,17 +22,19 @@ pub(crate) fn note(
 ) {
     if sized.is_empty() {
         report::note(format!(
-            "the fault's size: no candidate could be fitted over {span} s from {} s (the \
+            "the fault's size: no candidate could be fitted over {} s from {} s (the \
              record ends before the span holds the samples a size needs, or no candidate \
              has a parameter the residuals read)",
+            significant(span),
             significant(first)
         ));
         return;
     }
     let mut text = format!(
-        "the fault's size: each candidate with parameters fitted alone over {span} s from {} \
+        "the fault's size: each candidate with parameters fitted alone over {} s from {} \
          s (the first alarm's samples on), best fit first (residuals over their noise, mean \
          square: 1 is the noise):",
+        significant(span),
         significant(first)
     );
     for (k, s) in sized.iter().enumerate() {

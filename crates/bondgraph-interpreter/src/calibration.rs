@@ -31,10 +31,14 @@
 //! [cusum SIGMA DRIFT LEVEL]`: the integration is `start`, a window in samples, or `-` for a
 //! residual not integrated; the threshold is `-` for none, and for a residual with a walk it
 //! is in the walk's deviations, plus the drift allowed for times the samples from the start; `typical`, the residual's median sensitivity to that noise on the
-//! healthy record; `cusum`, the sequential test beside the threshold (`--cusum`).
+//! healthy record; `cusum`, the sequential test beside the threshold (`--cusum`);
+//! `hold INTEGRATION anchored|restarted LEVEL [hold-walk FLOOR RATE [hold-drift PER_SAMPLE]]`,
+//! the second test of an integrated residual whose integration is then its onset window
+//! (see `Hold`).
 
 use crate::calibrate::{Conditioning, CusumLevels, Range};
 use crate::fit::{Estimator, Integration};
+use crate::hold::Hold;
 use crate::walk::Walk;
 
 /// The format's version, the file's first line.
@@ -56,6 +60,8 @@ pub struct Decision {
     pub typical: Option<f64>,
     /// Its CUSUM beside the threshold, where it has one.
     pub cusum: Option<CusumLevels>,
+    /// Its hold, where it has one.
+    pub hold: Option<Hold>,
 }
 
 /// What monitoring runs with, as `--calibrate` chose it.
@@ -102,6 +108,22 @@ fn number(x: f64) -> String {
     format!("{x:?}")
 }
 
+/// An integration as the file writes it.
+fn integration_word(i: Integration) -> String {
+    match i {
+        Integration::Start => "start".to_string(),
+        Integration::Window(n) => n.to_string(),
+    }
+}
+
+/// An integration as the file writes it, read back.
+fn integration_read(word: &str) -> Result<Integration, String> {
+    match word {
+        "start" => Ok(Integration::Start),
+        n => Ok(Integration::Window(count(n)?)),
+    }
+}
+
 /// A name quoted, with `"` and `\` escaped.
 fn quoted(s: &str) -> String {
     format!("\"{}\"", s.replace('\\', "\\\\").replace('"', "\\\""))
@@ -141,11 +163,7 @@ impl Calibration {
             out += &format!("range {name} {} {}\n", number(r.least), number(r.most));
         }
         for d in &self.decisions {
-            let integration = match d.integration {
-                None => "-".to_string(),
-                Some(Integration::Start) => "start".to_string(),
-                Some(Integration::Window(n)) => n.to_string(),
-            };
+            let integration = d.integration.map_or("-".to_string(), integration_word);
             let threshold = d.threshold.map_or("-".to_string(), number);
             out += &format!("arr {} {integration} {threshold}", d.name);
             if let Some(w) = d.walk {
@@ -164,6 +182,20 @@ impl Calibration {
                     number(c.drift),
                     number(c.level)
                 );
+            }
+            if let Some(h) = d.hold {
+                out += &format!(
+                    " hold {} {} {}",
+                    integration_word(h.integration),
+                    if h.anchored { "anchored" } else { "restarted" },
+                    number(h.level)
+                );
+                if let Some(w) = h.walk {
+                    out += &format!(" hold-walk {} {}", number(w.floor), number(w.rate));
+                    if w.drift > 0.0 {
+                        out += &format!(" hold-drift {}", number(w.drift));
+                    }
+                }
             }
             out += "\n";
         }
@@ -262,14 +294,14 @@ impl Parts {
             ["arr", name, integration, threshold, rest @ ..] => {
                 let integration = match *integration {
                     "-" => None,
-                    "start" => Some(Integration::Start),
-                    n => Some(Integration::Window(count(n)?)),
+                    word => Some(integration_read(word)?),
                 };
                 let threshold = match *threshold {
                     "-" => None,
                     t => Some(non_negative(t)?),
                 };
                 let (mut walk, mut typical, mut cusum) = (None, None, None);
+                let mut hold: Option<Hold> = None;
                 let mut rest = rest;
                 loop {
                     rest = match rest {
@@ -299,10 +331,44 @@ impl Parts {
                             });
                             more
                         }
+                        ["hold", reach, how, level, more @ ..] if hold.is_none() => {
+                            hold = Some(Hold {
+                                integration: integration_read(reach)?,
+                                anchored: match *how {
+                                    "anchored" => true,
+                                    "restarted" => false,
+                                    _ => {
+                                        return Err(format!(
+                                            "`{how}`: expected `anchored` or `restarted`"
+                                        ))
+                                    }
+                                },
+                                level: non_negative(level)?,
+                                walk: None,
+                            });
+                            more
+                        }
+                        ["hold-walk", floor, rate, more @ ..] => {
+                            let h = hold.as_mut().ok_or("`hold-walk` before `hold`")?;
+                            h.walk = Some(Walk {
+                                floor: non_negative(floor)?,
+                                rate: non_negative(rate)?,
+                                drift: 0.0,
+                            });
+                            more
+                        }
+                        ["hold-drift", value, more @ ..] => {
+                            let w = (hold.as_mut().and_then(|h| h.walk.as_mut()))
+                                .ok_or("`hold-drift` before `hold-walk`")?;
+                            w.drift = non_negative(value)?;
+                            more
+                        }
                         _ => {
                             return Err("expected nothing after the threshold but `walk FLOOR \
-                                        RATE`, `drift PER_SAMPLE`, `typical SENSITIVITY` and \
-                                        `cusum SIGMA DRIFT LEVEL`, each once"
+                                        RATE`, `drift PER_SAMPLE`, `typical SENSITIVITY`, \
+                                        `cusum SIGMA DRIFT LEVEL` and `hold INTEGRATION \
+                                        anchored|restarted LEVEL` (with `hold-walk FLOOR RATE` \
+                                        and `hold-drift PER_SAMPLE`), each once"
                                 .into())
                         }
                     };
@@ -314,6 +380,7 @@ impl Parts {
                     walk,
                     typical,
                     cusum,
+                    hold,
                 });
             }
             _ => {
@@ -569,6 +636,7 @@ mod tests {
                     }),
                     typical: None,
                     cusum: None,
+                    hold: None,
                 },
                 Decision {
                     name: "ARR2".into(),
@@ -581,6 +649,7 @@ mod tests {
                         drift: 0.5,
                         level: 21.25,
                     }),
+                    hold: None,
                 },
                 Decision {
                     name: "ARR3".into(),
@@ -589,6 +658,16 @@ mod tests {
                     walk: None,
                     typical: None,
                     cusum: None,
+                    hold: Some(Hold {
+                        integration: Integration::Start,
+                        anchored: true,
+                        level: 4.25,
+                        walk: Some(Walk {
+                            floor: 1e-6,
+                            rate: 2e-11,
+                            drift: 3e-9,
+                        }),
+                    }),
                 },
             ],
         }
@@ -605,8 +684,20 @@ mod tests {
     fn a_bad_line_is_refused_with_its_number_and_what_was_expected() {
         let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
         let e = Calibration::parse(&text).unwrap_err();
-        assert!(e.starts_with("line 16: `arr ARR3 0 0.015`"), "{e}");
+        assert!(
+            e.starts_with("line 16: `arr ARR3 0 0.015 hold start"),
+            "{e}"
+        );
         assert!(e.contains("expected a count of samples"), "{e}");
+        let text = sample().write().replace("anchored", "stuck");
+        let e = Calibration::parse(&text).unwrap_err();
+        assert!(
+            e.contains("`stuck`: expected `anchored` or `restarted`"),
+            "{e}"
+        );
+        let text = sample().write().replace(" hold start anchored 4.25", "");
+        let e = Calibration::parse(&text).unwrap_err();
+        assert!(e.contains("`hold-walk` before `hold`"), "{e}");
         let e = Calibration::parse("model x").unwrap_err();
         assert!(e.contains("expected `bgc-calibration 1`"), "{e}");
         let text = sample().write().replace("crossing 0.001\n", "");

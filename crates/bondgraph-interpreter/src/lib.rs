@@ -10,6 +10,7 @@ mod deviation;
 mod fit;
 mod fold;
 mod generator;
+mod hold;
 mod identify;
 mod linalg;
 mod size;
@@ -24,6 +25,7 @@ pub use calibrate::{
 pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};
 pub use generator::{Estimates, Generator, BLOCK};
+pub use hold::{Hold, Holding};
 pub use identify::{
     choose_free, identify, identify_by, integration_window_for, simulate_record, simulation_error,
     Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,

@@ -7,8 +7,9 @@ use std::collections::HashMap;
 use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_interpreter::{
     beyond, beyond_said, calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning,
-    CusumLevels, Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Integration,
-    Range, Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk, STEP_TOLERANCE,
+    CusumLevels, Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding,
+    Integration, Range, Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk,
+    SIZE_SAMPLES, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -39,6 +40,9 @@ struct Settings {
     combined: Vec<Vec<usize>>,
     /// Each raw signal's range on the healthy record (a calibration's).
     ranges: Vec<Option<Range>>,
+    /// Each integrated residual's hold (a calibration's), its integration then its onset
+    /// window.
+    holds: Vec<Option<Hold>>,
 }
 
 /// What one pass gives, flat, before it becomes numpy arrays.
@@ -267,6 +271,7 @@ pub(crate) fn residuals<'py>(
         memories: Vec::new(),
         combined: Vec::new(),
         ranges: Vec::new(),
+        holds: vec![None; c.arrs.len()],
     };
     let mut params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let mut notes = Vec::new();
@@ -296,6 +301,7 @@ pub(crate) fn residuals<'py>(
         settings.cusum = chosen.cusum;
         settings.combined = chosen.combined;
         settings.ranges = chosen.ranges;
+        settings.holds = chosen.holds;
         params = chosen.params;
         notes = chosen.notes;
     }
@@ -317,6 +323,14 @@ pub(crate) fn residuals<'py>(
         integration: settings.integration.clone(),
     };
     settings.memories = fit.memories(&c.arrs);
+    // As the CLI: a held residual is evaluated from the start, its onset test and hold
+    // reading that running integral.
+    let running = Fit {
+        integration: (settings.integration.iter().zip(&settings.holds))
+            .map(|(&i, h)| if h.is_some() { Integration::Start } else { i })
+            .collect(),
+        ..fit.clone()
+    };
     let generator = || {
         Generator::new(c, &program, &params, &fit).map_err(|e| PyValueError::new_err(e.to_string()))
     };
@@ -336,7 +350,8 @@ pub(crate) fn residuals<'py>(
         }
         settings.singular = singular;
     }
-    let generator = generator()?;
+    let generator = Generator::new(c, &program, &params, &running)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     let rows: Vec<(&str, Vec<u32>)> = (c.components.iter())
         .map(|(_, comp)| {
             let marks = comp
@@ -454,9 +469,11 @@ fn kept(
     settings.ranges = kept.ranges_for(raw);
     for (k, d) in kept.decisions.iter().enumerate() {
         settings.integration[k] = d.integration.unwrap_or_default();
+        // A level given here is the residual's only test.
         if settings.thresholds[k].is_none() {
             settings.thresholds[k] = d.threshold;
             settings.walks[k] = d.walk;
+            settings.holds[k] = d.hold;
         }
     }
     Ok(kept.values())
@@ -466,10 +483,26 @@ fn kept(
 /// candidate of the episode (as it stands at the record's end) with each of its parameters
 /// fitted alone over `span` seconds from the first alarm's samples on, best fit first.
 fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) -> Vec<Sized> {
-    let first = (pass.alarms.chunks(m.max(1)).zip(&pass.at)).find(|(on, _)| on.iter().any(|&a| a));
-    let Some((_, &first)) = first else {
+    let rows = || pass.alarms.chunks(m.max(1)).zip(&pass.at);
+    let Some(begun) = rows().position(|(on, _)| on.iter().any(|&a| a)) else {
         return Vec::new();
     };
+    let first = pass.at[begun];
+    // As the CLI: an intermittent fault is sized over its first alarm, which ends where
+    // the alarms stop for the samples a size needs.
+    let mut lull: Option<(f64, usize)> = None;
+    let mut quiet = None;
+    for (on, &t) in rows().skip(begun) {
+        lull = match (on.iter().any(|&a| a), lull) {
+            (true, _) => None,
+            (false, None) => Some((t, 1)),
+            (false, Some((since, n))) => Some((since, n + 1)),
+        };
+        if let Some((since, SIZE_SAMPLES..)) = lull {
+            quiet = Some(since - lookahead);
+            break;
+        }
+    }
     let ranked: Vec<String> = (pass.labels.episodes.last())
         .map(|e| {
             e.split(' ')
@@ -479,6 +512,10 @@ fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) 
         })
         .unwrap_or_default();
     let first = first + lookahead;
+    let span = match quiet.map(|q| q - first).filter(|&d| d < span) {
+        Some(alarm) => sizing.span(alarm),
+        None => span,
+    };
     sizing.candidates(&ranked, first, span)
 }
 
@@ -582,6 +619,8 @@ struct Watch<'a> {
     alarms: Vec<Option<Threshold>>,
     /// Each residual's CUSUM beside its threshold, where it has one.
     sequential: Vec<Option<Cusum>>,
+    /// Each held residual's onset window and hold over its running integral.
+    holding: Vec<Option<Holding>>,
     /// The last estimate's alarms, and its pattern's index.
     on: Vec<bool>,
     last: Option<usize>,
@@ -605,6 +644,15 @@ impl<'a> Watch<'a> {
                 .collect(),
             sequential: (settings.cusum.iter())
                 .map(|c| c.map(|c| c.test()))
+                .collect(),
+            holding: (settings.holds.iter().zip(&settings.integration))
+                .map(|(h, i)| {
+                    let onset = match i {
+                        Integration::Window(n) => *n,
+                        Integration::Start => 1,
+                    };
+                    h.map(|h| Holding::new(h, onset))
+                })
                 .collect(),
             on: vec![false; m],
             last: None,
@@ -633,9 +681,14 @@ impl Watch<'_> {
         let each = (self.alarms.iter_mut())
             .zip(&mut self.sequential)
             .zip(&self.settings.thresholds)
-            .zip(&self.settings.walks);
-        for (k, (((alarm, sequential), level), walk)) in each.enumerate() {
-            for (j, (&r, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
+            .zip(&self.settings.walks)
+            .zip(&mut self.holding);
+        for (k, ((((alarm, sequential), level), walk), holding)) in each.enumerate() {
+            for (j, (&running, &b)) in e.residual(k).iter().zip(e.bound(k)).enumerate() {
+                let r = match holding.as_mut() {
+                    Some(h) => h.onset(running),
+                    None => running,
+                };
                 let at = base + j * m + k;
                 // Where the relation is singular the noise decides it: no threshold.
                 let singular = self.settings.singular.contains(k, e.at()[j]);
@@ -660,6 +713,10 @@ impl Watch<'_> {
                 };
                 if let Some(test) = sequential.as_mut().filter(|_| !singular) {
                     pass.alarms[at] |= test.update(r);
+                }
+                if let Some(h) = holding.as_mut() {
+                    let onset = pass.alarms[at];
+                    pass.alarms[at] |= h.update(running, first + j, onset, now.is_some());
                 }
             }
         }

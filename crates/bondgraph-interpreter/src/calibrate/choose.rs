@@ -92,7 +92,7 @@ pub(super) fn most_sensitive(
             &mut none,
             (0.0, margin),
             None,
-            Walk::CROSSING,
+            &vec![Walk::CROSSING; nominal.len()],
         )?;
         let mut moves = Vec::new();
         for k in (0..params.len()).filter(|&k| params[k] != 0.0) {

@@ -25,7 +25,7 @@ pub(super) fn thresholds(
     walks: &mut [Option<Walk>],
     (rate, margin): (f64, f64),
     replicas: Option<&Replicas<'_>>,
-    crossing: f64,
+    crossing: &[f64],
 ) -> Result<Vec<f64>, CalibrateError> {
     let raw = healthy.residuals(build()?);
     // A walk read from one record's changes over two lags misses a slow one that only its
@@ -63,32 +63,34 @@ pub(super) fn thresholds(
         Some(replicas) => replica_levels(build, (healthy, replicas), walks, crossing)?,
         None => vec![None; walks.len()],
     };
-    Ok((series.into_iter().zip(walks).zip(replicated))
-        .map(|((s, walk), replicated)| {
-            // A residual that is not a number somewhere (singular at rest) says nothing
-            // there: the quantile is that of the samples where it is one.
-            let stated = replicated.unwrap_or_else(|| match walk {
-                Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
-                _ => rice_level(&s, length, crossing),
-            });
-            let mut s: Vec<f64> = s
-                .into_iter()
-                .filter(|v| v.is_finite())
-                .map(f64::abs)
-                .collect();
-            s.sort_by(f64::total_cmp);
-            // The sample with a share `rate` of the others above it.
-            let above = (rate * s.len() as f64).floor() as usize;
-            let at = s.len().saturating_sub(above + 1);
-            let seen = s.get(at).copied().unwrap_or(0.0) * (1.0 + margin);
-            // With no false alarm allowed, a statement about the next records too.
-            if rate == 0.0 {
-                seen.max(stated)
-            } else {
-                seen
-            }
-        })
-        .collect())
+    Ok(
+        (series.into_iter().zip(walks).zip(replicated).zip(crossing))
+            .map(|(((s, walk), replicated), &crossing)| {
+                // A residual that is not a number somewhere (singular at rest) says nothing
+                // there: the quantile is that of the samples where it is one.
+                let stated = replicated.unwrap_or_else(|| match walk {
+                    Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
+                    _ => rice_level(&s, length, crossing),
+                });
+                let mut s: Vec<f64> = s
+                    .into_iter()
+                    .filter(|v| v.is_finite())
+                    .map(f64::abs)
+                    .collect();
+                s.sort_by(f64::total_cmp);
+                // The sample with a share `rate` of the others above it.
+                let above = (rate * s.len() as f64).floor() as usize;
+                let at = s.len().saturating_sub(above + 1);
+                let seen = s.get(at).copied().unwrap_or(0.0) * (1.0 + margin);
+                // With no false alarm allowed, a statement about the next records too.
+                if rate == 0.0 {
+                    seen.max(stated)
+                } else {
+                    seen
+                }
+            })
+            .collect(),
+    )
 }
 
 /// How many draws of the noise measure how a walk's variance grows.
@@ -201,7 +203,7 @@ fn replica_levels(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
     (healthy, replicas): (&Healthy<'_>, &Replicas<'_>),
     walks: &[Option<Walk>],
-    crossing: f64,
+    crossing: &[f64],
 ) -> Result<Vec<Option<f64>>, CalibrateError> {
     let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
     for index in 0..replicas::COUNT {
@@ -215,8 +217,8 @@ fn replica_levels(
             m.push(finite.fold(0.0, |a, v| a.max(v.abs())));
         }
     }
-    Ok((maxima.iter())
-        .map(|m| replicas::gumbel_level(m, crossing))
+    Ok((maxima.iter().zip(crossing))
+        .map(|(m, &crossing)| replicas::gumbel_level(m, crossing))
         .collect())
 }
 

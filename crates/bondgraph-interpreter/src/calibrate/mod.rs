@@ -6,6 +6,7 @@
 mod choose;
 mod error;
 mod fitted;
+mod hold;
 mod levels;
 mod range;
 mod rate;
@@ -20,6 +21,7 @@ use bondgraph_core::{Compiled, Realisation};
 
 use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
+use crate::hold::Hold;
 use crate::walk::Walk;
 
 pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS, WITHIN};
@@ -104,8 +106,12 @@ pub struct Calibrated {
     pub ranges: Vec<Option<Range>>,
     /// The signals' estimator.
     pub estimator: Estimator,
-    /// Each residual's integration (unused for those not integrated).
+    /// Each residual's integration (unused for those not integrated): where it has a hold,
+    /// the onset window.
     pub integration: Vec<Integration>,
+    /// Each integrated residual's hold, where it has one: the second test, that keeps a
+    /// persistent fault in alarm after the onset window has let it go.
+    pub holds: Vec<Option<Hold>>,
     /// Each residual's noise walk, where its threshold grows with it.
     pub walks: Vec<Option<Walk>>,
     /// Each residual's threshold (in its walk's deviations where it has one).
@@ -219,7 +225,8 @@ pub fn calibrate(
             healthy.time[first]
         ));
     }
-    let (integration, walks) = on.integrations(estimator)?;
+    let best = on.integrations(estimator)?;
+    let (integration, walks, holds) = on.onsets_and_holds(estimator, best)?;
     let mut conditioning = noisy.then(|| Conditioning {
         deviations: deviations.clone(),
         typical: vec![None; n],
@@ -237,9 +244,14 @@ pub fn calibrate(
         on.note_singular();
         conditioning = Some(read);
     }
-    let (levels, walks) = on.thresholds(estimator, &integration, walks)?;
+    let crossing: Vec<f64> = (holds.iter())
+        .map(|h| on.crossing() / if h.is_some() { 2.0 } else { 1.0 })
+        .collect();
+    let (levels, walks) = on.thresholds(estimator, &integration, walks, &crossing)?;
+    let holds = on.hold_levels(estimator, (&integration, holds), &levels, &crossing)?;
     let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
+        holds,
         ranges: range::ranges(healthy),
         params: on.params,
         combined: on.combined,
@@ -282,6 +294,14 @@ pub fn window_of(estimator: Estimator) -> usize {
 
 /// Each residual's threshold and the walk it grows with, where it has them.
 type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
+
+/// Each residual's integration (the onset window where it is held), its walk, and its hold
+/// (its reach, whether anchored, its walk).
+type OnsetsAndHolds = (
+    Vec<Integration>,
+    Vec<Option<Walk>>,
+    Vec<Option<hold::HeldBy>>,
+);
 
 /// What a calibration chooses with: the choices, the model as fitted, the healthy record.
 struct Calibrating<'a> {
@@ -516,6 +536,108 @@ impl Calibrating<'_> {
         Ok((integration, walks))
     }
 
+    /// Each integrated residual's onset window and hold, from the reach that gives the most
+    /// margin `within` after a fault (`best`): where the user gave no integration, the onset
+    /// test reads the relation over a quarter of the estimators' window, and the hold
+    /// reads it from the start where it is anchored, else over that reach (see
+    /// [`crate::hold`]).
+    fn onsets_and_holds(
+        &mut self,
+        estimator: Estimator,
+        best: (Vec<Integration>, Vec<Option<Walk>>),
+    ) -> Result<OnsetsAndHolds, CalibrateError> {
+        let c = self.c;
+        let n = c.arrs.len();
+        let integrated: Vec<bool> = (c.arrs.iter())
+            .map(|a| matches!(a.realisation, Realisation::Integrated(_)))
+            .collect();
+        if self.choices.integration.is_some() || !integrated.contains(&true) {
+            return Ok((best.0, best.1, vec![None; n]));
+        }
+        let window = window_of(estimator);
+        let onset = hold::onset_window(window);
+        let chosen: Vec<(Integration, Option<Walk>)> = best.0.into_iter().zip(best.1).collect();
+        let holds = hold::holds(
+            &|| self.generator(estimator, &vec![Integration::Start; n], &self.params),
+            &self.healthy,
+            (&c.arrs, &integrated),
+            &chosen,
+            (window, onset),
+        )?;
+        let integration: Vec<Integration> = (chosen.iter().zip(&integrated))
+            .map(|((i, _), &int)| if int { Integration::Window(onset) } else { *i })
+            .collect();
+        let said: Vec<String> = (c.arrs.iter().zip(&holds))
+            .filter_map(|(a, h)| {
+                h.map(|(i, anchored, _)| match (i, anchored) {
+                    (Integration::Start, true) => format!(
+                        "{} from the start (it reads a signal integrated from the start: its \
+                         integral from the start is the balance itself)",
+                        a.name
+                    ),
+                    (i, _) => format!(
+                        "{} {} (restarted where an onset alarm that raised it ends)",
+                        a.name,
+                        match i {
+                            Integration::Window(n) => format!("over {n} samples"),
+                            Integration::Start => "from the start".to_string(),
+                        }
+                    ),
+                })
+            })
+            .collect();
+        self.notes.push(format!(
+            "integrated residuals tested twice: for onsets and ends, over {onset} samples (a \
+             quarter of the estimators' window, so that an intermittent fault's alarm ends \
+             with it); and held, so that a persistent fault stays in alarm, by {}",
+            if said.is_empty() {
+                "none (no reach longer than the onset's)".to_string()
+            } else {
+                said.join(", ")
+            }
+        ));
+        Ok((integration, vec![None; n], holds))
+    }
+
+    /// Each hold with its threshold, calibrated as the onset tests' are, at the probability
+    /// each residual's tests share; a residual whose level the user gave has none.
+    fn hold_levels(
+        &self,
+        estimator: Estimator,
+        (onset, holds): (&[Integration], Vec<Option<hold::HeldBy>>),
+        levels: &[Option<f64>],
+        crossing: &[f64],
+    ) -> Result<Vec<Option<Hold>>, CalibrateError> {
+        if holds.iter().all(Option::is_none) {
+            return Ok(holds.iter().map(|_| None).collect());
+        }
+        let integration: Vec<Integration> = (holds.iter().zip(onset))
+            .map(|(h, &o)| h.map_or(o, |(i, ..)| i))
+            .collect();
+        let mut walks: Vec<Option<Walk>> = holds.iter().map(|h| h.and_then(|h| h.2)).collect();
+        let replicas = replicas::Replicas::new(self.healthy.samples);
+        let calibrated = levels::thresholds(
+            &|| self.generator(estimator, &integration, &self.params),
+            &self.healthy,
+            &mut walks,
+            (self.choices.share, self.choices.margin),
+            replicas.noisy().then_some(&replicas),
+            crossing,
+        )?;
+        Ok((holds.into_iter().enumerate())
+            .map(|(k, h)| {
+                let (integration, anchored, _) = h?;
+                let given = self.choices.thresholds.get(k).copied().flatten().is_some();
+                (!given && levels[k].is_some()).then_some(Hold {
+                    integration,
+                    anchored,
+                    level: calibrated[k],
+                    walk: walks[k],
+                })
+            })
+            .collect())
+    }
+
     /// Each residual's threshold: the level given, else calibrated on the healthy record
     /// (see [`levels::thresholds`]); a residual with a level given loses its walk.
     fn thresholds(
@@ -523,9 +645,9 @@ impl Calibrating<'_> {
         estimator: Estimator,
         integration: &[Integration],
         mut walks: Vec<Option<Walk>>,
+        crossing: &[f64],
     ) -> Result<Levels, CalibrateError> {
         let choices = self.choices;
-        let crossing = self.crossing();
         let replicas = replicas::Replicas::new(self.healthy.samples);
         if replicas.noisy() && choices.share == 0.0 {
             let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
@@ -535,8 +657,9 @@ impl Calibrating<'_> {
                 "thresholds that a healthy record of its length crosses with probability {} \
                  (at least its own largest |r| times 1 + the margin): what its noise does to \
                  the residuals, drawn {} times (fresh white noise of the deviation read on \
-                 each signal, {}, added and taken away) and the maxima taken as a Gumbel law",
-                crossing,
+                 each signal, {}, added and taken away) and the maxima taken as a Gumbel law \
+                 (shared equally between a residual's onset test and its hold, where it has one)",
+                self.crossing(),
                 replicas::COUNT,
                 read.join(", ")
             ));
