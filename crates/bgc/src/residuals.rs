@@ -81,11 +81,14 @@ pub(crate) struct ResidualArgs {
     /// Residuals realised by integration (`integrated` in the model's output) are the
     /// relation's integral over the last N samples, or from the record's first estimate
     /// (`start`): a fault that shows only while a signal moves then leaves them offset for
-    /// good, but the noise they integrate grows with the record [default: with
-    /// `--calibrate`, for each residual, the one of 250, 1000, 2500, 10000 and 25000
-    /// samples and `--within` (at most a twentieth of the healthy record), or from the start
-    /// where its noise there is white plus a random walk, under which a fault moves it most
-    /// against its noise over the second half of `--within`; else 250].
+    /// good, but the noise they integrate grows with the record. Given, it is each such
+    /// residual's one test [default: with `--calibrate`, two tests per residual: over a
+    /// quarter of the estimators' window (onsets and ends), and a hold, from the start where
+    /// the relation reads a signal integrated from the start, else the one of 250, 1000,
+    /// 2500, 10000 and 25000 samples and `--within` (at most a twentieth of the healthy
+    /// record), or from the start where its noise there is white plus a random walk, under
+    /// which a fault moves it most against its noise over the second half of `--within`,
+    /// restarted at the end of the onset alarms it rose with; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
     /// How the signals' values and derivatives are estimated over the window:
@@ -155,9 +158,10 @@ pub(crate) struct ResidualArgs {
     )]
     cusum: Option<f64>,
     /// With `--calibrate`, the time after a fault by which it should show, in seconds of
-    /// the record's time: each integrated residual's integration is chosen by the margin a
-    /// fault gets over it under its threshold (a window of about that length, as a rule,
-    /// rather than from the start, whose threshold grows with the record).
+    /// the record's time: each integrated residual's hold (where it does not read a signal
+    /// integrated from the start) is the window under which a fault gets the most margin
+    /// over its threshold then (a window of about that length, as a rule, rather than from
+    /// the start, whose threshold grows with the record).
     #[arg(long, value_name = "SECONDS", default_value_t = WITHIN, requires = "calibrate")]
     within: f64,
     /// Headroom over the calibrated quantile, as a fraction of it.
