@@ -23,80 +23,117 @@ pub(super) fn thresholds(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
     healthy: &Healthy<'_>,
     walks: &mut [Option<Walk>],
-    (rate, margin): (f64, f64),
+    rate_margin: (f64, f64),
     replicas: Option<&Replicas<'_>>,
     crossing: &[f64],
 ) -> Result<Vec<f64>, CalibrateError> {
-    let raw = healthy.residuals(build()?);
+    let view = vec![None; walks.len()];
+    let mut by_view = vec![walks.to_vec()];
+    let levels = viewed(
+        build,
+        (healthy, &[view]),
+        &mut by_view,
+        rate_margin,
+        replicas,
+        crossing,
+    )?;
+    walks.copy_from_slice(&by_view[0]);
+    Ok(levels.into_iter().next().unwrap_or_default())
+}
+
+/// [`thresholds`] for several readings (`views`) of the same residuals, each with its
+/// walks, from one run of the generator per draw: a held residual, generated from the start,
+/// is read over its onset window in one view and as its hold in another.
+pub(super) fn viewed(
+    build: &dyn Fn() -> Result<Generator, CalibrateError>,
+    (healthy, views): (&Healthy<'_>, &[View]),
+    walks: &mut [Vec<Option<Walk>>],
+    (rate, margin): (f64, f64),
+    replicas: Option<&Replicas<'_>>,
+    crossing: &[f64],
+) -> Result<Vec<Vec<f64>>, CalibrateError> {
+    let raw = healthy.residuals_viewed(build()?, &healthy.samples.columns, views);
     // A walk read from one record's changes over two lags misses a slow one that only its
     // whole length shows: the draws of its noise show it at every sample.
-    let mut errors = vec![0.0; walks.len()];
+    let mut errors = vec![vec![0.0; crossing.len()]; views.len()];
     if let Some(replicas) = replicas.filter(|_| rate == 0.0) {
-        let profiles = walk_profiles(build, (healthy, replicas), walks)?;
-        for ((w, profile), error) in walks.iter_mut().zip(profiles).zip(&mut errors) {
-            if let (Some(w), Some(p)) = (w.as_mut(), profile) {
-                w.floor = w.floor.max(p.floor);
-                w.rate = w.rate.max(p.rate);
-                *error = p.slope_error;
+        let profiles = walk_profiles(build, (healthy, replicas, views), walks)?;
+        for ((walks, profiles), errors) in walks.iter_mut().zip(profiles).zip(&mut errors) {
+            for ((w, profile), error) in walks.iter_mut().zip(profiles).zip(errors) {
+                if let (Some(w), Some(p)) = (w.as_mut(), profile) {
+                    w.floor = w.floor.max(p.floor);
+                    w.rate = w.rate.max(p.rate);
+                    *error = p.slope_error;
+                }
             }
         }
     }
-    // A walk the draws were to measure and could not is none.
-    for w in walks.iter_mut() {
-        if w.is_some_and(|w| {
-            (w.floor + w.rate).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        }) {
-            *w = None;
+    for walks in walks.iter_mut() {
+        // A walk the draws were to measure and could not is none.
+        for w in walks.iter_mut() {
+            if w.is_some_and(|w| {
+                (w.floor + w.rate).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            }) {
+                *w = None;
+            }
         }
     }
     // A residual integrated from the start may drift (the model's error integrated): the
     // threshold allows for it, and the healthy record is read net of it.
-    for ((w, r), error) in walks.iter_mut().zip(&raw).zip(&errors) {
-        if let Some(w) = w {
-            w.drift = Walk::drift_of(r, *error, margin);
+    for ((walks, raw), errors) in walks.iter_mut().zip(&raw).zip(&errors) {
+        for ((w, r), error) in walks.iter_mut().zip(raw).zip(errors) {
+            if let Some(w) = w {
+                w.drift = Walk::drift_of(r, *error, margin);
+            }
         }
     }
-    let series = net_of_drift(raw, walks);
-    let walks: &[Option<Walk>] = walks;
+    let walks: &[Vec<Option<Walk>>] = walks;
     let length = healthy.len();
     let replicated = match replicas.filter(|_| rate == 0.0) {
-        Some(replicas) => replica_levels(build, (healthy, replicas), walks, crossing)?,
-        None => vec![None; walks.len()],
+        Some(replicas) => replica_levels(build, (healthy, replicas, views), walks, crossing)?,
+        None => vec![vec![None; crossing.len()]; views.len()],
     };
-    Ok(
-        (series.into_iter().zip(walks).zip(replicated).zip(crossing))
-            .map(|(((s, walk), replicated), &crossing)| {
-                // A residual that is not a number somewhere (singular at rest) says nothing
-                // there: the quantile is that of the samples where it is one.
-                let stated = replicated.unwrap_or_else(|| match walk {
-                    Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
-                    _ => rice_level(&s, length, crossing),
-                });
-                let mut s: Vec<f64> = s
-                    .into_iter()
-                    .filter(|v| v.is_finite())
-                    .map(f64::abs)
-                    .collect();
-                s.sort_by(f64::total_cmp);
-                // The sample with a share `rate` of the others above it.
-                let above = (rate * s.len() as f64).floor() as usize;
-                let at = s.len().saturating_sub(above + 1);
-                let seen = s.get(at).copied().unwrap_or(0.0) * (1.0 + margin);
-                // With no false alarm allowed, a statement about the next records too.
-                if rate == 0.0 {
-                    seen.max(stated)
-                } else {
-                    seen
-                }
-            })
-            .collect(),
-    )
+    Ok((raw.into_iter().zip(walks).zip(replicated))
+        .map(|((raw, walks), replicated)| {
+            let series = net_of_drift(raw, walks);
+            (series.into_iter().zip(walks).zip(replicated).zip(crossing))
+                .map(|(((s, walk), replicated), &crossing)| {
+                    // A residual that is not a number somewhere (singular at rest) says
+                    // nothing there: the quantile is that of the samples where it is one.
+                    let stated = replicated.unwrap_or_else(|| match walk {
+                        Some(walk) if walk.rate > 0.0 => walk.crossing_level(length, crossing),
+                        _ => rice_level(&s, length, crossing),
+                    });
+                    let mut s: Vec<f64> = (s.into_iter())
+                        .filter(|v| v.is_finite())
+                        .map(f64::abs)
+                        .collect();
+                    s.sort_by(f64::total_cmp);
+                    // The sample with a share `rate` of the others above it.
+                    let above = (rate * s.len() as f64).floor() as usize;
+                    let at = s.len().saturating_sub(above + 1);
+                    let seen = s.get(at).copied().unwrap_or(0.0) * (1.0 + margin);
+                    // With no false alarm allowed, a statement about the next records too.
+                    if rate == 0.0 {
+                        seen.max(stated)
+                    } else {
+                        seen
+                    }
+                })
+                .collect()
+        })
+        .collect())
 }
+
+/// How a pass reads each residual the generator gives: as given (`None`), or its change over
+/// a window of that many samples (a held residual, generated from the start).
+pub(super) type View = Vec<Option<usize>>;
 
 /// How many draws of the noise measure how a walk's variance grows.
 const PROFILE_DRAWS: usize = 8;
 
 /// What the draws of a healthy record's noise say of a residual integrated from the start.
+#[derive(Clone, Copy)]
 struct Profile {
     /// Its noise's mean square at the start.
     floor: f64,
@@ -113,36 +150,58 @@ struct Profile {
 /// others.
 fn walk_profiles(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    (healthy, replicas): (&Healthy<'_>, &Replicas<'_>),
-    walks: &[Option<Walk>],
-) -> Result<Vec<Option<Profile>>, CalibrateError> {
-    let n = walks.len();
-    let mut squares: Vec<Vec<f64>> = vec![Vec::new(); n];
-    let mut slopes = vec![0.0; n];
+    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    walks: &[Vec<Option<Walk>>],
+) -> Result<Vec<Vec<Option<Profile>>>, CalibrateError> {
+    let n = walks.first().map_or(0, Vec::len);
+    let mut squares: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); n]; views.len()];
+    let mut slopes = vec![vec![0.0; n]; views.len()];
+    let measured = |v: usize, k: usize| walks[v][k].is_some();
+    if (0..views.len()).all(|v| (0..n).all(|k| !measured(v, k))) {
+        return Ok(vec![(0..n).map(|_| None).collect(); views.len()]);
+    }
     for index in 0..PROFILE_DRAWS {
-        let up = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, 1.0)));
-        let down = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, -1.0)));
-        for k in (0..n).filter(|&k| walks[k].is_some()) {
-            let noise: Vec<f64> = (up[k].iter().zip(&down[k]))
-                .map(|(u, d)| 0.5 * (u - d))
-                .collect();
-            slopes[k] += crate::walk::slope(&noise, 0).powi(2) / PROFILE_DRAWS as f64;
-            squares[k].resize(noise.len(), 0.0);
-            for (s, v) in squares[k].iter_mut().zip(&noise) {
-                *s += v * v / PROFILE_DRAWS as f64;
+        let up = perturbed(build, (healthy, replicas, views), index, 1.0)?;
+        let down = perturbed(build, (healthy, replicas, views), index, -1.0)?;
+        for v in 0..views.len() {
+            for k in (0..n).filter(|&k| measured(v, k)) {
+                let noise: Vec<f64> = (up[v][k].iter().zip(&down[v][k]))
+                    .map(|(u, d)| 0.5 * (u - d))
+                    .collect();
+                slopes[v][k] += crate::walk::slope(&noise, 0).powi(2) / PROFILE_DRAWS as f64;
+                squares[v][k].resize(noise.len(), 0.0);
+                for (s, x) in squares[v][k].iter_mut().zip(&noise) {
+                    *s += x * x / PROFILE_DRAWS as f64;
+                }
             }
         }
     }
-    Ok((0..n)
-        .map(|k| {
-            let (floor, rate) = walks[k].and(line(&squares[k]))?;
-            Some(Profile {
-                floor,
-                rate,
-                slope_error: slopes[k].sqrt(),
-            })
+    Ok((0..views.len())
+        .map(|v| {
+            (0..n)
+                .map(|k| {
+                    let (floor, rate) = walks[v][k].and(line(&squares[v][k]))?;
+                    Some(Profile {
+                        floor,
+                        rate,
+                        slope_error: slopes[v][k].sqrt(),
+                    })
+                })
+                .collect()
         })
         .collect())
+}
+
+/// The residuals, in each view, over the healthy record with the `index`th draw of its
+/// noise added (`sign` 1) or taken away (-1).
+fn perturbed(
+    build: &dyn Fn() -> Result<Generator, CalibrateError>,
+    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    index: usize,
+    sign: f64,
+) -> Result<Vec<Vec<Vec<f64>>>, CalibrateError> {
+    let columns = replicas.perturbed(index, sign);
+    Ok(healthy.residuals_viewed(build()?, &slices(&columns), views))
 }
 
 /// The least-squares line `a + b k` through the finite values of `v` (at `k` = 0, 1, ...),
@@ -201,24 +260,31 @@ fn slices(columns: &[Vec<f64>]) -> Vec<&[f64]> {
 
 fn replica_levels(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    (healthy, replicas): (&Healthy<'_>, &Replicas<'_>),
-    walks: &[Option<Walk>],
+    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    walks: &[Vec<Option<Walk>>],
     crossing: &[f64],
-) -> Result<Vec<Option<f64>>, CalibrateError> {
-    let mut maxima: Vec<Vec<f64>> = vec![Vec::new(); walks.len()];
+) -> Result<Vec<Vec<Option<f64>>>, CalibrateError> {
+    let mut maxima: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); crossing.len()]; views.len()];
     for index in 0..replicas::COUNT {
-        let up = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, 1.0)));
-        let down = healthy.residuals_with(build()?, &slices(&replicas.perturbed(index, -1.0)));
-        let noise = (up.iter().zip(&down))
-            .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())
-            .collect();
-        for (m, s) in maxima.iter_mut().zip(normalised(noise, walks)) {
-            let finite = s.iter().filter(|v| v.is_finite());
-            m.push(finite.fold(0.0, |a, v| a.max(v.abs())));
+        let up = perturbed(build, (healthy, replicas, views), index, 1.0)?;
+        let down = perturbed(build, (healthy, replicas, views), index, -1.0)?;
+        for (((maxima, up), down), walks) in maxima.iter_mut().zip(up).zip(down).zip(walks) {
+            let noise = (up.iter().zip(&down))
+                .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())
+                .collect();
+            for (m, s) in maxima.iter_mut().zip(normalised(noise, walks)) {
+                let finite = s.iter().filter(|v| v.is_finite());
+                m.push(finite.fold(0.0, |a, v| a.max(v.abs())));
+            }
         }
     }
-    Ok((maxima.iter().zip(crossing))
-        .map(|(m, &crossing)| replicas::gumbel_level(m, crossing))
+    Ok(maxima
+        .iter()
+        .map(|maxima| {
+            (maxima.iter().zip(crossing))
+                .map(|(m, &crossing)| replicas::gumbel_level(m, crossing))
+                .collect()
+        })
         .collect())
 }
 

@@ -247,8 +247,8 @@ pub fn calibrate(
     let crossing: Vec<f64> = (holds.iter())
         .map(|h| on.crossing() / if h.is_some() { 2.0 } else { 1.0 })
         .collect();
-    let (levels, walks) = on.thresholds(estimator, &integration, walks, &crossing)?;
-    let holds = on.hold_levels(estimator, (&integration, holds), &levels, &crossing)?;
+    let (levels, walks, holds) =
+        on.thresholds(estimator, &integration, (walks, &holds), &crossing)?;
     let cusum = on.cusum(estimator, &integration, &walks)?;
     Ok(Calibrated {
         holds,
@@ -292,8 +292,8 @@ pub fn window_of(estimator: Estimator) -> usize {
     estimator.window()
 }
 
-/// Each residual's threshold and the walk it grows with, where it has them.
-type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>);
+/// Each residual's threshold and the walk it grows with, where it has them, and its hold.
+type Levels = (Vec<Option<f64>>, Vec<Option<Walk>>, Vec<Option<Hold>>);
 
 /// Each residual's integration (the onset window where it is held), its walk, and its hold
 /// (its reach, whether anchored, its walk).
@@ -599,52 +599,13 @@ impl Calibrating<'_> {
         Ok((integration, vec![None; n], holds))
     }
 
-    /// Each hold with its threshold, calibrated as the onset tests' are, at the probability
-    /// each residual's tests share; a residual whose level the user gave has none.
-    fn hold_levels(
-        &self,
-        estimator: Estimator,
-        (onset, holds): (&[Integration], Vec<Option<hold::HeldBy>>),
-        levels: &[Option<f64>],
-        crossing: &[f64],
-    ) -> Result<Vec<Option<Hold>>, CalibrateError> {
-        if holds.iter().all(Option::is_none) {
-            return Ok(holds.iter().map(|_| None).collect());
-        }
-        let integration: Vec<Integration> = (holds.iter().zip(onset))
-            .map(|(h, &o)| h.map_or(o, |(i, ..)| i))
-            .collect();
-        let mut walks: Vec<Option<Walk>> = holds.iter().map(|h| h.and_then(|h| h.2)).collect();
-        let replicas = replicas::Replicas::new(self.healthy.samples);
-        let calibrated = levels::thresholds(
-            &|| self.generator(estimator, &integration, &self.params),
-            &self.healthy,
-            &mut walks,
-            (self.choices.share, self.choices.margin),
-            replicas.noisy().then_some(&replicas),
-            crossing,
-        )?;
-        Ok((holds.into_iter().enumerate())
-            .map(|(k, h)| {
-                let (integration, anchored, _) = h?;
-                let given = self.choices.thresholds.get(k).copied().flatten().is_some();
-                (!given && levels[k].is_some()).then_some(Hold {
-                    integration,
-                    anchored,
-                    level: calibrated[k],
-                    walk: walks[k],
-                })
-            })
-            .collect())
-    }
-
     /// Each residual's threshold: the level given, else calibrated on the healthy record
     /// (see [`levels::thresholds`]); a residual with a level given loses its walk.
     fn thresholds(
         &mut self,
         estimator: Estimator,
         integration: &[Integration],
-        mut walks: Vec<Option<Walk>>,
+        (mut walks, holds): (Vec<Option<Walk>>, &[Option<hold::HeldBy>]),
         crossing: &[f64],
     ) -> Result<Levels, CalibrateError> {
         let choices = self.choices;
@@ -686,14 +647,42 @@ impl Calibrating<'_> {
                 }
             }
         }
-        let calibrated = levels::thresholds(
-            &|| self.generator(estimator, integration, &self.params),
-            &self.healthy,
-            &mut walks,
+        // Held residuals are generated from the start, and read over their onset window and
+        // as their hold from the same runs.
+        let evaluated: Vec<Integration> = (integration.iter().zip(holds))
+            .map(|(&i, h)| if h.is_some() { Integration::Start } else { i })
+            .collect();
+        let onset: levels::View = (integration.iter().zip(holds))
+            .map(|(i, h)| match (i, h) {
+                (Integration::Window(n), Some(_)) => Some(*n),
+                _ => None,
+            })
+            .collect();
+        let mut views = vec![onset];
+        let mut by_view = vec![walks];
+        if holds.iter().any(Option::is_some) {
+            views.push(
+                (holds.iter())
+                    .map(|h| match h {
+                        Some((Integration::Window(n), ..)) => Some(*n),
+                        _ => None,
+                    })
+                    .collect(),
+            );
+            by_view.push(holds.iter().map(|h| h.and_then(|h| h.2)).collect());
+        }
+        let mut calibrated = levels::viewed(
+            &|| self.generator(estimator, &evaluated, &self.params),
+            (&self.healthy, &views),
+            &mut by_view,
             (choices.share, choices.margin),
             replicas.noisy().then_some(&replicas),
             crossing,
         )?;
+        let hold_levels = calibrated.pop().filter(|_| views.len() > 1);
+        let calibrated = calibrated.pop().unwrap_or_default();
+        let hold_walks = by_view.pop().filter(|_| views.len() > 1);
+        let mut walks = by_view.pop().unwrap_or_default();
         let drifting: Vec<String> = (self.c.arrs.iter().zip(&walks))
             .filter_map(|(a, w)| w.filter(|w| w.drift > 0.0).map(|w| (a, w)))
             .map(|(a, w)| format!("{} {:.3e} per sample", a.name, w.drift))
@@ -708,6 +697,7 @@ impl Calibrating<'_> {
         }
         let mut levels = choices.thresholds.clone();
         levels.resize(walks.len(), None);
+        let given: Vec<bool> = levels.iter().map(Option::is_some).collect();
         for ((level, calibrated), walk) in levels.iter_mut().zip(calibrated).zip(&mut walks) {
             // A level the user gave is a level, not a multiple of the walk's deviation.
             if level.is_some() {
@@ -715,6 +705,21 @@ impl Calibrating<'_> {
             }
             level.get_or_insert(calibrated);
         }
-        Ok((levels, walks))
+        // A residual whose level the user gave has that one test.
+        let holds = (holds.iter().enumerate())
+            .map(|(k, h)| {
+                let (integration, anchored, _) = (*h)?;
+                let level = hold_levels.as_ref()?.get(k).copied()?;
+                (!given[k]).then_some(Hold {
+                    integration,
+                    anchored,
+                    level,
+                    walk: hold_walks
+                        .as_ref()
+                        .and_then(|w| w.get(k).copied().flatten()),
+                })
+            })
+            .collect();
+        Ok((levels, walks, holds))
     }
 }

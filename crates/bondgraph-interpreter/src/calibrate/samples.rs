@@ -1,6 +1,9 @@
 //! The records a calibration reads: the samples as handed over, and the healthy record with
 //! where it is singular, over which every choice is made.
 
+use bondgraph::Reference;
+
+use crate::calibrate::levels::View;
 use crate::generator::Generator;
 
 /// A record's samples as calibration reads them.
@@ -45,29 +48,51 @@ impl Healthy<'_> {
     }
 
     /// The same over the record's time with other columns (a replica's).
-    pub(crate) fn residuals_with(
+    pub(crate) fn residuals_with(&self, generator: Generator, columns: &[&[f64]]) -> Vec<Vec<f64>> {
+        // An empty view reads every residual as generated.
+        let viewed = self.residuals_viewed(generator, columns, &[Vec::new()]);
+        viewed.into_iter().next().unwrap_or_default()
+    }
+
+    /// The same in each view: each residual as generated, or its change over a window (see
+    /// [`View`]); not a number where it is singular, after the window has read it.
+    pub(crate) fn residuals_viewed(
         &self,
         mut generator: Generator,
         columns: &[&[f64]],
-    ) -> Vec<Vec<f64>> {
+        views: &[View],
+    ) -> Vec<Vec<Vec<f64>>> {
         let mut series: Vec<Vec<f64>> = Vec::new();
-        let singular = &self.singular;
+        let mut at: Vec<f64> = Vec::new();
         generator.run(self.samples.time, columns, false, |e| {
             if !e.is_empty() {
                 series.resize(e.residual_count(), Vec::new());
             }
+            at.extend_from_slice(e.at());
             for (k, s) in series.iter_mut().enumerate() {
-                let at = e.at();
-                s.extend((e.residual(k).iter().zip(at)).map(|(&r, &t)| {
-                    if singular.contains(k, t) {
-                        f64::NAN
-                    } else {
-                        r
-                    }
-                }));
+                s.extend_from_slice(e.residual(k));
             }
         });
-        series
+        let singular = &self.singular;
+        (views.iter())
+            .map(|view| {
+                (series.iter().enumerate())
+                    .map(|(k, s)| {
+                        let mut window = view.get(k).copied().flatten().map(Reference::window);
+                        (s.iter().zip(&at))
+                            .map(|(&r, &t)| {
+                                let r = window.as_mut().map_or(r, |w| w.push(r));
+                                if singular.contains(k, t) {
+                                    f64::NAN
+                                } else {
+                                    r
+                                }
+                            })
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect()
     }
 }
 
