@@ -4,6 +4,7 @@
 use crate::calibrate::error::CalibrateError;
 use crate::calibrate::replicas::{self, Replicas};
 use crate::calibrate::samples::Healthy;
+pub(super) use crate::calibrate::samples::View;
 use crate::generator::Generator;
 use crate::walk::Walk;
 
@@ -124,10 +125,6 @@ pub(super) fn viewed(
         })
         .collect())
 }
-
-/// How a pass reads each residual the generator gives: as given (`None`), or its change over
-/// a window of that many samples (a held residual, generated from the start).
-pub(super) type View = Vec<Option<usize>>;
 
 /// How many draws of the noise measure how a walk's variance grows.
 const PROFILE_DRAWS: usize = 8;

@@ -679,9 +679,10 @@ impl Calibrating<'_> {
             replicas.noisy().then_some(&replicas),
             crossing,
         )?;
-        let hold_levels = calibrated.pop().filter(|_| views.len() > 1);
+        let held = views.len() > 1;
+        let hold_levels = if held { calibrated.pop() } else { None };
         let calibrated = calibrated.pop().unwrap_or_default();
-        let hold_walks = by_view.pop().filter(|_| views.len() > 1);
+        let hold_walks = if held { by_view.pop() } else { None };
         let mut walks = by_view.pop().unwrap_or_default();
         let drifting: Vec<String> = (self.c.arrs.iter().zip(&walks))
             .filter_map(|(a, w)| w.filter(|w| w.drift > 0.0).map(|w| (a, w)))

@@ -3,7 +3,6 @@
 
 use bondgraph::Reference;
 
-use crate::calibrate::levels::View;
 use crate::generator::Generator;
 
 /// A record's samples as calibration reads them.
@@ -28,6 +27,10 @@ impl Samples<'_> {
         self.time.is_empty()
     }
 }
+
+/// How a pass reads each residual the generator gives: as given (`None`), or its change over
+/// a window of that many samples (a held residual, generated from the start).
+pub(crate) type View = Vec<Option<usize>>;
 
 /// The healthy record, with where it is singular: what the choices are made on.
 pub(super) struct Healthy<'a> {
