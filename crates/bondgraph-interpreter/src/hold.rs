@@ -48,8 +48,12 @@ pub struct Holding {
     restart: Option<(f64, usize)>,
     /// The first value seen: what the hold reads from, from the start.
     first: Option<f64>,
-    /// Whether the hold was in alarm when the onset test's current alarm rose.
+    /// Whether the hold had been in alarm for longer than the onset window when the onset
+    /// test's current alarm rose; and for how many samples it has been.
     held_before: bool,
+    held_for: usize,
+    /// The onset window, in samples.
+    onset_window: usize,
     onset_was: bool,
     on: bool,
     value: f64,
@@ -74,6 +78,8 @@ impl Holding {
             restart: None,
             first: None,
             held_before: false,
+            held_for: 0,
+            onset_window: onset,
             onset_was: false,
             on: false,
             value: 0.0,
@@ -111,12 +117,16 @@ impl Holding {
             None => self.hold.level,
         };
         self.on = decides && self.value.abs() > self.threshold;
+        self.held_for = if self.on { self.held_for + 1 } else { 0 };
         // An onset alarm that rose with the hold off and ends with it on raised it: the
         // hold starts again from here, unless the integral from the start is the balance.
-        // So does one that ends before the window has filled: what it saw would come into
-        // the hold once it filled, with no onset alarm left to end it.
+        // The hold may rise a little before the onset test on the same fault (a longer
+        // window sees an offset sooner): held for no longer than the onset window, it was
+        // raised by what the onset test saw. So does an onset alarm that ends before the
+        // window has filled: what it saw would come into the hold once it filled, with no
+        // onset alarm left to end it.
         if onset && !self.onset_was {
-            self.held_before = self.on;
+            self.held_before = self.held_for > self.onset_window;
         }
         let raised = self.on && !self.held_before;
         let unfilled = !self.filled && matches!(self.hold.integration, Integration::Window(_));
@@ -124,6 +134,7 @@ impl Holding {
             self.restart = Some((s, 0));
             self.value = 0.0;
             self.on = false;
+            self.held_for = 0;
         }
         self.onset_was = onset;
         self.on
@@ -220,6 +231,28 @@ mod tests {
             held.push(h.update(s, k, pulse || k == 15, true));
         }
         assert!(held.iter().all(|&on| !on), "{held:?}");
+    }
+
+    #[test]
+    fn a_pulse_the_hold_saw_a_little_before_the_onset_is_not_held_after_it() {
+        // The onset test (window 4) rises 3 samples after the hold does.
+        let hold = Hold {
+            integration: Integration::Window(20),
+            anchored: false,
+            level: 2.0,
+            walk: None,
+        };
+        let mut h = Holding::new(hold, 4);
+        let mut s = 0.0;
+        let mut held = Vec::new();
+        for k in 0..100 {
+            if (40..45).contains(&k) {
+                s += 1.0;
+            }
+            held.push(h.update(s, k, (45..50).contains(&k), true));
+        }
+        assert!(held[42], "{held:?}");
+        assert!(held[50..].iter().all(|&on| !on), "{held:?}");
     }
 
     #[test]
