@@ -975,5 +975,25 @@ fn the_readmes_residuals_example_raises_no_alarm_before_its_fault() {
         beyond.contains("comes after it left: it may be the record's"),
         "{beyond}"
     );
+    // And per sample: the `beyond` column names the signals outside the sine's ranges (U0
+    // at both of the square's levels, the speeds at times), and none of the others.
+    let text = stdout(&out);
+    let header: Vec<&str> = text.lines().next().expect("a header").split(',').collect();
+    let at = header
+        .iter()
+        .position(|h| *h == "beyond")
+        .expect("a beyond column");
+    let (mut flagged, mut inside) = (0, 0);
+    for line in text.lines().skip(1) {
+        let cells: Vec<&str> = line.split(',').collect();
+        for name in cells[at].split(' ').filter(|n| !n.is_empty()) {
+            assert!(["U0", "y1", "y2"].contains(&name), "{name}: {line}");
+        }
+        flagged += usize::from(cells[at].split(' ').any(|n| n == "U0"));
+        inside += usize::from(cells[at].is_empty());
+    }
+    assert!(flagged > 1000, "{flagged} samples with U0 flagged");
+    // The first estimate of the record is at rest: what calibration saw too.
+    assert!(inside < flagged, "{inside} samples inside");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -363,6 +363,8 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
     let (mut residuals, mut bounds) = (vec![0.0; n], vec![0.0; n]);
     let mut running = vec![0.0; n];
     let mut held = Vec::new();
+    let mut outside = Outside::new(&ranges, &data);
+    let signal_names = raw_names(&program);
     let mut now: Vec<Option<f64>> = vec![None; n];
     let mut on = vec![false; n];
     let mut drawn = Drawn::new(n, args.plot.is_some());
@@ -385,13 +387,15 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         let (send, receive) = std::sync::mpsc::sync_channel::<Chunk>(4);
         let rows = &rows;
         let sizes = !args.no_size;
-        let head = header(&c, &holds, &roots, sizes);
+        let flagged = ranges.iter().any(Option::is_some);
+        let head = header(&c, (&holds, flagged), &roots, sizes);
+        let signals = &signal_names;
         let roots = &roots;
         let writer = scope.spawn(move || {
             let mut out = head;
             let mut named = Named::remembering(memories);
             for chunk in receive {
-                chunk.write(&mut out, rows, &mut named, roots, sizes);
+                chunk.write(&mut out, (rows, signals), &mut named, roots, sizes);
             }
             (out, named)
         });
@@ -451,6 +455,9 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                     held.extend([h.value(), h.threshold()]);
                 }
                 chunk.held.extend_from_slice(&held);
+                if flagged {
+                    chunk.beyond.extend(outside.at(e_at));
+                }
                 chunk.unsolved.push(e_unsolved);
                 if let Some(slot) = e_unsolved {
                     let entry = unsolved.entry(slot).or_insert((0, at));
@@ -539,6 +546,43 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
         drawn.draw(path, &c).map_err(report::usage)?;
     }
     Ok(())
+}
+
+/// Which raw signals lie outside what the healthy record covered, at each estimate's
+/// sample: the samples are read in order, as the estimates come.
+struct Outside<'a> {
+    ranges: &'a [Option<Range>],
+    data: &'a Data,
+    next: usize,
+    flags: Vec<bool>,
+}
+
+impl<'a> Outside<'a> {
+    fn new(ranges: &'a [Option<Range>], data: &'a Data) -> Outside<'a> {
+        Outside {
+            ranges,
+            data,
+            next: 0,
+            flags: vec![false; ranges.len()],
+        }
+    }
+
+    /// Each raw signal's flag at the sample of the estimate at `t`.
+    fn at(&mut self, t: f64) -> impl Iterator<Item = bool> + '_ {
+        let time = &self.data.time;
+        // Estimates fall on samples: the first sample not before `t`, to rounding.
+        while self.next + 1 < time.len() && time[self.next] < t - 0.25 * self.data.step {
+            self.next += 1;
+        }
+        for ((flag, range), column) in (self.flags.iter_mut())
+            .zip(self.ranges)
+            .zip(&self.data.columns)
+        {
+            let x = column.get(self.next).copied().unwrap_or(f64::NAN);
+            *flag = range.is_some_and(|r| x.is_finite() && !r.holds(x));
+        }
+        self.flags.iter().copied()
+    }
 }
 
 /// The onset window of a held residual, in samples: its integration's window.
@@ -1015,7 +1059,12 @@ fn thresholds(c: &Compiled, given: &[String]) -> Result<Vec<Option<f64>>, Failur
     Ok(levels)
 }
 
-fn header(c: &Compiled, holds: &[Option<Hold>], roots: &[(usize, String)], sizes: bool) -> String {
+fn header(
+    c: &Compiled,
+    (holds, flagged): (&[Option<Hold>], bool),
+    roots: &[(usize, String)],
+    sizes: bool,
+) -> String {
     let mut h = String::from("t");
     for a in &c.arrs {
         let _ = write!(h, ",{}", a.name);
@@ -1030,6 +1079,9 @@ fn header(c: &Compiled, holds: &[Option<Hold>], roots: &[(usize, String)], sizes
         let _ = write!(h, ",hold_{0},hold_threshold_{0}", a.name);
     }
     h.push_str(",candidates,suspects,episode");
+    if flagged {
+        h.push_str(",beyond");
+    }
     if !roots.is_empty() {
         h.push_str(",unsolved");
     }
@@ -1053,6 +1105,9 @@ struct Chunk {
     on: Vec<bool>,
     /// Per row, each held residual's hold and its threshold.
     held: Vec<f64>,
+    /// Per row where the ranges are known, each raw signal outside what the healthy record
+    /// covered.
+    beyond: Vec<bool>,
     /// Per row, when the model's ARRs read roots: the name of the first not found, if any.
     unsolved: Vec<Option<usize>>,
 }
@@ -1069,13 +1124,14 @@ impl Chunk {
     fn write(
         &self,
         out: &mut String,
-        rows: &[(&str, Vec<u32>)],
+        (rows, signals): (&[(&str, Vec<u32>)], &[&str]),
         named: &mut Named,
         roots: &[(usize, String)],
         sizes: bool,
     ) {
         let n = self.residuals.len() / self.time.len().max(1);
         let m = self.held.len() / self.time.len().max(1);
+        let b = self.beyond.len() / self.time.len().max(1);
         for (k, &t) in self.time.iter().enumerate() {
             let span = k * n..(k + 1) * n;
             let on = &self.on[span.clone()];
@@ -1103,6 +1159,18 @@ impl Chunk {
                 }
             }
             named.cells(rows, t, on, out);
+            if b > 0 {
+                out.push(',');
+                let outside = &self.beyond[k * b..(k + 1) * b];
+                let mut first = true;
+                for (name, _) in signals.iter().zip(outside).filter(|(_, &o)| o) {
+                    if !first {
+                        out.push(' ');
+                    }
+                    out.push_str(name);
+                    first = false;
+                }
+            }
             if !roots.is_empty() {
                 out.push(',');
                 let unsolved = self.unsolved.get(k).copied().flatten();
