@@ -390,7 +390,13 @@ pub(crate) fn residuals<'py>(
     let found = beyond(&settings.ranges, &data);
     notes.extend(beyond_said(&names, &found, time, first_alarm));
     let has: Vec<bool> = settings.thresholds.iter().map(Option::is_some).collect();
+    let outside = (settings.ranges.iter().any(Option::is_some))
+        .then(|| outside(&settings.ranges, &names, (time, &data), &pass.at));
     let out = into_dict(py, pass, c.arrs.len(), &rows)?;
+    if let Some((codes, sets)) = outside {
+        out.set_item("beyond", PyArray1::from_vec(py, codes))?;
+        out.set_item("beyond_names", sets)?;
+    }
     out.set_item(
         "sizes",
         size_dicts(py, c, (&params, &settings.combined), &sized)?,
@@ -399,6 +405,45 @@ pub(crate) fn residuals<'py>(
     out.set_item("notes", notes)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
+}
+
+/// Per estimate (at `at`), the raw signals whose sample there lies outside the healthy
+/// record's range, as the CLI's `beyond` column names them: an index into the distinct
+/// sets (space-separated names; the first, empty).
+fn outside(
+    ranges: &[Option<Range>],
+    names: &[&str],
+    (time, data): (&[f64], &[&[f64]]),
+    at: &[f64],
+) -> (Vec<u32>, Vec<String>) {
+    let step = if time.len() > 1 {
+        time[1] - time[0]
+    } else {
+        0.0
+    };
+    let mut sets: Vec<String> = vec![String::new()];
+    let mut known: HashMap<String, u32> = HashMap::from([(String::new(), 0)]);
+    let mut next = 0;
+    let codes = (at.iter())
+        .map(|&t| {
+            while next + 1 < time.len() && time[next] < t - 0.25 * step {
+                next += 1;
+            }
+            let set: Vec<&str> = (ranges.iter().zip(data).zip(names))
+                .filter(|((range, column), _)| {
+                    let x = column.get(next).copied().unwrap_or(f64::NAN);
+                    range.is_some_and(|r| x.is_finite() && !r.holds(x))
+                })
+                .map(|(_, name)| *name)
+                .collect();
+            let set = set.join(" ");
+            *known.entry(set.clone()).or_insert_with(|| {
+                sets.push(set);
+                index(sets.len() - 1)
+            })
+        })
+        .collect();
+    (codes, sets)
 }
 
 /// The calibration of `bgc residuals --calibrate` on the healthy record Python handed over

@@ -38,3 +38,23 @@ def test_the_readmes_python_example_raises_no_alarm_before_its_fault():
     late = run.alarms[run.time > FAULT_AT + 1.0].any(axis=1)
     assert late.any(), "the dead zone is never seen"
     assert any("link" in c for c in np.asarray(run.episode)[run.time > FAULT_AT + 1.0])
+
+
+def test_the_readmes_example_stays_within_what_calibration_covered():
+    """Its healthy record drives the bench as the monitored one does: the per-estimate
+    `beyond` column (a calibration's) flags no signal before the fault, and is a column of
+    the frame as of the CLI's CSV."""
+    code = _python_example()
+    scope: dict = {}
+    here = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        exec(compile(code, "README.md", "exec"), scope)
+    finally:
+        os.chdir(here)
+    run = scope["run"]
+    beyond = run.beyond
+    assert beyond is not None and len(beyond) == len(run.time)
+    before = beyond[run.time < FAULT_AT]
+    assert all(b == "" for b in before), sorted(set(before))
+    assert "beyond" in run.to_dict()

@@ -265,6 +265,9 @@ class Residuals:
         self._episodes: List[str] = out["episodes"]
         self._unsolved: np.ndarray = out["unsolved"]
         self._roots: List[str] = out["roots"]
+        # With a calibration: per estimate, the signals outside the healthy record's range.
+        self._beyond: Optional[np.ndarray] = out.get("beyond")
+        self._beyond_names: List[str] = list(out.get("beyond_names", []))
         #: The fault's size once some residual alarms: per candidate component, the parameter
         #: whose change alone best explains the residuals over the span after the first alarm
         #: (dicts: component, parameter, value, half_width, model, cost, determined_with: the
@@ -307,6 +310,16 @@ class Residuals:
         """Per estimate, the candidates from every alarm seen since the first."""
         return np.asarray(self._episodes, dtype=object)[self._episode]
 
+    @property
+    def beyond(self) -> Optional[np.ndarray]:
+        """With a calibration, per estimate, the raw signals whose sample lies outside the
+        range the healthy record covered (space-separated; empty inside): an alarm there may
+        be the plant driven where calibration never saw it rather than a fault. ``None``
+        without a calibration."""
+        if self._beyond is None:
+            return None
+        return np.asarray(self._beyond_names, dtype=object)[self._beyond]
+
     def to_dict(self) -> Dict[str, np.ndarray]:
         """The columns of ``bgc residuals``'s CSV, as arrays."""
         out: Dict[str, np.ndarray] = {"t": self.time}
@@ -319,6 +332,9 @@ class Residuals:
         out["candidates"] = self.candidates
         out["suspects"] = self.suspects
         out["episode"] = self.episode
+        beyond = self.beyond
+        if beyond is not None:
+            out["beyond"] = beyond
         if self._roots:
             roots = np.asarray([""] + self._roots, dtype=object)
             out["unsolved"] = roots[self._unsolved]
@@ -333,6 +349,8 @@ class Residuals:
         columns["candidates"] = _categorical(pd, self._candidates, self._pattern)
         columns["suspects"] = _categorical(pd, self._suspects, self._pattern)
         columns["episode"] = _categorical(pd, self._episodes, self._episode)
+        if self._beyond is not None:
+            columns["beyond"] = _categorical(pd, self._beyond_names, self._beyond)
         return pd.DataFrame(columns)
 
     def to_polars(self) -> Any:
