@@ -52,6 +52,8 @@ struct Pass {
     residuals: Vec<f64>,
     levels: Levels,
     alarms: Vec<bool>,
+    /// Row by row, each held residual's hold and its threshold (see `Hold`).
+    held: Vec<f64>,
     labels: Labels,
 }
 
@@ -402,6 +404,11 @@ pub(crate) fn residuals<'py>(
         size_dicts(py, c, (&params, &settings.combined), &sized)?,
     )?;
     out.set_item("has_threshold", has)?;
+    let held: Vec<&str> = (c.arrs.iter().zip(&settings.holds))
+        .filter(|(_, h)| h.is_some())
+        .map(|(a, _)| a.name.as_str())
+        .collect();
+    out.set_item("held", held)?;
     out.set_item("notes", notes)?;
     out.set_item("roots", roots.into_iter().map(|r| r.1).collect::<Vec<_>>())?;
     Ok(out)
@@ -651,6 +658,7 @@ impl Pass {
             residuals: Vec::with_capacity(n * m),
             levels,
             alarms: Vec::with_capacity(n * m),
+            held: Vec::new(),
             labels,
         }
     }
@@ -723,6 +731,11 @@ impl Watch<'_> {
         if let Levels::Moving(levels) = &mut pass.levels {
             levels.resize(base + len * m, 0.0);
         }
+        // Each held residual's hold and threshold, two columns each, in the residuals' order.
+        let h = 2 * self.holding.iter().flatten().count();
+        let held_base = pass.held.len();
+        pass.held.resize(held_base + len * h, f64::NAN);
+        let mut slot = 0;
         let each = (self.alarms.iter_mut())
             .zip(&mut self.sequential)
             .zip(&self.settings.thresholds)
@@ -759,10 +772,16 @@ impl Watch<'_> {
                 if let Some(test) = sequential.as_mut().filter(|_| !singular) {
                     pass.alarms[at] |= test.update(r);
                 }
-                if let Some(h) = holding.as_mut() {
+                if let Some(hold) = holding.as_mut() {
                     let onset = pass.alarms[at];
-                    pass.alarms[at] |= h.update(running, first + j, onset, now.is_some());
+                    pass.alarms[at] |= hold.update(running, first + j, onset, now.is_some());
+                    let cell = held_base + j * h + slot;
+                    pass.held[cell] = hold.value();
+                    pass.held[cell + 1] = hold.threshold();
                 }
+            }
+            if holding.is_some() {
+                slot += 2;
             }
         }
         let rows = pass.alarms[base..].chunks_exact(m.max(1));
@@ -843,6 +862,8 @@ fn into_dict<'py>(
         "alarms",
         PyArray1::from_vec(py, pass.alarms).reshape([n, m])?,
     )?;
+    let h = pass.held.len() / n.max(1);
+    out.set_item("holds", PyArray1::from_vec(py, pass.held).reshape([n, h])?)?;
     out.set_item("pattern", PyArray1::from_vec(py, pass.labels.pattern))?;
     out.set_item("candidates", candidates)?;
     out.set_item("suspects", suspects)?;

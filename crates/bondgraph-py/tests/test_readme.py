@@ -57,4 +57,14 @@ def test_the_readmes_example_stays_within_what_calibration_covered():
     assert beyond is not None and len(beyond) == len(run.time)
     before = beyond[run.time < FAULT_AT]
     assert all(b == "" for b in before), sorted(set(before))
-    assert "beyond" in run.to_dict()
+    columns = run.to_dict()
+    assert "beyond" in columns
+    # The bench's ARRs are integrated: each has a hold beside its onset test, as the CLI's
+    # CSV has, and an alarm wherever its hold is over its threshold; the dead zone's (ARR2,
+    # from the start) is, after the fault.
+    for name in run.names:
+        hold, level = columns[f"hold_{name}"], columns[f"hold_threshold_{name}"]
+        over = np.abs(hold) > level
+        assert columns[f"alarm_{name}"][over].all(), name
+    over = np.abs(columns["hold_ARR2"]) > columns["hold_threshold_ARR2"]
+    assert over[run.time > FAULT_AT + 1.0].any()

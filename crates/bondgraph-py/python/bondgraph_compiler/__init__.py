@@ -265,6 +265,9 @@ class Residuals:
         self._episodes: List[str] = out["episodes"]
         self._unsolved: np.ndarray = out["unsolved"]
         self._roots: List[str] = out["roots"]
+        # Each held residual's hold and its threshold, two columns each (a calibration's).
+        self._holds: np.ndarray = out.get("holds", np.zeros((len(self.time), 0)))
+        self._held: List[str] = list(out.get("held", []))
         # With a calibration: per estimate, the signals outside the healthy record's range.
         self._beyond: Optional[np.ndarray] = out.get("beyond")
         self._beyond_names: List[str] = list(out.get("beyond_names", []))
@@ -329,6 +332,9 @@ class Residuals:
             out[f"threshold_{n}"] = self.thresholds[:, k]
         for k, n in enumerate(self.names):
             out[f"alarm_{n}"] = self.alarms[:, k]
+        for k, n in enumerate(self._held):
+            out[f"hold_{n}"] = self._holds[:, 2 * k]
+            out[f"hold_threshold_{n}"] = self._holds[:, 2 * k + 1]
         out["candidates"] = self.candidates
         out["suspects"] = self.suspects
         out["episode"] = self.episode
