@@ -28,7 +28,8 @@ record):
 - for each residual: its RMS before the fault, its fault-to-noise ratio (RMS of its change
   after the fault, from 1 s on, over that RMS: a figure that grows with the record for a
   residual integrated from the start), **the margin at equal time** (the median of
-  |r|/threshold from 1 s to 2 s after the fault) and **the delay** (from the fault to the
+  |r|/threshold from 1 s to 2 s after the fault; for bgc's residuals with a hold, of the
+  larger of the onset test's and the hold's, as the alarm is either's) and **the delay** (from the fault to the
   first alarm), the share of samples in alarm from 1 s after the fault, and the alarms
   before it (from a quarter second before it: bgc's centred estimates read up to half their
   window ahead).
@@ -73,14 +74,29 @@ def read(path):
 
 
 def bgc_residuals(bgc, record, healthy, extra):
+    """Each residual's column, alarm and threshold, and its decision's margin: the larger of
+    its onset test's |r|/threshold and, where it has one, its hold's."""
     out = subprocess.run([bgc, "residuals", MODEL, record, "--calibrate", healthy] + extra,
                          check=True, capture_output=True, text=True).stdout
     rows = list(csv.reader(out.splitlines()))
     header, body = rows[0], rows[1:]
-    n = sum(1 for h in header if h.startswith("alarm_"))
-    data = np.array([[float(c) if c else np.nan for c in r[: 1 + 3 * n]] for r in body])
-    return [(header[1 + k], data[:, 0], data[:, 1 + k], data[:, 1 + 2 * n + k] > 0.5,
-             data[:, 1 + n + k]) for k in range(n)]
+    at = {name: j for j, name in enumerate(header)}
+    names = [h[6:] for h in header if h.startswith("alarm_")]
+
+    def column(name):
+        j = at[name]
+        return np.array([float(r[j]) if r[j] else np.nan for r in body])
+
+    t = column("t")
+    result = []
+    for name in names:
+        r, level = column(name), column(f"threshold_{name}")
+        ratio = np.abs(r) / level
+        if f"hold_{name}" in at:
+            held = np.abs(column(f"hold_{name}")) / column(f"hold_threshold_{name}")
+            ratio = np.fmax(ratio, held)
+        result.append((name, t, r, column(f"alarm_{name}") > 0.5, level, ratio))
+    return result
 
 
 def fdt_generators(tmp):
@@ -166,7 +182,7 @@ def fdt_level(generator, healthy, draws):
     return max(seen, gumbel_level(maxima, 1e-3))
 
 
-def report(label, t, r, alarm, at, level):
+def report(label, t, r, alarm, at, level, ratio=None):
     # bgc's centred estimates at t read samples up to half a window later (at most 0.25 s):
     # alarms count as before the fault from that far before it.
     after, early = t > at + 1.0, t < at - LOOKAHEAD
@@ -175,7 +191,9 @@ def report(label, t, r, alarm, at, level):
     change = r[after] - np.mean(r[early])
     snr = float(np.sqrt(np.mean(change ** 2)) / rms) if rms > 0 else float("inf")
     window = (t >= at + 1.0) & (t <= at + 2.0)
-    margin = float(np.nanmedian(np.abs(r[window]) / level[window]))
+    # The decision's margin: where a residual has a hold, the larger of its two tests'.
+    ratio = np.abs(r) / level if ratio is None else ratio
+    margin = float(np.nanmedian(ratio[window]))
     seen = np.nonzero(alarm & (t >= at - LOOKAHEAD))[0]
     delay = f"{t[seen[0]] - at:+.3f} s" if seen.size else "none"
     print(f"| {label} | {rms:.3g} | {snr:.3g} | {margin:.3g} | {delay} | "
@@ -209,9 +227,10 @@ def main():
                 record = os.path.join(tmp, f"{input_name}_{fault_name}.csv")
                 simulate(plant, record, a.seconds, input_name, 2, [(fault_name, factor, at)])
                 for how, extra in [("bgc", []), ("bgc --realise direct", ["--realise", "direct"])]:
-                    for name, t, r, alarm, level in bgc_residuals(a.bgc, record, healthy, extra):
+                    for name, t, r, alarm, level, ratio in bgc_residuals(a.bgc, record, healthy,
+                                                                         extra):
                         report(f"{input_name} | {fault_name} | {how} | {name}", t, r, alarm, at,
-                               level)
+                               level, ratio)
                 data = read(record)
                 for name, g in generators:
                     r = fdt_run(g, data)
