@@ -451,8 +451,12 @@ pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
                 }
                 chunk.push(at, &residuals, &now, &on);
                 held.clear();
-                for h in holding.iter().flatten() {
-                    held.extend([h.value(), h.threshold()]);
+                // Where a residual has no threshold (unsettled, singular), neither has its hold.
+                for (h, level) in holding.iter().zip(&now) {
+                    if let Some(h) = h {
+                        let threshold = level.map_or(f64::NAN, |_| h.threshold());
+                        held.extend([h.value(), threshold]);
+                    }
                 }
                 chunk.held.extend_from_slice(&held);
                 if flagged {

@@ -777,7 +777,8 @@ impl Watch<'_> {
                     pass.alarms[at] |= hold.update(running, first + j, onset, now.is_some());
                     let cell = held_base + j * h + slot;
                     pass.held[cell] = hold.value();
-                    pass.held[cell + 1] = hold.threshold();
+                    // As the CLI: no threshold where the onset test has none.
+                    pass.held[cell + 1] = now.map_or(f64::NAN, |_| hold.threshold());
                 }
             }
             if holding.is_some() {
