@@ -83,6 +83,22 @@ struct Work {
     point: Vec<f64>,
 }
 
+/// The estimators' output over a whole record, channel by channel and order by order: what
+/// no parameter changes (see [`Generator::estimated`]).
+pub(crate) struct Estimated {
+    rows: usize,
+    /// The first sample at which every channel has an estimate.
+    first: usize,
+    columns: Vec<Vec<f64>>,
+}
+
+impl Estimated {
+    /// The bytes it holds, for a caller that bounds what it keeps.
+    pub(crate) fn bytes(&self) -> usize {
+        self.columns.iter().map(|c| c.len() * 8).sum()
+    }
+}
+
 /// The residuals of a block of samples, as [`Generator::push_block`] gives them: one
 /// estimate per sample once the windows are full, each residual as a column.
 pub struct Estimates<'g> {
@@ -264,6 +280,70 @@ impl Generator {
     pub fn push_block(&mut self, time: &[f64], raw: &[&[f64]], bounds: bool) -> Estimates<'_> {
         let mut work = std::mem::take(&mut self.work);
         let first = self.estimate(time, raw, &mut work);
+        self.after_estimates(time, raw, first, bounds, work)
+    }
+
+    /// Runs only the estimators over a whole record (as [`Generator::run`] would): their
+    /// output, which no parameter changes. The generator must be fresh, and is spent.
+    pub(crate) fn estimated(mut self, time: &[f64], raw: &[&[f64]]) -> Estimated {
+        let mut work = Work::default();
+        let first = self.estimate(time, raw, &mut work);
+        Estimated {
+            rows: time.len(),
+            first,
+            columns: work.estimates,
+        }
+    }
+
+    /// [`Generator::run`] over the record `estimated` was made from (by [`Generator::estimated`]
+    /// of a generator of the same program and fit, any parameters), taking the estimators'
+    /// output from it instead of computing it again: the same estimates, to the bit, for the
+    /// cost of the stages after the estimators. What a fit needs, which runs one record
+    /// through generators of many parameter values. A record other than the one estimated
+    /// is a caller's bug and panics.
+    pub(crate) fn run_estimated(
+        &mut self,
+        time: &[f64],
+        raw: &[&[f64]],
+        estimated: &Estimated,
+        bounds: bool,
+        mut each: impl FnMut(&Estimates<'_>),
+    ) {
+        assert_eq!(estimated.rows, time.len(), "the record estimated");
+        assert_eq!(
+            estimated.columns.len(),
+            self.estimators.len(),
+            "the channels"
+        );
+        let mut block: Vec<&[f64]> = Vec::with_capacity(raw.len());
+        for start in (0..time.len()).step_by(BLOCK) {
+            let end = (start + BLOCK).min(time.len());
+            block.clear();
+            block.extend(raw.iter().map(|column| &column[start..end]));
+            let mut work = std::mem::take(&mut self.work);
+            work.estimates
+                .resize_with(estimated.columns.len(), Vec::new);
+            for (out, column) in work.estimates.iter_mut().zip(&estimated.columns) {
+                out.clear();
+                for order in column.chunks_exact(estimated.rows.max(1)) {
+                    out.extend_from_slice(&order[start..end]);
+                }
+            }
+            let first = estimated.first.saturating_sub(start).min(end - start);
+            each(&self.after_estimates(&time[start..end], &block, first, bounds, work));
+        }
+    }
+
+    /// The stages after the estimators, over a block whose estimates are in `work`, from
+    /// its sample `first` on.
+    fn after_estimates(
+        &mut self,
+        time: &[f64],
+        raw: &[&[f64]],
+        first: usize,
+        bounds: bool,
+        mut work: Work,
+    ) -> Estimates<'_> {
         self.rows(time, raw, first, &mut work);
         let m = work.rows.len();
         self.scatter_estimates(time.len(), &mut work);
@@ -479,9 +559,23 @@ mod tests {
         unsolved: Vec<Option<usize>>,
     }
 
+    impl Run {
+        /// Appends a block's estimates.
+        fn take(&mut self, e: &Estimates<'_>) {
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            self.at.extend(bits(e.at()));
+            for j in 0..e.len() {
+                for k in 0..e.residual_count() {
+                    self.residuals.push(e.residual(k)[j].to_bits());
+                    self.bounds.push(e.bound(k)[j].to_bits());
+                }
+            }
+            self.unsolved.extend_from_slice(e.unsolved());
+        }
+    }
+
     /// `g` over `time` and `raw`, cut into blocks of the lengths `cuts` gives in turn.
     fn run(mut g: Generator, time: &[f64], raw: &[Vec<f64>], cuts: &[usize]) -> Run {
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         let mut out = Run {
             at: Vec::new(),
             residuals: Vec::new(),
@@ -490,18 +584,13 @@ mod tests {
         };
         let (mut start, mut cut) = (0, 0);
         while start < time.len() {
+            if cuts.is_empty() {
+                break;
+            }
             let end = (start + cuts[cut % cuts.len()]).min(time.len());
             cut += 1;
             let block: Vec<&[f64]> = raw.iter().map(|c| &c[start..end]).collect();
-            let e = g.push_block(&time[start..end], &block, true);
-            out.at.extend(bits(e.at()));
-            for j in 0..e.len() {
-                for k in 0..e.residual_count() {
-                    out.residuals.push(e.residual(k)[j].to_bits());
-                    out.bounds.push(e.bound(k)[j].to_bits());
-                }
-            }
-            out.unsolved.extend_from_slice(e.unsolved());
+            out.take(&g.push_block(&time[start..end], &block, true));
             start = end;
         }
         out
@@ -569,6 +658,17 @@ mod tests {
                     let cut = run(make(), &time, &raw, cuts);
                     assert!(cut == whole, "{} cut {cuts:?}", path.display());
                 }
+                // The estimators' output kept from a generator of other parameters gives what
+                // computing it again gives.
+                let others: Vec<f64> = params.iter().map(|p| p * 1.1).collect();
+                let slices: Vec<&[f64]> = raw.iter().map(Vec::as_slice).collect();
+                let kept = make().estimated(&time, &slices);
+                let mut g = Generator::new(c, &program, &others, &fit).expect("valid");
+                let mut from_kept = run(make(), &time, &raw, &[]);
+                g.run_estimated(&time, &slices, &kept, true, |e| from_kept.take(e));
+                let again = Generator::new(c, &program, &others, &fit).expect("valid");
+                let again = run(again, &time, &raw, &[BLOCK]);
+                assert!(from_kept == again, "{} kept estimates", path.display());
                 runs += 1;
             }
         }

@@ -31,11 +31,13 @@
 //! score over stretches much longer than those windows, and the interval is Student's with
 //! as many degrees of freedom as batches less one.
 
+use std::sync::OnceLock;
+
 use bondgraph_core::program::{Evaluation, Leaf, Program};
 use bondgraph_core::{Compiled, Evaluator, ResidualForm};
 
 use crate::fit::{Estimator, Fit, Integration};
-use crate::generator::Generator;
+use crate::generator::{Estimated, Estimates, Generator};
 use crate::linalg::{dot, eigen_symmetric, Square};
 
 mod criterion;
@@ -566,6 +568,10 @@ impl Samples {
 }
 
 /// One identification problem.
+/// The most a fit keeps of one record's estimators' output (see [`Problem::run`]): 10^6
+/// rows of 16 estimated columns; a longer record has its estimators run at every evaluation.
+const KEPT_ESTIMATES_BYTES: usize = 128 << 20;
+
 struct Problem<'a> {
     c: &'a Compiled,
     program: &'a Program,
@@ -594,6 +600,10 @@ struct Problem<'a> {
     span: bool,
     /// Whether residuals integrated from the start are taken from the span's start.
     from_span: bool,
+    /// Each record's, then each probe's, estimators' output, made at its first run: no
+    /// parameter changes it, and a fit runs every record through a generator of new
+    /// parameters twice per free parameter per iteration.
+    estimated: Vec<OnceLock<Option<Estimated>>>,
 }
 
 impl<'a> Record<'a> {
@@ -646,6 +656,7 @@ impl<'a> Problem<'a> {
             left_out: Vec::new(),
             span: settings.span.is_some(),
             from_span: settings.span.is_some_and(|s| s.origin == Origin::Span),
+            estimated: (0..2 * records.len()).map(|_| OnceLock::new()).collect(),
         };
         let (window, integration) = problem.windows();
         problem.left_out = (records.iter())
@@ -728,7 +739,8 @@ impl Problem<'_> {
         for (r, record) in self.records.iter().enumerate() {
             let left_out = self.left_out.get(r);
             let kept = samples.rows;
-            let seen = self.run(&values, r, record.time, &record.raw, |place, row| {
+            let cache = Some(&self.estimated[r]);
+            let seen = self.run(&values, r, record.time, &record.raw, cache, |place, row| {
                 if left_out.is_some_and(|l| l.get(place) == Some(&true)) {
                     return;
                 }
@@ -759,19 +771,35 @@ impl Problem<'_> {
 
     /// Runs the generator with the parameters `values` over samples, handing each
     /// estimate's place and residuals (where all are numbers) to `each`; the number of
-    /// estimates.
+    /// estimates. With `kept`, the estimators' output over these samples is taken from
+    /// there, made there at the first run.
     fn run(
         &self,
         values: &[f64],
         record: usize,
         time: &[f64],
         raw: &[&[f64]],
+        kept: Option<&OnceLock<Option<Estimated>>>,
         mut each: impl FnMut(usize, &[f64]),
     ) -> Result<usize, IdentifyError> {
         let n = self.program.residuals.len();
-        let mut generator = Generator::new(self.c, self.program, values, self.fit)
-            .map_err(|e| IdentifyError::Estimator(e.to_string()))?
-            .with_substeps(self.substeps);
+        let generator = || {
+            Generator::new(self.c, self.program, values, self.fit)
+                .map_err(|e| IdentifyError::Estimator(e.to_string()))
+        };
+        let estimated = match kept {
+            Some(cell) => match cell.get() {
+                Some(e) => e.as_ref(),
+                None => cell
+                    .get_or_init(|| {
+                        let e = generator().ok()?.estimated(time, raw);
+                        (e.bytes() <= KEPT_ESTIMATES_BYTES).then_some(e)
+                    })
+                    .as_ref(),
+            },
+            None => None,
+        };
+        let mut generator = generator()?.with_substeps(self.substeps);
         let mut place = 0;
         let mut row = vec![0.0; n];
         // Over a span, a residual integrated from the start is taken from the span's start:
@@ -789,7 +817,7 @@ impl Problem<'_> {
                     .is_some_and(|l| l.get(p) == Some(&true) && l.get(p + 1) == Some(&false))
         };
         let mut reference = vec![0.0; n];
-        generator.run(time, raw, false, |estimates| {
+        let mut take = |estimates: &Estimates<'_>| {
             for i in 0..estimates.len() {
                 for (k, x) in row.iter_mut().enumerate() {
                     *x = estimates.residual(k)[i];
@@ -807,7 +835,11 @@ impl Problem<'_> {
                 }
                 place += 1;
             }
-        });
+        };
+        match estimated {
+            Some(e) => generator.run_estimated(time, raw, e, false, &mut take),
+            None => generator.run(time, raw, false, &mut take),
+        }
         Ok(place)
     }
 
@@ -825,7 +857,8 @@ impl Problem<'_> {
         for (r, probe) in self.probes.iter().enumerate() {
             let Some(probe) = probe else { continue };
             let raw: Vec<&[f64]> = probe.raw.iter().map(Vec::as_slice).collect();
-            self.run(values, r, &probe.time, &raw, |place, row| {
+            let cache = Some(&self.estimated[self.records.len() + r]);
+            self.run(values, r, &probe.time, &raw, cache, |place, row| {
                 while j < samples.rows && samples.at[j] < (r, place) {
                     j += 1;
                 }
@@ -1110,7 +1143,7 @@ impl Problem<'_> {
                 };
                 any = true;
                 let raw: Vec<&[f64]> = noisy.raw.iter().map(Vec::as_slice).collect();
-                self.run(&values, r, &noisy.time, &raw, |place, row| {
+                self.run(&values, r, &noisy.time, &raw, None, |place, row| {
                     while j < base.rows && base.at[j] < (r, place) {
                         j += 1;
                     }
