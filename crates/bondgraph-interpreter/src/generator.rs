@@ -97,6 +97,19 @@ impl Estimated {
     pub(crate) fn bytes(&self) -> usize {
         self.columns.iter().map(|c| c.len() * 8).sum()
     }
+
+    /// The estimators' output over the sum of this record and `sign` times `other` (of
+    /// the same length and channels): every estimator is linear, so this is it, to
+    /// rounding.
+    pub(crate) fn plus(&self, other: &Estimated, sign: f64) -> Estimated {
+        Estimated {
+            rows: self.rows,
+            first: self.first.max(other.first),
+            columns: (self.columns.iter().zip(&other.columns))
+                .map(|(a, b)| a.iter().zip(b).map(|(a, b)| a + sign * b).collect())
+                .collect(),
+        }
+    }
 }
 
 /// The residuals of a block of samples, as [`Generator::push_block`] gives them: one

@@ -6,7 +6,9 @@ use core::fmt;
 
 use crate::fir::Fir;
 
-/// Estimates a signal's value and time derivatives from samples at a uniform step.
+/// Estimates a signal's value and time derivatives from samples at a uniform step. Every
+/// estimator is linear in its samples (the estimates of a sum are the sums of the
+/// estimates): calibration draws noise through the estimators once and adds it both ways.
 pub trait Differentiator {
     /// Takes the next sample and returns the estimates of the signal and its derivatives,
     /// orders 0 to [`Differentiator::order`], at the evaluation time (the newest sample minus

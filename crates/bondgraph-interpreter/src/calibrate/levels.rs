@@ -5,7 +5,7 @@ use crate::calibrate::error::CalibrateError;
 use crate::calibrate::replicas::{self, Replicas};
 use crate::calibrate::samples::Healthy;
 pub(super) use crate::calibrate::samples::View;
-use crate::generator::Generator;
+use crate::generator::{Estimated, Generator};
 use crate::walk::Walk;
 
 /// Each residual's (1 − rate) quantile of |r| over a healthy record, times 1 + margin; where a
@@ -53,12 +53,18 @@ pub(super) fn viewed(
     replicas: Option<&Replicas<'_>>,
     crossing: &[f64],
 ) -> Result<Vec<Vec<f64>>, CalibrateError> {
-    let raw = healthy.residuals_viewed(build()?, &healthy.samples.columns, views);
+    let columns = &healthy.samples.columns;
+    // The draws of noise reuse the record's estimators' output (see [`pair`]), unless it
+    // is too large to keep.
+    let record = Some(build()?.estimated(healthy.samples.time, columns))
+        .filter(|e| e.bytes() <= KEPT_ESTIMATES_BYTES);
+    let raw = healthy.residuals_viewed(build()?, columns, views, record.as_ref());
+    let record = record.as_ref();
     // A walk read from one record's changes over two lags misses a slow one that only its
     // whole length shows: the draws of its noise show it at every sample.
     let mut errors = vec![vec![0.0; crossing.len()]; views.len()];
     if let Some(replicas) = replicas.filter(|_| rate == 0.0) {
-        let profiles = walk_profiles(build, (healthy, replicas, views), walks)?;
+        let profiles = walk_profiles(build, (healthy, replicas, views, record), walks)?;
         for ((walks, profiles), errors) in walks.iter_mut().zip(profiles).zip(&mut errors) {
             for ((w, profile), error) in walks.iter_mut().zip(profiles).zip(errors) {
                 if let (Some(w), Some(p)) = (w.as_mut(), profile) {
@@ -91,7 +97,10 @@ pub(super) fn viewed(
     let walks: &[Vec<Option<Walk>>] = walks;
     let length = healthy.len();
     let replicated = match replicas.filter(|_| rate == 0.0) {
-        Some(replicas) => replica_levels(build, (healthy, replicas, views), walks, crossing)?,
+        Some(replicas) => {
+            let draws = (healthy, replicas, views, record);
+            replica_levels(build, draws, walks, crossing)?
+        }
         None => vec![vec![None; crossing.len()]; views.len()],
     };
     Ok((raw.into_iter().zip(walks).zip(replicated))
@@ -147,9 +156,10 @@ struct Profile {
 /// others.
 fn walk_profiles(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    draws: Draws<'_>,
     walks: &[Vec<Option<Walk>>],
 ) -> Result<Vec<Vec<Option<Profile>>>, CalibrateError> {
+    let views = draws.2;
     let n = walks.first().map_or(0, Vec::len);
     let mut squares: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); n]; views.len()];
     let mut slopes = vec![vec![0.0; n]; views.len()];
@@ -158,8 +168,7 @@ fn walk_profiles(
         return Ok(vec![(0..n).map(|_| None).collect(); views.len()]);
     }
     for index in 0..PROFILE_DRAWS {
-        let up = perturbed(build, (healthy, replicas, views), index, 1.0)?;
-        let down = perturbed(build, (healthy, replicas, views), index, -1.0)?;
+        let [up, down] = pair(build, draws, index)?;
         for v in 0..views.len() {
             for k in (0..n).filter(|&k| measured(v, k)) {
                 let noise: Vec<f64> = (up[v][k].iter().zip(&down[v][k]))
@@ -189,16 +198,45 @@ fn walk_profiles(
         .collect())
 }
 
+/// The most a calibration keeps of the healthy record's estimators' output: 10^6 rows of
+/// 16 estimated columns; a longer record has the estimators run over each draw twice.
+const KEPT_ESTIMATES_BYTES: usize = 128 << 20;
+
+/// What the draws of noise read: the healthy record, its noise, the views, and the healthy
+/// record's estimators' output where it is kept.
+type Draws<'a> = (
+    &'a Healthy<'a>,
+    &'a Replicas<'a>,
+    &'a [View],
+    Option<&'a Estimated>,
+);
+
 /// The residuals, in each view, over the healthy record with the `index`th draw of its
-/// noise added (`sign` 1) or taken away (-1).
-fn perturbed(
+/// noise added, then taken away. With the record's estimators' output kept, the draw alone
+/// goes through the estimators, once for both signs: they are linear, so that the sums are,
+/// to rounding, what each perturbed record through them gives, for half the cost.
+fn pair(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    (healthy, replicas, views, record): Draws<'_>,
     index: usize,
-    sign: f64,
-) -> Result<Vec<Vec<Vec<f64>>>, CalibrateError> {
-    let columns = replicas.perturbed(index, sign);
-    Ok(healthy.residuals_viewed(build()?, &slices(&columns), views))
+) -> Result<[Vec<Vec<Vec<f64>>>; 2], CalibrateError> {
+    let Some(record) = record else {
+        let run = |sign: f64| -> Result<_, CalibrateError> {
+            let columns = replicas.perturbed(index, sign);
+            Ok(healthy.residuals_viewed(build()?, &slices(&columns), views, None))
+        };
+        return Ok([run(1.0)?, run(-1.0)?]);
+    };
+    let noise = replicas.noise(index);
+    let drawn = build()?.estimated(healthy.samples.time, &slices(&noise));
+    let run = |sign: f64| -> Result<_, CalibrateError> {
+        let columns: Vec<Vec<f64>> = (healthy.samples.columns.iter().zip(&noise))
+            .map(|(x, e)| x.iter().zip(e).map(|(x, e)| x + sign * e).collect())
+            .collect();
+        let estimated = record.plus(&drawn, sign);
+        Ok(healthy.residuals_viewed(build()?, &slices(&columns), views, Some(&estimated)))
+    };
+    Ok([run(1.0)?, run(-1.0)?])
 }
 
 /// The least-squares line `a + b k` through the finite values of `v` (at `k` = 0, 1, ...),
@@ -257,14 +295,14 @@ fn slices(columns: &[Vec<f64>]) -> Vec<&[f64]> {
 
 fn replica_levels(
     build: &dyn Fn() -> Result<Generator, CalibrateError>,
-    (healthy, replicas, views): (&Healthy<'_>, &Replicas<'_>, &[View]),
+    draws: Draws<'_>,
     walks: &[Vec<Option<Walk>>],
     crossing: &[f64],
 ) -> Result<Vec<Vec<Option<f64>>>, CalibrateError> {
+    let views = draws.2;
     let mut maxima: Vec<Vec<Vec<f64>>> = vec![vec![Vec::new(); crossing.len()]; views.len()];
     for index in 0..replicas::COUNT {
-        let up = perturbed(build, (healthy, replicas, views), index, 1.0)?;
-        let down = perturbed(build, (healthy, replicas, views), index, -1.0)?;
+        let [up, down] = pair(build, draws, index)?;
         for (((maxima, up), down), walks) in maxima.iter_mut().zip(up).zip(down).zip(walks) {
             let noise = (up.iter().zip(&down))
                 .map(|(u, d)| u.iter().zip(d).map(|(u, d)| 0.5 * (u - d)).collect())

@@ -52,6 +52,21 @@ impl<'a> Replicas<'a> {
     }
 }
 
+impl Replicas<'_> {
+    /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: with
+    /// the record's columns, `x + sign · noise` are those of `perturbed`, to the bit.
+    pub(crate) fn noise(&self, index: usize) -> Vec<Vec<f64>> {
+        (self.record.columns.iter().zip(&self.deviations).enumerate())
+            .map(|(c, (x, sigma))| {
+                let stream = (index as u64) << 32 | c as u64;
+                (0..x.len())
+                    .map(|k| sigma * bondgraph_sim::gaussian(SEED, stream, k as u64))
+                    .collect()
+            })
+            .collect()
+    }
+}
+
 /// `columns` with the `index`-th draw of fresh noise of the deviations `sigma` added (`sign`
 /// 1) or taken away (`sign` −1).
 pub(crate) fn perturbed(

@@ -3,7 +3,7 @@
 
 use bondgraph::Reference;
 
-use crate::generator::Generator;
+use crate::generator::{Estimated, Estimates, Generator};
 
 /// A record's samples as calibration reads them.
 #[derive(Clone, Debug)]
@@ -53,21 +53,24 @@ impl Healthy<'_> {
     /// The same over the record's time with other columns (a replica's).
     pub(crate) fn residuals_with(&self, generator: Generator, columns: &[&[f64]]) -> Vec<Vec<f64>> {
         // An empty view reads every residual as generated.
-        let viewed = self.residuals_viewed(generator, columns, &[Vec::new()]);
+        let viewed = self.residuals_viewed(generator, columns, &[Vec::new()], None);
         viewed.into_iter().next().unwrap_or_default()
     }
 
     /// The same in each view: each residual as generated, or its change over a window (see
-    /// [`View`]); not a number where it is singular, after the window has read it.
+    /// [`View`]); not a number where it is singular, after the window has read it. With
+    /// `estimated`, the estimators' output over these columns is taken from there.
     pub(crate) fn residuals_viewed(
         &self,
         mut generator: Generator,
         columns: &[&[f64]],
         views: &[View],
+        estimated: Option<&Estimated>,
     ) -> Vec<Vec<Vec<f64>>> {
         let mut series: Vec<Vec<f64>> = Vec::new();
         let mut at: Vec<f64> = Vec::new();
-        generator.run(self.samples.time, columns, false, |e| {
+        let time = self.samples.time;
+        let take = |e: &Estimates<'_>| {
             if !e.is_empty() {
                 series.resize(e.residual_count(), Vec::new());
             }
@@ -75,7 +78,11 @@ impl Healthy<'_> {
             for (k, s) in series.iter_mut().enumerate() {
                 s.extend_from_slice(e.residual(k));
             }
-        });
+        };
+        match estimated {
+            Some(e) => generator.run_estimated(time, columns, e, false, take),
+            None => generator.run(time, columns, false, take),
+        }
         let singular = &self.singular;
         (views.iter())
             .map(|view| {
