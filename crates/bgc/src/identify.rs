@@ -162,6 +162,7 @@ pub(crate) fn run(args: IdentifyArgs) -> Result<(), Failure> {
         .map(|d| Record {
             time: &d.time,
             raw: d.columns.iter().map(Vec::as_slice).collect(),
+            state: None,
         })
         .collect();
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
@@ -263,6 +264,7 @@ fn validate(
         let record = [Record {
             time: &data.time,
             raw: data.columns.iter().map(Vec::as_slice).collect(),
+            state: None,
         }];
         let mut settings = settings.clone();
         settings.fit.step = data.step;

@@ -912,14 +912,14 @@ fn size_fault(
     data: &Data,
     (first, until, ranked): (f64, Option<f64>, &[String]),
 ) -> Result<Vec<crate::size::Known>, Failure> {
-    let sizing = bondgraph_interpreter::Sizing {
+    let sizing = bondgraph_interpreter::Sizing::new(
         c,
         program,
         params,
-        time: &data.time,
-        columns: data.columns.iter().map(Vec::as_slice).collect(),
-        step: data.step,
-    };
+        &data.time,
+        data.columns.iter().map(Vec::as_slice).collect(),
+        data.step,
+    );
     let span = sizing.span(args.size_span);
     if span > args.size_span {
         report::note(format!(

@@ -147,6 +147,7 @@ fn on_record(args: &SimulateArgs, path: &std::path::Path) -> Result<(), Failure>
     let record = bondgraph_interpreter::Record {
         time: &measured.time,
         raw,
+        state: None,
     };
     let values: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
     let outputs =

@@ -77,6 +77,7 @@ fn identification(c: &mut Criterion) {
             let records = [Record {
                 time: &time,
                 raw: columns.iter().map(Vec::as_slice).collect(),
+                state: None,
             }];
             let found = identify(model, &program, &start, &records, &settings).expect("fits");
             black_box(found.values)

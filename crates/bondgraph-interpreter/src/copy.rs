@@ -7,6 +7,7 @@ use bondgraph_core::Tape;
 use crate::fold::fold;
 
 /// The copy of the model, stepped on the raw inputs as the generated code steps it.
+#[derive(Clone)]
 pub(crate) struct CopyRun {
     pub(crate) replay: Replay,
     rates: Tape<Leaf>,
@@ -39,6 +40,12 @@ impl CopyRun {
             scratch: Vec::new(),
             out: Vec::new(),
         }
+    }
+
+    /// Goes on with the rates of `other` (the same copy with other parameters), from the
+    /// state it is in.
+    pub(crate) fn take_rates(&mut self, other: CopyRun) {
+        self.rates = other.rates;
     }
 
     /// Advances the copy to the raw samples at `t`.

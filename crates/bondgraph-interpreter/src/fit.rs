@@ -96,14 +96,60 @@ impl Estimator {
         top: u32,
         step: f64,
     ) -> Result<Box<dyn Differentiator + Send>, EstimatorError> {
+        Ok(Box::new(self.built(order, top, step)?))
+    }
+
+    /// [`Estimator::build`], as a value a generator can clone with its state.
+    pub(crate) fn built(self, order: u32, top: u32, step: f64) -> Result<Built, EstimatorError> {
         Ok(match self {
             Estimator::SavitzkyGolay { window, degree } => {
-                Box::new(SavitzkyGolay::new(order, degree, window, step, true)?)
+                Built::Fit(SavitzkyGolay::new(order, degree, window, step, true)?)
             }
             Estimator::Modulating { window } => {
-                Box::new(ModulatingFunction::new(order, top + 1, window, step)?)
+                Built::Modulating(ModulatingFunction::new(order, top + 1, window, step)?)
             }
         })
+    }
+}
+
+/// An estimator as [`Estimator::built`] makes it.
+#[derive(Clone, Debug)]
+pub(crate) enum Built {
+    Fit(SavitzkyGolay),
+    Modulating(ModulatingFunction),
+}
+
+impl Built {
+    fn inner(&mut self) -> &mut dyn Differentiator {
+        match self {
+            Built::Fit(e) => e,
+            Built::Modulating(e) => e,
+        }
+    }
+
+    fn inner_ref(&self) -> &dyn Differentiator {
+        match self {
+            Built::Fit(e) => e,
+            Built::Modulating(e) => e,
+        }
+    }
+}
+
+impl Differentiator for Built {
+    fn push(&mut self, x: f64) -> Option<&[f64]> {
+        self.inner().push(x)
+    }
+
+    fn delay(&self) -> f64 {
+        self.inner_ref().delay()
+    }
+
+    fn order(&self) -> u32 {
+        self.inner_ref().order()
+    }
+
+    fn push_slice(&mut self, xs: &[f64], out: &mut [f64]) -> usize {
+        self.inner().push_slice(xs, out)
     }
 }
 

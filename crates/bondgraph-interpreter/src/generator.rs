@@ -5,16 +5,18 @@ use bondgraph_core::program::{Code, Evaluation, Fill, Leaf, Program, Source};
 use bondgraph_core::{Compiled, Tape};
 
 use crate::copy::CopyRun;
-use crate::fit::Fit;
+use crate::fit::{Built, Fit};
 use crate::fold::tape;
 
 /// What one channel of the bank is fed from the raw samples.
+#[derive(Clone)]
 enum Feed {
     Raw(usize),
     Integral(usize, Trapezoid),
 }
 
 /// A slot filled at the estimates' instant from the slots before it.
+#[derive(Clone)]
 enum Step {
     /// By integrating an expression.
     Integral {
@@ -35,9 +37,10 @@ enum Step {
 /// at a time and runs each stage over the whole block before the next (one tape step over
 /// every estimate, one estimator over every sample), so that the interpreter's dispatch is
 /// paid once per block rather than once per sample.
+#[derive(Clone)]
 pub struct Generator {
     /// One estimator per channel, and what it is fed.
-    estimators: Vec<Box<dyn Differentiator + Send>>,
+    estimators: Vec<Built>,
     feeds: Vec<Feed>,
     /// For each channel, the slots of the derivatives read, by order.
     scatter: Vec<Vec<(usize, usize)>>,
@@ -60,7 +63,7 @@ pub struct Generator {
 }
 
 /// The buffers of one block.
-#[derive(Default)]
+#[derive(Clone, Default)]
 struct Work {
     /// Each channel's input over the block, when it is not a raw column.
     fed: Vec<f64>,
@@ -172,7 +175,7 @@ impl Generator {
         how: &Fit,
     ) -> Result<Generator, EstimatorError> {
         let top = program.top_order();
-        let fit = |order: u32| how.estimator.build(order, top, how.step);
+        let fit = |order: u32| how.estimator.built(order, top, how.step);
         let mut estimators = Vec::with_capacity(program.channels.len());
         let mut feeds = Vec::with_capacity(program.channels.len());
         for channel in program.channels.values() {
@@ -251,6 +254,43 @@ impl Generator {
             slots: program.slots.len(),
             work: Work::default(),
         })
+    }
+
+    /// This generator, with every stage in the state the samples it has taken left it in,
+    /// going on with the parameters `params` from the next sample (what a fault that begins
+    /// there does): the estimators' windows, the integrals, the references and the copy of
+    /// the model are kept; the laws read `params`. `c`, `program` and `how` are those it was
+    /// made with.
+    pub fn with_parameters(
+        &self,
+        c: &Compiled,
+        program: &Program,
+        params: &[f64],
+        how: &Fit,
+    ) -> Result<Generator, EstimatorError> {
+        let fresh = Generator::new(c, program, params, how)?;
+        let mut g = self.clone();
+        for (step, new) in g.steps.iter_mut().zip(fresh.steps) {
+            match (step, new) {
+                (Step::Integral { integrand, .. }, Step::Integral { integrand: new, .. }) => {
+                    *integrand = new;
+                }
+                (Step::Root { law, .. }, Step::Root { law: new, .. }) => *law = new,
+                // The same program gives the same steps in the same order.
+                _ => unreachable!("a step of another program"),
+            }
+        }
+        g.residuals = fresh.residuals;
+        g.sensitivities = fresh.sensitivities;
+        if let (Some(copy), Some(new)) = (&mut g.copy, fresh.copy) {
+            copy.take_rates(new);
+        }
+        Ok(g)
+    }
+
+    /// How far the estimates' instants lag the newest sample, in seconds.
+    pub fn delay(&self) -> f64 {
+        self.delay
     }
 
     /// The same generator with its copy of the model (if it runs one) taking `n` Runge–Kutta
@@ -682,6 +722,18 @@ mod tests {
                 let again = Generator::new(c, &program, &others, &fit).expect("valid");
                 let again = run(again, &time, &raw, &[BLOCK]);
                 assert!(from_kept == again, "{} kept estimates", path.display());
+                // Taken on from a state with the same parameters: the rest of the run.
+                let mut head = make();
+                let k = 150;
+                let slices: Vec<&[f64]> = raw.iter().map(|c| &c[..k]).collect();
+                let mut before = run(make(), &time, &raw, &[]);
+                head.run(&time[..k], &slices, true, |e| before.take(e));
+                let mut resumed = head
+                    .with_parameters(c, &program, &params, &fit)
+                    .expect("valid");
+                let slices: Vec<&[f64]> = raw.iter().map(|c| &c[k..]).collect();
+                resumed.run(&time[k..], &slices, true, |e| before.take(e));
+                assert!(before == whole, "{} resumed", path.display());
                 runs += 1;
             }
         }

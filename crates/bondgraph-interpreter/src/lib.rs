@@ -29,7 +29,7 @@ pub use hold::{Hold, Holding};
 pub use identify::{
     choose_free, identify, identify_by, integration_window_for, simulate_record, simulation_error,
     Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
-    IdentifyError, Lost, Origin, Reach, Record, Settings, Span, Stop, HELD_OUT,
+    IdentifyError, Lost, Origin, Prefix, Reach, Record, Settings, Span, Stop, HELD_OUT,
 };
 pub use size::{Sized, Sizing, SIZE_SAMPLES, SIZE_WINDOW};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};

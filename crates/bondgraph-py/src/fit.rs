@@ -84,7 +84,11 @@ pub(crate) fn identify<'py>(
         span: span_of(span)?,
     };
     let start: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
-    let record = [Record { time, raw: data }];
+    let record = [Record {
+        time,
+        raw: data,
+        state: None,
+    }];
     let simulated = (criterion != Criterion::Equation)
         .then(|| simulated_model(&model))
         .flatten();

@@ -372,14 +372,7 @@ pub(crate) fn residuals<'py>(
         .collect();
     let slots: Vec<usize> = roots.iter().map(|r| r.0).collect();
     let pass = py.detach(|| run(generator, time, &data, &settings, &rows, &slots));
-    let sizing = Sizing {
-        c,
-        program: &program,
-        params: &params,
-        time,
-        columns: data.to_vec(),
-        step,
-    };
+    let sizing = Sizing::new(c, &program, &params, time, data.to_vec(), step);
     let lookahead = (window.saturating_sub(1) / 2) as f64 * step;
     let sized = match size_span {
         Some(span) => py.detach(|| sizes(&sizing, &pass, c.arrs.len(), lookahead, span)),

@@ -53,6 +53,7 @@ pub(super) fn fit_model(
     let record = Record {
         time: &healthy.time[..rows],
         raw: healthy.columns.iter().map(|c| &c[..rows]).collect(),
+        state: None,
     };
     let found = match identify(c, program, params, &[record], &settings) {
         Ok(found) => found,

@@ -308,6 +308,8 @@ fn views<'a>(records: &[Record<'a>], columns: &[usize]) -> Vec<Record<'a>> {
         .map(|r| Record {
             time: r.time,
             raw: columns.iter().map(|&k| r.raw[k]).collect(),
+            // Another program's: from rest.
+            state: None,
         })
         .collect()
 }

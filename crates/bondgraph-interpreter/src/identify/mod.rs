@@ -43,12 +43,14 @@ use crate::linalg::{dot, eigen_symmetric, Square};
 mod criterion;
 mod jumps;
 mod noise;
+mod prefix;
 mod scaling;
 mod substeps;
 
 pub use criterion::{
     identify_by, simulate_record, simulation_error, Chosen, Criteria, Criterion, Evidence, HELD_OUT,
 };
+pub use prefix::Prefix;
 
 use noise::Probe;
 use scaling::Scaling;
@@ -59,6 +61,11 @@ pub struct Record<'a> {
     pub time: &'a [f64],
     /// One column per raw signal of the program.
     pub raw: Vec<&'a [f64]>,
+    /// The generator (of the same program, fitted as the settings say) after the samples
+    /// before these: each evaluation goes on from its state with the parameters tried, so
+    /// that a span late in a long record is fitted without running what came before it
+    /// again, and with the values that held there. `None`: from rest.
+    pub state: Option<&'a Prefix>,
 }
 
 /// What to fit, and how.
@@ -613,6 +620,7 @@ impl<'a> Record<'a> {
         Record {
             time: &self.time[..rows],
             raw: self.raw.iter().map(|c| &c[..rows]).collect(),
+            state: self.state,
         }
     }
 }
@@ -669,9 +677,14 @@ impl<'a> Problem<'a> {
                     jumps::left_out(&r.raw, r.time.len(), window, integration)
                 };
                 if let Some(Span { from, to, .. }) = settings.span {
-                    // An estimate's instant is its window's middle sample's.
+                    // An estimate's instant is its window's middle sample's; from a state,
+                    // the windows are full from the first sample on.
+                    let back = if r.state.is_some() { window - 1 } else { 0 };
                     for (p, o) in out.iter_mut().enumerate() {
-                        let at = r.time.get(p + window / 2).copied().unwrap_or(f64::INFINITY);
+                        let at = match (p + window / 2).checked_sub(back) {
+                            Some(k) => r.time.get(k).copied().unwrap_or(f64::INFINITY),
+                            None => f64::NEG_INFINITY,
+                        };
                         *o |= !(from..=to).contains(&at);
                     }
                 }
@@ -740,14 +753,21 @@ impl Problem<'_> {
             let left_out = self.left_out.get(r);
             let kept = samples.rows;
             let cache = Some(&self.estimated[r]);
-            let seen = self.run(&values, r, record.time, &record.raw, cache, |place, row| {
-                if left_out.is_some_and(|l| l.get(place) == Some(&true)) {
-                    return;
-                }
-                samples.values.extend_from_slice(row);
-                samples.at.push((r, place));
-                samples.rows += 1;
-            })?;
+            let seen = self.run(
+                &values,
+                r,
+                record.time,
+                &record.raw,
+                (cache, false),
+                |place, row| {
+                    if left_out.is_some_and(|l| l.get(place) == Some(&true)) {
+                        return;
+                    }
+                    samples.values.extend_from_slice(row);
+                    samples.at.push((r, place));
+                    samples.rows += 1;
+                },
+            )?;
             let left = left_out.map_or(0, |l| l.iter().take(seen).filter(|&&x| x).count());
             samples.dropped += seen.saturating_sub(samples.rows - kept + left);
         }
@@ -772,20 +792,31 @@ impl Problem<'_> {
     /// Runs the generator with the parameters `values` over samples, handing each
     /// estimate's place and residuals (where all are numbers) to `each`; the number of
     /// estimates. With `kept`, the estimators' output over these samples is taken from
-    /// there, made there at the first run.
+    /// there, made there at the first run; `noisy`: the samples carry a probe's noise, and
+    /// go on from the record's noisy prefix, if it has one.
     fn run(
         &self,
         values: &[f64],
         record: usize,
         time: &[f64],
         raw: &[&[f64]],
-        kept: Option<&OnceLock<Option<Estimated>>>,
+        (kept, noisy): (Option<&OnceLock<Option<Estimated>>>, bool),
         mut each: impl FnMut(usize, &[f64]),
     ) -> Result<usize, IdentifyError> {
         let n = self.program.residuals.len();
+        let state = (self.records.get(record).and_then(|r| r.state)).map(|p| {
+            if noisy {
+                &p.noisy
+            } else {
+                &p.clean
+            }
+        });
         let generator = || {
-            Generator::new(self.c, self.program, values, self.fit)
-                .map_err(|e| IdentifyError::Estimator(e.to_string()))
+            match state {
+                Some(g) => g.with_parameters(self.c, self.program, values, self.fit),
+                None => Generator::new(self.c, self.program, values, self.fit),
+            }
+            .map_err(|e| IdentifyError::Estimator(e.to_string()))
         };
         let estimated = match kept {
             Some(cell) => match cell.get() {
@@ -858,7 +889,7 @@ impl Problem<'_> {
             let Some(probe) = probe else { continue };
             let raw: Vec<&[f64]> = probe.raw.iter().map(Vec::as_slice).collect();
             let cache = Some(&self.estimated[self.records.len() + r]);
-            self.run(values, r, &probe.time, &raw, cache, |place, row| {
+            self.run(values, r, &probe.time, &raw, (cache, true), |place, row| {
                 while j < samples.rows && samples.at[j] < (r, place) {
                     j += 1;
                 }
@@ -1143,7 +1174,7 @@ impl Problem<'_> {
                 };
                 any = true;
                 let raw: Vec<&[f64]> = noisy.raw.iter().map(Vec::as_slice).collect();
-                self.run(&values, r, &noisy.time, &raw, None, |place, row| {
+                self.run(&values, r, &noisy.time, &raw, (None, true), |place, row| {
                     while j < base.rows && base.at[j] < (r, place) {
                         j += 1;
                     }

@@ -50,13 +50,14 @@ pub(super) fn level(column: &[f64]) -> f64 {
 }
 
 /// Standard normal numbers (Box–Muller over a xorshift): the same on every run.
-struct Normal {
+#[derive(Clone)]
+pub(super) struct Normal {
     state: u64,
     spare: Option<f64>,
 }
 
 impl Normal {
-    fn new(seed: u64) -> Normal {
+    pub(super) fn new(seed: u64) -> Normal {
         Normal {
             state: seed | 1,
             spare: None,
@@ -70,7 +71,7 @@ impl Normal {
         ((self.state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
     }
 
-    fn next(&mut self) -> f64 {
+    pub(super) fn next(&mut self) -> f64 {
         if let Some(x) = self.spare.take() {
             return x;
         }
