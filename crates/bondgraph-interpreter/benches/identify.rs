@@ -1,19 +1,23 @@
 //! Identification of the DC motor (`models/dc_motor.bg`) from a 30-s record of a plant whose
 //! resistance, inertia and friction are 10–20 % off the model's (integrated here by RK4 at
 //! a tenth of the step, no noise): the whole fit, from the model's values to the intervals
-//! and the undetermined combinations, in samples per second of record.
+//! and the undetermined combinations, in samples per second of record. And the size of a
+//! fault late in a long record (its resistance × 1.5 after 110 s of 120), fitted over the
+//! 5 s after it: what a size costs against the record's length.
 
 use std::hint::black_box;
 
 use bondgraph_core::Options;
-use bondgraph_interpreter::{identify, Estimator, Fit, Integration, Record, Settings};
+use bondgraph_interpreter::{identify, Estimator, Fit, Integration, Record, Settings, Sizing};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
-/// The motor's current and speed under `U0 = 6 + 12 sin 0.5t + 3 sin 7t`, sampled every `h`.
-fn record(seconds: f64, h: f64) -> (Vec<f64>, [Vec<f64>; 3]) {
+/// The motor's current and speed under `U0 = 6 + 12 sin 0.5t + 3 sin 7t`, sampled every `h`,
+/// its resistance `fault` times its value from `at` seconds on.
+fn record(seconds: f64, h: f64, (fault, at): (f64, f64)) -> (Vec<f64>, [Vec<f64>; 3]) {
     let (re, l, ke, je, fe) = (0.36, 0.5, 0.5, 0.88, 0.12);
     let u = |t: f64| 6.0 + 12.0 * (0.5 * t).sin() + 3.0 * (7.0 * t).sin();
     let rates = |t: f64, x: [f64; 2]| {
+        let re = if t >= at { re * fault } else { re };
         [
             (u(t) - re * x[0] - ke * x[1]) / l,
             (ke * x[0] - fe * x[1]) / je,
@@ -55,7 +59,7 @@ fn identification(c: &mut Criterion) {
     assert_eq!(names, ["U0", "i", "y1"], "the motor's raw order");
     let start: Vec<f64> = model.parameters.values().map(|p| p.value).collect();
     let h = 1e-3;
-    let (time, columns) = record(30.0, h);
+    let (time, columns) = record(30.0, h, (1.0, f64::INFINITY));
     let settings = Settings {
         fit: Fit {
             step: h,
@@ -86,5 +90,30 @@ fn identification(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, identification);
+fn sizing(c: &mut Criterion) {
+    let text = include_str!("../../../models/dc_motor.bg");
+    let out = bondgraph_core::compile(text, "dc_motor.bg", &Options::default())
+        .expect("the motor compiles");
+    let model = &out.compiled;
+    let program = model.program();
+    let params: Vec<f64> = model.parameters.values().map(|p| p.value).collect();
+    let h = 1e-3;
+    let (time, columns) = record(120.0, h, (1.5, 110.0));
+    let ranked = ["Rm".to_string()];
+    let mut group = c.benchmark_group("size");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(time.len() as u64));
+    group.bench_function("dc_motor_120s_fault_at_110s", |b| {
+        b.iter(|| {
+            let raw = columns.iter().map(Vec::as_slice).collect();
+            let sizing = Sizing::new(model, &program, &params, &time, raw, h);
+            let sized = sizing.candidates(&ranked, 110.0, 5.0);
+            assert!(!sized.is_empty(), "Rm is sized");
+            black_box(sized.len())
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, identification, sizing);
 criterion_main!(benches);
