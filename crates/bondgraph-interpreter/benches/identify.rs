@@ -7,7 +7,7 @@
 
 use std::hint::black_box;
 
-use bondgraph_core::Options;
+use bondgraph_core::{Compiled, Options};
 use bondgraph_interpreter::{identify, Estimator, Fit, Integration, Record, Settings, Sizing};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
@@ -49,11 +49,16 @@ fn record(seconds: f64, h: f64, (fault, at): (f64, f64)) -> (Vec<f64>, [Vec<f64>
     (time, [input, current, speed])
 }
 
-fn identification(c: &mut Criterion) {
+/// The DC motor, compiled.
+fn motor() -> Compiled {
     let text = include_str!("../../../models/dc_motor.bg");
-    let out = bondgraph_core::compile(text, "dc_motor.bg", &Options::default())
-        .expect("the motor compiles");
-    let model = &out.compiled;
+    (bondgraph_core::compile(text, "dc_motor.bg", &Options::default()))
+        .expect("the motor compiles")
+        .compiled
+}
+
+fn identification(c: &mut Criterion) {
+    let model = &motor();
     let program = model.program();
     let names: Vec<&str> = program.raw.values().map(|r| r.name.as_str()).collect();
     assert_eq!(names, ["U0", "i", "y1"], "the motor's raw order");
@@ -91,10 +96,7 @@ fn identification(c: &mut Criterion) {
 }
 
 fn sizing(c: &mut Criterion) {
-    let text = include_str!("../../../models/dc_motor.bg");
-    let out = bondgraph_core::compile(text, "dc_motor.bg", &Options::default())
-        .expect("the motor compiles");
-    let model = &out.compiled;
+    let model = &motor();
     let program = model.program();
     let params: Vec<f64> = model.parameters.values().map(|p| p.value).collect();
     let h = 1e-3;

@@ -96,9 +96,11 @@ pub(crate) struct Estimated {
 }
 
 impl Estimated {
-    /// The bytes it holds, for a caller that bounds what it keeps.
-    pub(crate) fn bytes(&self) -> usize {
-        self.columns.iter().map(|c| c.len() * 8).sum()
+    /// Itself, where it is small enough to keep (at most 128 MiB: 10^6 rows of 16
+    /// estimated columns); a longer record has its estimators run again instead.
+    pub(crate) fn small_enough(self) -> Option<Estimated> {
+        let bytes: usize = self.columns.iter().map(|c| c.len() * 8).sum();
+        (bytes <= 128 << 20).then_some(self)
     }
 
     /// The estimators' output over the sum of this record and `sign` times `other` (of

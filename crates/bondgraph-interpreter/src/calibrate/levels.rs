@@ -56,8 +56,9 @@ pub(super) fn viewed(
     let columns = &healthy.samples.columns;
     // The draws of noise reuse the record's estimators' output (see [`pair`]), unless it
     // is too large to keep.
-    let record = Some(build()?.estimated(healthy.samples.time, columns))
-        .filter(|e| e.bytes() <= KEPT_ESTIMATES_BYTES);
+    let record = build()?
+        .estimated(healthy.samples.time, columns)
+        .small_enough();
     let raw = healthy.residuals_viewed(build()?, columns, views, record.as_ref());
     let record = record.as_ref();
     // A walk read from one record's changes over two lags misses a slow one that only its
@@ -197,10 +198,6 @@ fn walk_profiles(
         })
         .collect())
 }
-
-/// The most a calibration keeps of the healthy record's estimators' output: 10^6 rows of
-/// 16 estimated columns; a longer record has the estimators run over each draw twice.
-const KEPT_ESTIMATES_BYTES: usize = 128 << 20;
 
 /// What the draws of noise read: the healthy record, its noise, the views, and the healthy
 /// record's estimators' output where it is kept.

@@ -575,10 +575,6 @@ impl Samples {
 }
 
 /// One identification problem.
-/// The most a fit keeps of one record's estimators' output (see [`Problem::run`]): 10^6
-/// rows of 16 estimated columns; a longer record has its estimators run at every evaluation.
-const KEPT_ESTIMATES_BYTES: usize = 128 << 20;
-
 struct Problem<'a> {
     c: &'a Compiled,
     program: &'a Program,
@@ -824,7 +820,7 @@ impl Problem<'_> {
                 None => cell
                     .get_or_init(|| {
                         let e = generator().ok()?.estimated(time, raw);
-                        (e.bytes() <= KEPT_ESTIMATES_BYTES).then_some(e)
+                        e.small_enough()
                     })
                     .as_ref(),
             },
