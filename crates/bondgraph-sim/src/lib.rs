@@ -13,7 +13,7 @@ mod scenario;
 mod simulation;
 mod verify;
 
-pub use noise::gaussian;
+pub use noise::{gaussian, uniform};
 pub use run::{SimulationError, Trajectory};
 pub use scenario::{parse_scenario, Scenario, Solver, MAX_SAMPLES};
 pub use simulation::Simulation;

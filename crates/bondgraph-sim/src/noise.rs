@@ -12,15 +12,22 @@ fn mix(mut z: u64) -> u64 {
 }
 
 /// A uniform number in (0, 1] from a hash.
-fn uniform(z: u64) -> f64 {
+fn unit(z: u64) -> f64 {
     ((z >> 11) as f64 + 1.0) / (1u64 << 53) as f64
 }
 
 /// A standard normal number for `signal`'s `sample`-th value under `seed` (Box–Muller).
 pub fn gaussian(seed: u64, signal: u64, sample: u64) -> f64 {
     let key = mix(mix(seed ^ mix(signal)) ^ sample);
-    let (u1, u2) = (uniform(mix(key)), uniform(mix(key ^ 0xD6E8_FEB8_6659_FD93)));
+    let (u1, u2) = (unit(mix(key)), unit(mix(key ^ 0xD6E8_FEB8_6659_FD93)));
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A number uniform in (0, 1] for `signal`'s `sample`-th value under `seed`, drawn apart
+/// from [`gaussian`]'s.
+pub fn uniform(seed: u64, signal: u64, sample: u64) -> f64 {
+    let key = mix(mix(seed ^ mix(signal)) ^ sample);
+    unit(mix(key ^ 0x2545_F491_4F6C_DD1D))
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@ mod samples;
 mod sequential;
 mod settle;
 mod singular;
+mod steps;
 
 use bondgraph_core::program::Program;
 use bondgraph_core::{Compiled, Realisation};
@@ -614,12 +615,26 @@ impl Calibrating<'_> {
             let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
                 .map(|(s, d)| format!("{} {d:.2e}", s.name))
                 .collect();
+            let stepping: Vec<String> = (self.program.raw.values().zip(replicas.step_counts()))
+                .filter(|(_, n)| *n > 0)
+                .map(|(s, n)| format!("{} {n}", s.name))
+                .collect();
+            let steps = if stepping.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; and at each step of a signal ({}), the instant it came at drawn within \
+                     its sample interval, which no record tells and the plant responds to",
+                    stepping.join(", ")
+                )
+            };
             self.notes.push(format!(
                 "thresholds that a healthy record of its length crosses with probability {} \
                  (at least its own largest |r| times 1 + the margin): what its noise does to \
                  the residuals, drawn {} times (fresh white noise of the deviation read on \
-                 each signal, {}, added and taken away) and the maxima taken as a Gumbel law \
-                 (shared equally between a residual's onset test and its hold, where it has one)",
+                 each signal, {}, added and taken away{steps}) and the maxima taken as a \
+                 Gumbel law (shared equally between a residual's onset test and its hold, \
+                 where it has one)",
                 self.crossing(),
                 replicas::COUNT,
                 read.join(", ")

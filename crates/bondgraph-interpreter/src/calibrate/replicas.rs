@@ -8,6 +8,7 @@
 //! leaves is the noise in the signals' band, which is what the residuals see.)
 
 use crate::calibrate::samples::Samples;
+use crate::calibrate::steps::steps;
 
 /// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
 /// records, from which the level a record crosses with a stated probability is extrapolated.
@@ -22,22 +23,32 @@ pub(crate) fn deviation(x: &[f64]) -> f64 {
     crate::deviation::deviation(x)
 }
 
-/// The healthy record and the deviation of each of its columns' noise.
+/// The healthy record, the deviation of each of its columns' noise, and each column's
+/// steps (see [`steps`]).
 pub(crate) struct Replicas<'a> {
     record: &'a Samples<'a>,
     deviations: Vec<f64>,
+    steps: Vec<Vec<(usize, f64)>>,
 }
 
 impl<'a> Replicas<'a> {
-    /// The record with its columns' noise read.
+    /// The record with its columns' noise and steps read.
     pub(crate) fn new(record: &'a Samples<'a>) -> Replicas<'a> {
-        let deviations = record.columns.iter().map(|x| deviation(x)).collect();
-        Replicas { record, deviations }
+        let deviations: Vec<f64> = record.columns.iter().map(|x| deviation(x)).collect();
+        let steps = (record.columns.iter().zip(&deviations))
+            .map(|(x, &sigma)| steps(x, sigma))
+            .collect();
+        Replicas {
+            record,
+            deviations,
+            steps,
+        }
     }
 
-    /// Whether any column is noisy: a record with none has nothing to replicate.
+    /// Whether any column is noisy or steps: a record with neither has nothing to
+    /// replicate.
     pub(crate) fn noisy(&self) -> bool {
-        self.deviations.iter().any(|&s| s > 0.0)
+        self.deviations.iter().any(|&s| s > 0.0) || self.steps.iter().any(|s| !s.is_empty())
     }
 
     /// Each column's noise deviation, as the note gives them.
@@ -45,30 +56,42 @@ impl<'a> Replicas<'a> {
         &self.deviations
     }
 
+    /// How many steps each column takes, as the note gives them.
+    pub(crate) fn step_counts(&self) -> Vec<usize> {
+        self.steps.iter().map(Vec::len).collect()
+    }
+
     /// The record's columns with the `index`-th draw of fresh noise added (`sign` 1) or
     /// taken away (`sign` −1).
     pub(crate) fn perturbed(&self, index: usize, sign: f64) -> Vec<Vec<f64>> {
-        perturbed(&self.record.columns, &self.deviations, index, sign)
+        (self.record.columns.iter().zip(self.noise(index)))
+            .map(|(x, e)| x.iter().zip(e).map(|(x, e)| x + sign * e).collect())
+            .collect()
     }
-}
 
-impl Replicas<'_> {
-    /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: with
-    /// the record's columns, `x + sign · noise` are those of `perturbed`, to the bit.
+    /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: white
+    /// noise of each column's deviation and, at each of its steps, the change of the sample
+    /// that an instant drawn uniformly within the step's interval makes (see [`steps`]).
     pub(crate) fn noise(&self, index: usize) -> Vec<Vec<f64>> {
-        (self.record.columns.iter().zip(&self.deviations).enumerate())
-            .map(|(c, (x, sigma))| {
+        let columns = self.record.columns.iter().zip(&self.deviations);
+        (columns.zip(&self.steps).enumerate())
+            .map(|(c, ((x, sigma), steps))| {
                 let stream = (index as u64) << 32 | c as u64;
-                (0..x.len())
+                let mut e: Vec<f64> = (0..x.len())
                     .map(|k| sigma * bondgraph_sim::gaussian(SEED, stream, k as u64))
-                    .collect()
+                    .collect();
+                for &(k, jump) in steps {
+                    e[k] += jump * (bondgraph_sim::uniform(SEED, stream, k as u64) - 0.5);
+                }
+                e
             })
             .collect()
     }
 }
 
-/// `columns` with the `index`-th draw of fresh noise of the deviations `sigma` added (`sign`
-/// 1) or taken away (`sign` −1).
+/// `columns` with the `index`-th draw of fresh white noise of the deviations `sigma` added
+/// (`sign` 1) or taken away (`sign` −1): without the steps' instants, which move where the
+/// record steps, not how well it is conditioned.
 pub(crate) fn perturbed(
     columns: &[&[f64]],
     deviations: &[f64],
@@ -129,6 +152,45 @@ mod tests {
         assert!((sigma / 0.01 - 1.0).abs() < 0.03, "{sigma}");
         let clean: Vec<f64> = (0..n).map(|k| (k as f64 * 1e-3).sin()).collect();
         assert!(deviation(&clean) < 1e-9);
+    }
+
+    /// A heater switched between 0 and 300 W with no noise: the draws change only the
+    /// samples that first hold a new level, each by up to half its step, one way or the
+    /// other; a record with neither noise nor steps has nothing to replicate.
+    #[test]
+    fn the_draws_move_each_step_by_up_to_half_of_it() {
+        let time: Vec<f64> = (0..4_000).map(|k| 0.5 * k as f64).collect();
+        let heater: Vec<f64> = (0..4_000)
+            .map(|k| if (k / 700) % 2 == 0 { 0.0 } else { 300.0 })
+            .collect();
+        let samples = Samples {
+            time: &time,
+            columns: vec![&heater],
+            step: 0.5,
+        };
+        let replicas = Replicas::new(&samples);
+        assert!(replicas.noisy());
+        assert_eq!(replicas.step_counts(), [5]);
+        let draws: Vec<Vec<f64>> = (0..COUNT).map(|i| replicas.noise(i).remove(0)).collect();
+        for draw in &draws {
+            for (k, e) in draw.iter().enumerate() {
+                if k % 700 == 0 && k > 0 {
+                    assert!(e.abs() <= 150.0, "{k} {e}");
+                } else {
+                    assert_eq!(*e, 0.0, "{k}");
+                }
+            }
+        }
+        let at_first: Vec<f64> = draws.iter().map(|d| d[700]).collect();
+        let (lo, hi) = (at_first.iter()).fold((0.0f64, 0.0f64), |(l, h), &e| (l.min(e), h.max(e)));
+        assert!(lo < -100.0 && hi > 100.0, "{lo} {hi}");
+        let flat = vec![1.0; 4_000];
+        let quiet = Samples {
+            time: &time,
+            columns: vec![&flat],
+            step: 0.5,
+        };
+        assert!(!Replicas::new(&quiet).noisy());
     }
 
     #[test]
