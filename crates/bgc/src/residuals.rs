@@ -920,6 +920,7 @@ fn size_fault(
         data.columns.iter().map(Vec::as_slice).collect(),
         data.step,
     );
+    let first = sizing.start(first);
     let span = sizing.span(args.size_span);
     if span > args.size_span {
         report::note(format!(
@@ -954,7 +955,22 @@ fn size_fault(
         }
         None => span,
     };
-    let sized = sizing.candidates(ranked, first, span);
+    let end = (data.time.last().copied().unwrap_or(first)).min(until.unwrap_or(f64::INFINITY));
+    let (sized, told) = sizing.told(ranked, first, span, end);
+    if told > span {
+        report::note(format!(
+            "the fault's size: the best two candidates fit alike over {} s (the second's cost \
+             under {} times the best's): fitted over {} s, the span doubled until they were \
+             told apart or it was {} times as long (a change that shows in the plant's \
+             transients and one that shows in its statics fit alike over a span much shorter \
+             than its time constants)",
+            significant(span),
+            bondgraph_interpreter::TOLD,
+            significant(told),
+            1 << bondgraph_interpreter::DOUBLINGS
+        ));
+    }
+    let span = told;
     crate::size::note(c, &sized, (params, combined), first, span);
     let Some(best) = sized.first() else {
         return Ok(Vec::new());

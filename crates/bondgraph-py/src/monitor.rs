@@ -556,12 +556,13 @@ fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) 
                 .collect()
         })
         .unwrap_or_default();
-    let first = first + lookahead;
+    let first = sizing.start(first + lookahead);
     let span = match quiet.map(|q| q - first).filter(|&d| d < span) {
         Some(alarm) => sizing.span(alarm),
         None => span,
     };
-    sizing.candidates(&ranked, first, span)
+    let end = (pass.at.last().copied().unwrap_or(first)).min(quiet.unwrap_or(f64::INFINITY));
+    sizing.told(&ranked, first, span, end).0
 }
 
 /// The sizes as Python dicts: component, parameter, value, half-width, the ratio to the
