@@ -16,10 +16,15 @@ record):
   rad/s on both encoders;
 - bgc: `bgc residuals MODEL RECORD --calibrate HEALTHY` with no other option, and with
   `--realise direct` (the relations as written, derivatives estimated);
-- faultdiagnosistoolbox: the model's equations (the plant bgc simulates: the link's twist and
-  the dead zone's argument are one integral, both from zero), its MSOs, for each one a
-  sequential residual generator in integral causality (`SeqResGen`, forward Euler), run on
-  the same records from the plant's initial state; each threshold is stated as bgc's is:
+- faultdiagnosistoolbox at its best: the model's equations (the plant bgc simulates: the
+  link's twist and the dead zone's argument are one integral, both from zero), its MSOs, for
+  each one a sequential residual generator in integral causality (`SeqResGen`, its generated
+  C in batch mode, built here as a Python extension: needs a C compiler and setuptools),
+  given the parameters bgc's calibration fits to the healthy record (`--nominal`: the
+  model's), integrated by forward Euler at `--substeps` steps per sample (10; the inputs
+  joined by straight lines), so that its thresholds are set by the noise and not by its
+  own integration error at the 1-ms step, run on the same records from the plant's
+  initial state; each threshold is stated as bgc's is:
   at least the largest |r| on the healthy record times 1.2, and at least the level that
   the healthy record's noise, drawn again (`--draws` draws of fresh noise of the deviation
   read from each encoder's third differences, added and taken away), makes the residual
@@ -35,12 +40,15 @@ record):
   window ahead).
 
 Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--draw 7]
-                      [--inputs square sine closed] [--no-fdt]
+                      [--inputs square sine closed] [--no-fdt] [--no-direct]
+                      [--substeps 10] [--nominal]
 """
 
 import argparse
+import contextlib
 import csv
 import importlib
+import io
 import os
 import subprocess
 import sys
@@ -130,7 +138,13 @@ def fdt_generators(tmp):
                 gamma_ = model.Matching([e for e in mso if e != eq])
                 if gamma_.matchType == "int":
                     name = f"fdt_mso{k + 1}"
-                    model.SeqResGen(gamma_, eq, name, language="Python")
+                    # Its generated C, in batch mode (a whole record per call), built as a
+                    # Python extension: the Python it also generates takes minutes per
+                    # record at ten Euler steps per sample.
+                    with contextlib.redirect_stdout(io.StringIO()):
+                        model.SeqResGen(gamma_, eq, name, language="C", batch=True)
+                    subprocess.run([sys.executable, f"{name}_setup.py", "build_ext", "--inplace"],
+                                   check=True, capture_output=True)
                     generators.append((name, getattr(importlib.import_module(name), name)))
                     break
     finally:
@@ -138,13 +152,16 @@ def fdt_generators(tmp):
     return generators
 
 
-def fdt_run(generator, data):
+def fdt_run(generator, data, params, substeps):
+    """The residual at each sample, integrated by forward Euler at `substeps` steps per
+    sample (the inputs joined by straight lines between samples)."""
     t, z = data[:, 0], data[:, 1:]
+    n = len(t)
+    fine = np.arange((n - 1) * substeps + 1) / substeps
+    zf = np.column_stack([np.interp(fine, np.arange(n), z[:, c]) for c in range(z.shape[1])])
     state = {"i": 0.0, "q": 0.0, "w1": z[0, 1], "w2": z[0, 2]}
-    r = np.empty(len(t))
-    for k in range(len(t)):
-        r[k], state = generator(z[k], state, PARAMS, 1e-3)
-    return r
+    r = np.asarray(generator(np.ascontiguousarray(zf), state, params, 1e-3 / substeps))
+    return r[::substeps]
 
 
 def deviation(x):
@@ -166,9 +183,10 @@ def gumbel_level(maxima, p):
     return location - beta * np.log(-np.log1p(-p))
 
 
-def fdt_level(generator, healthy, draws):
-    """A faultdiagnosistoolbox residual's threshold by bgc's rule (see the module's text)."""
-    seen = (1 + MARGIN) * np.max(np.abs(fdt_run(generator, healthy)))
+def fdt_level(run, healthy, draws):
+    """A faultdiagnosistoolbox residual's threshold by bgc's rule (see the module's text);
+    `run` gives its residual on a record."""
+    seen = (1 + MARGIN) * np.max(np.abs(run(healthy)))
     rng = np.random.default_rng(0x6263)
     sigma = [deviation(healthy[:, c]) for c in (2, 3)]
     maxima = []
@@ -176,10 +194,26 @@ def fdt_level(generator, healthy, draws):
         noise = np.zeros_like(healthy)
         for c, s in zip((2, 3), sigma):
             noise[:, c] = s * rng.standard_normal(len(healthy))
-        up = fdt_run(generator, healthy + noise)
-        down = fdt_run(generator, healthy - noise)
+        up = run(healthy + noise)
+        down = run(healthy - noise)
         maxima.append(np.max(np.abs(0.5 * (up - down))))
     return max(seen, gumbel_level(maxima, 1e-3))
+
+
+def fitted(bgc, healthy, tmp):
+    """The parameters bgc's calibration fits to the healthy record (its kept calibration's
+    `param` lines), for the other tool at its best."""
+    kept = os.path.join(tmp, "fitted.cal")
+    subprocess.run([bgc, "residuals", MODEL, healthy, "--calibrate", healthy, "--no-size",
+                    "--save-calibration", kept, "-o", os.devnull], check=True,
+                   capture_output=True)
+    values = dict(PARAMS)
+    with open(kept) as f:
+        for line in f:
+            words = line.split()
+            if len(words) == 3 and words[0] == "param" and words[1] in values:
+                values[words[1]] = float(words[2])
+    return values
 
 
 def report(label, t, r, alarm, at, level, ratio=None):
@@ -209,6 +243,12 @@ def main():
     p.add_argument("--draw", type=int, default=7)
     p.add_argument("--inputs", nargs="+", default=list(bench_plant.INPUTS))
     p.add_argument("--no-fdt", action="store_true")
+    p.add_argument("--no-direct", action="store_true",
+                   help="leave out bgc with the relations as written")
+    p.add_argument("--substeps", type=int, default=10,
+                   help="faultdiagnosistoolbox's Euler steps per sample")
+    p.add_argument("--nominal", dest="fitted", action="store_false",
+                   help="give faultdiagnosistoolbox the model's values, not bgc's fitted ones")
     a = p.parse_args()
     at = a.seconds * 0.5125
     plant = bench_plant.draw(a.draw) if a.draw else dict(bench_plant.MODEL)
@@ -222,18 +262,23 @@ def main():
             healthy = os.path.join(tmp, f"{input_name}_healthy.csv")
             simulate(plant, healthy, a.seconds, input_name, 1)
             healthy_data = read(healthy)
-            levels = {name: fdt_level(g, healthy_data, a.draws) for name, g in generators}
+            params = fitted(a.bgc, healthy, tmp) if a.fitted and generators else PARAMS
+            runs = {name: (lambda data, g=g: fdt_run(g, data, params, a.substeps))
+                    for name, g in generators}
+            levels = {name: fdt_level(run, healthy_data, a.draws) for name, run in runs.items()}
             for fault_name, factor in FAULTS.items():
                 record = os.path.join(tmp, f"{input_name}_{fault_name}.csv")
                 simulate(plant, record, a.seconds, input_name, 2, [(fault_name, factor, at)])
-                for how, extra in [("bgc", []), ("bgc --realise direct", ["--realise", "direct"])]:
+                hows = [("bgc", [])] + ([] if a.no_direct else
+                                        [("bgc --realise direct", ["--realise", "direct"])])
+                for how, extra in hows:
                     for name, t, r, alarm, level, ratio in bgc_residuals(a.bgc, record, healthy,
                                                                          extra):
                         report(f"{input_name} | {fault_name} | {how} | {name}", t, r, alarm, at,
                                level, ratio)
                 data = read(record)
-                for name, g in generators:
-                    r = fdt_run(g, data)
+                for name, run in runs.items():
+                    r = run(data)
                     report(f"{input_name} | {fault_name} | faultdiagnosistoolbox | {name}",
                            data[:, 0], r, np.abs(r) > levels[name], at,
                            np.full(len(r), levels[name]))
