@@ -920,7 +920,6 @@ fn size_fault(
         data.columns.iter().map(Vec::as_slice).collect(),
         data.step,
     );
-    let first = sizing.start(first);
     let span = sizing.span(args.size_span);
     if span > args.size_span {
         report::note(format!(

@@ -32,8 +32,9 @@ pub(crate) fn note(
     }
     let mut text = format!(
         "the fault's size: each candidate with parameters fitted alone over {} s from {} \
-         s (the first alarm's samples on, and half the sizes' estimator window: no estimate reads \
-         a sample from before them), best fit first (residuals over their noise, mean \
+         s (the first alarm's samples on; residuals taken from the span's start begin half the \
+         sizes' estimator window later, so that none reads a sample from before them), best \
+         fit first (residuals over their noise, mean \
          square: 1 is the noise):",
         significant(span),
         significant(first)

@@ -139,6 +139,19 @@ impl Sizing<'_> {
         };
         (origins.iter().copied())
             .filter_map(|origin| {
+                // Taken from the span's start, the residuals start half the sizes' estimator
+                // window later, so that no estimate they integrate reads a sample from
+                // before the fault: the fit cannot tell an estimate that smoothed the change
+                // of slope at the onset from the fault itself (on an oven sampled every
+                // 0.5 s, it biased the wall's tripled loss by 17 of its interval's
+                // half-widths on a noise-free record). Taken from the record's start, they
+                // hold the onset as the plant made it: on the bench, a dead zone tripled while
+                // the shafts turn at steady speed shows in the link's law as the offset its
+                // onset left, and a later start sized `gamma` instead of `j0`.
+                let from = match origin {
+                    Origin::Span => from + (WINDOW / 2) as f64 * self.step,
+                    Origin::Record => from,
+                };
                 self.fit_from(component, parameter, start, Span { from, to, origin })
             })
             .max_by(|a, b| explained(a).total_cmp(&explained(b)))
@@ -219,17 +232,6 @@ impl Sizing<'_> {
             parameter,
             found,
         })
-    }
-
-    /// Where a size's span starts when the fault may have reached the samples from `reached`
-    /// on: half the sizes' estimator window later, so that no estimate in the span reads a
-    /// sample from before it. The fit cannot tell an estimate that read the change of slope
-    /// at the onset from the fault itself: on a heater sampled every 0.5 s, its 12 s of
-    /// smoothing across the onset left an offset in the residuals integrated from the
-    /// span's start that biased the wall's tripled loss by 0.07 % over 200 s, 17 of its
-    /// interval's half-widths on a noise-free record.
-    pub fn start(&self, reached: f64) -> f64 {
-        reached + (WINDOW / 2) as f64 * self.step
     }
 
     /// The span (seconds) a size is fitted over when `span` is asked for: at least

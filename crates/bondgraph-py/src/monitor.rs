@@ -556,7 +556,7 @@ fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) 
                 .collect()
         })
         .unwrap_or_default();
-    let first = sizing.start(first + lookahead);
+    let first = first + lookahead;
     let span = match quiet.map(|q| q - first).filter(|&d| d < span) {
         Some(alarm) => sizing.span(alarm),
         None => span,

@@ -674,7 +674,7 @@ class Model:
 
         Size: once some residual alarms, each candidate of the episode has each of its
         parameters fitted alone over `size_span` seconds from the first alarm's samples on
-        and half the sizes' estimator window (``None``: not sized; at least 102 samples, twice the sizes' estimator window, where
+        (``None``: not sized; at least 102 samples, twice the sizes' estimator window, where
         the record's step leaves fewer), as ``bgc residuals`` does: `Residuals.sizes`, best
         fit first.
         """
