@@ -69,7 +69,8 @@ def case(args, tmp, input, draw, fault):
     record(faulty, params, input, args.seconds, 12, [(name, factor, at)], args.counts)
     out = os.path.join(tmp, f"r-{tag}.csv")
     run = subprocess.run([args.bgc, "residuals", MODEL, faulty, "--calibrate", healthy,
-                          "--no-size", "-o", out], capture_output=True, text=True)
+                          "--no-size", "-o", out] + args.bgc_args, capture_output=True,
+                         text=True)
     if run.returncode != 0:
         return f"{tag}: bgc failed: {run.stderr.strip()[-300:]}"
     share, false, per = shares(out, at)
@@ -91,6 +92,8 @@ def main():
     a.add_argument("--counts", type=int, default=0)
     a.add_argument("--faults", nargs="+", default=["j0=3*j0", "Re=1.5*Re"])
     a.add_argument("--jobs", type=int, default=2)
+    a.add_argument("--bgc-args", nargs="*", default=[],
+                   help="more options for `bgc residuals` (after --), e.g. --within 20")
     args = a.parse_args()
     plants = [None] + [500 + k for k in range(args.draws)]
     with tempfile.TemporaryDirectory() as tmp:

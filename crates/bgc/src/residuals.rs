@@ -14,7 +14,7 @@ use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
     calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
     Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding, Integration, Mismatch,
-    Range, Samples, Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS, WITHIN,
+    Range, Samples, Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS,
 };
 
 use crate::identify::significant;
@@ -87,8 +87,9 @@ pub(crate) struct ResidualArgs {
     /// the relation reads a signal integrated from the start, else the one of 250, 1000,
     /// 2500, 10000 and 25000 samples and `--within` (at most a twentieth of the healthy
     /// record), or from the start where its noise there is white plus a random walk, under
-    /// which a fault moves it most against its noise over the second half of `--within`,
-    /// restarted at the end of the onset alarms it rose with; else 250].
+    /// which a fault that persists moves it most against its noise over the healthy record
+    /// (a window; over the second half of `--within`, where given), restarted at the end of
+    /// the onset alarms it rose with; else 250].
     #[arg(long, value_name = "N|start")]
     integration_window: Option<Integration>,
     /// How the signals' values and derivatives are estimated over the window:
@@ -160,10 +161,11 @@ pub(crate) struct ResidualArgs {
     /// With `--calibrate`, the time after a fault by which it should show, in seconds of
     /// the record's time: each integrated residual's hold (where it does not read a signal
     /// integrated from the start) is the window under which a fault gets the most margin
-    /// over its threshold then (a window of about that length, as a rule, rather than from
-    /// the start, whose threshold grows with the record).
-    #[arg(long, value_name = "SECONDS", default_value_t = WITHIN, requires = "calibrate")]
-    within: f64,
+    /// over its threshold then. Without it, the hold is the window under which a fault that
+    /// persists gets the most margin over the healthy record's length, so that it stays in
+    /// alarm while the fault lasts.
+    #[arg(long, value_name = "SECONDS", requires = "calibrate")]
+    within: Option<f64>,
     /// Headroom over the calibrated quantile, as a fraction of it.
     #[arg(long, value_name = "M", default_value_t = 0.2)]
     margin: f64,

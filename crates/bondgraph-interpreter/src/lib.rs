@@ -20,7 +20,7 @@ mod walk;
 pub use calibrate::{
     beyond, beyond_said, calibrate, window_of, Beyond, CalibrateError, Calibrated, Choices,
     Conditioning, CusumLevels, EstimatorKind, FalseAlarms, Range, Samples, Singular, GAIN,
-    INTEGRATIONS, MODULATING_DEFAULT, REPLICAS, WINDOWS, WITHIN,
+    INTEGRATIONS, MODULATING_DEFAULT, REPLICAS, WINDOWS,
 };
 pub use calibration::{fnv1a, Calibration, Decision, Mismatch};
 pub use fit::{Estimator, Fit, Integration};

@@ -179,7 +179,7 @@ pub(crate) type Healthy<'py> = (
     f64,
     bool,
     Option<f64>,
-    f64,
+    Option<f64>,
 );
 
 /// What the estimator, integration and thresholds are, as given (no healthy record).

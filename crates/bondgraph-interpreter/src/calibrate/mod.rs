@@ -25,7 +25,7 @@ use crate::generator::Generator;
 use crate::hold::Hold;
 use crate::walk::Walk;
 
-pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS, WITHIN};
+pub use choose::{INTEGRATIONS, MODULATING_DEFAULT, WINDOWS};
 pub use error::CalibrateError;
 pub use range::{beyond, said as beyond_said, Beyond, Range};
 pub use rate::FalseAlarms;
@@ -88,10 +88,11 @@ pub struct Choices {
     /// A CUSUM beside each threshold, with this drift (in deviations of the residual's
     /// noise) at least: the stated probability is then shared between the two tests.
     pub cusum: Option<f64>,
-    /// The time after a fault by which it should show, in seconds of the records' time
-    /// ([`WITHIN`] where the user states none): integrations are chosen by the margin a
-    /// fault gets then.
-    pub within: f64,
+    /// The time after a fault by which it should show, in seconds of the records' time:
+    /// each hold is chosen by the margin a fault gets then. `None`: by the margin a fault
+    /// that persists gets over the healthy record's length, so that it stays in alarm
+    /// while it lasts.
+    pub within: Option<f64>,
 }
 
 /// What a calibration chose.
@@ -147,8 +148,8 @@ pub fn calibrate(
     if !(0.0..=1e6).contains(&choices.margin) {
         return Err(CalibrateError::Margin(choices.margin));
     }
-    if !(choices.within.is_finite() && choices.within > 0.0) {
-        return Err(CalibrateError::Within(choices.within));
+    if let Some(within) = choices.within.filter(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(CalibrateError::Within(within));
     }
     for p in [choices.share, choices.crossing] {
         if !(0.0..1.0).contains(&p) {
@@ -502,7 +503,14 @@ impl Calibrating<'_> {
         if !which.contains(&true) {
             return Ok((vec![Integration::default(); n], vec![None; n]));
         }
-        let within = (self.choices.within / self.healthy.samples.step).round() as usize;
+        // A fault that persists shows over the whole record: the reach under which it gets the
+        // most margin is then the longest window the noise allows. Chosen for 1 s to 2 s
+        // after a fault instead (the former default), the hold of ARR1 on 4,096-count
+        // encoders was a 2,000-sample window, shorter than the square input's half-period
+        // over which the armature's change shows little, and `Re` x 1.5 was in alarm on 76 %
+        // of the samples after it.
+        let within = (self.choices.within)
+            .map(|seconds| (seconds / self.healthy.samples.step).round() as usize);
         let chosen = choose::best_integration(
             &|i| self.generator(estimator, &vec![i; n], &self.params),
             &self.healthy,
@@ -522,16 +530,23 @@ impl Calibrating<'_> {
                 ),
             })
             .collect();
+        let lengths = choose::integration_lengths(self.healthy.len(), within.unwrap_or(0));
+        let listed: Vec<String> = lengths.iter().map(usize::to_string).collect();
+        let listed = listed.join(", ");
+        let when = match self.choices.within {
+            Some(w) => format!(
+                "from {} s to {w} s after it (over {listed} samples, or from the start where \
+                 its noise is white plus a random walk)",
+                0.5 * w
+            ),
+            None => format!(
+                "over the healthy record's length, as a fault that persists does (over {listed} \
+                 samples)"
+            ),
+        };
         self.notes.push(format!(
             "integrated residuals taken where a fault moves them most against their noise \
-             from {} s to {} s after it (over {} samples, or from the start where its noise is white \
-             plus a random walk): {}",
-            0.5 * self.choices.within,
-            self.choices.within,
-            (choose::integration_lengths(self.healthy.len(), within).iter())
-                .map(|n| n.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
+             {when}: {}",
             said.join(", ")
         ));
         Ok((integration, walks))

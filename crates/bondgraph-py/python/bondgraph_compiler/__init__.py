@@ -633,7 +633,7 @@ class Model:
         calibration: Any = None,
         keep_model: bool = False,
         cusum: Union[bool, float] = False,
-        within: float = 2.0,
+        within: Optional[float] = None,
     ) -> Residuals:
         """The residuals of a record, as ``bgc residuals`` computes them.
 
@@ -653,8 +653,9 @@ class Model:
         `Residuals.notes`. With `cusum` (``True``, or the drift K in deviations, 0.5 by
         default), a CUSUM beside each threshold for small persistent faults, as ``bgc
         residuals --cusum K``. `within`: the seconds after a fault by which it should show
-        (``--within``): each integrated residual's integration is chosen by the margin a
-        fault gets then. A residual without a threshold raises no alarm. `adaptive` adds
+        (``--within``): each integrated residual's hold is chosen by the margin a fault
+        gets then (``None``: the window under which a fault that persists gets the most
+        margin over the healthy record's length, so that it stays in alarm while it lasts). A residual without a threshold raises no alarm. `adaptive` adds
         the bound from the parameters' stated uncertainties (`+- 5%`) at each sample; as
         ``bgc residuals --adaptive``, it evaluates the ARRs as written (``realise="direct"``),
         the form those bounds are derived for, whatever the model was compiled with.
@@ -712,7 +713,7 @@ class Model:
             drift = None if cusum is False else (0.5 if cusum is True else float(cusum))
             healthy = (
                 ht, hcols, hlabels, str(false_alarm_rate), float(margin), bool(keep_model), drift,
-                float(within),
+                None if within is None else float(within),
             )
         if adaptive:
             levels = [0.0 if level is None else level for level in levels]
