@@ -32,7 +32,8 @@ pub(super) fn anchored(arr: &Arr) -> bool {
 }
 
 /// What holds each integrated residual: from the start where it is anchored and its noise
-/// there is a walk; else the reach `best` gave it (the most margin `within` after a fault),
+/// there is a walk; else the reach `best` gave it (the most margin for a fault that
+/// persists, or `within` after a fault where that is given),
 /// restarted at the end of the onset alarms that raise it, where it reaches further than
 /// the onset window. `None` where neither does.
 pub(super) fn holds(

@@ -487,7 +487,8 @@ impl Calibrating<'_> {
     }
 
     /// Each residual's integration (the one given, or the one under which a fault shows
-    /// most `within` after it), and the walk of those taken from the start.
+    /// most: while it persists, over the healthy record, or `within` after it where that is
+    /// given), and the walk of those taken from the start.
     fn integrations(
         &mut self,
         estimator: Estimator,
@@ -530,7 +531,8 @@ impl Calibrating<'_> {
                 ),
             })
             .collect();
-        let lengths = choose::integration_lengths(self.healthy.len(), within.unwrap_or(0));
+        let reach = within.unwrap_or(self.healthy.len());
+        let lengths = choose::integration_lengths(self.healthy.len(), reach);
         let listed: Vec<String> = lengths.iter().map(usize::to_string).collect();
         let listed = listed.join(", ");
         let when = match self.choices.within {
@@ -552,8 +554,8 @@ impl Calibrating<'_> {
         Ok((integration, walks))
     }
 
-    /// Each integrated residual's onset window and hold, from the reach that gives the most
-    /// margin `within` after a fault (`best`): where the user gave no integration, the onset
+    /// Each integrated residual's onset window and hold, from the reach that gives a fault
+    /// the most margin (`best`, see [`Calibrating::integrations`]): where the user gave no integration, the onset
     /// test reads the relation over a quarter of the estimators' window, and the hold
     /// reads it from the start where it is anchored, else over that reach (see
     /// [`crate::hold`]).
