@@ -997,3 +997,116 @@ fn the_readmes_residuals_example_raises_no_alarm_before_its_fault() {
     assert!(inside < flagged, "{inside} samples inside");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The examples of the docs that need no file of the user's run as shown: each `sh` block of
+/// these pages, in order, in a scratch directory, where every file a command reads that is
+/// not the repository's (`models/`, `scenarios/`) was written by an earlier command of the
+/// same page (a block that reads the user's own records is left out). Each exits with 0.
+/// What they print is checked where a page states it, by the tests of that stage.
+#[test]
+fn the_docs_self_contained_examples_run_as_shown() {
+    for (page, least) in [("docs/simulation.md", 6), ("docs/paper_reproduction.md", 8)] {
+        let text = std::fs::read_to_string(root().join(page)).expect("page");
+        let dir = scratch(&format!("docs-{}", page.replace(['/', '.'], "-")));
+        let mut written: Vec<String> = Vec::new();
+        let mut ran = 0;
+        for block in (text.split("```sh\n").skip(1)).filter_map(|b| b.split("```").next()) {
+            let commands = shell_commands(block);
+            // Read only what the page wrote before, in this block or an earlier one.
+            let mut known = written.clone();
+            let reads_the_users = commands.iter().any(|words| {
+                let reads = files(words).any(|(file, output)| !output && !known.contains(&file));
+                known.extend(files(words).filter(|f| f.1).map(|f| f.0));
+                reads
+            });
+            if reads_the_users {
+                continue;
+            }
+            for words in &commands {
+                let args: Vec<String> = (words.iter().skip(1))
+                    .map(|w| match own_file(w) {
+                        Some(name) => dir.join(name).display().to_string(),
+                        None => w.clone(),
+                    })
+                    .collect();
+                let args: Vec<&str> = args.iter().map(String::as_str).collect();
+                let out = bgc(&args);
+                assert_eq!(code(&out), 0, "{page}: {words:?}: {}", stderr(&out));
+                written.extend(files(words).filter(|f| f.1).map(|f| f.0));
+                ran += 1;
+            }
+        }
+        assert!(ran >= least, "{page}: {ran} commands ran");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// The `bgc` commands of a shell block: lines joined where they end in `\`, comments and
+/// other commands left out, `NAME=value` lines substituted for `$NAME`, words split as a
+/// shell does for single and double quotes.
+fn shell_commands(block: &str) -> Vec<Vec<String>> {
+    let joined = block.replace("\\\n", " ");
+    let mut vars: Vec<(String, String)> = Vec::new();
+    let mut commands = Vec::new();
+    for line in joined.lines() {
+        let mut words = shell_words(line);
+        if let [only] = words.as_slice() {
+            if let Some((name, value)) = only.split_once('=') {
+                vars.push((format!("${name}"), value.to_string()));
+                continue;
+            }
+        }
+        for w in &mut words {
+            for (name, value) in &vars {
+                *w = w.replace(name.as_str(), value);
+            }
+        }
+        if words.first().is_some_and(|w| w == "bgc") {
+            commands.push(words);
+        }
+    }
+    commands
+}
+
+/// A line's words, as a shell splits them (quotes kept together, `#` to the end left out).
+fn shell_words(line: &str) -> Vec<String> {
+    let (mut words, mut word, mut quote, mut any) = (Vec::new(), String::new(), None, false);
+    for ch in line.chars() {
+        match (quote, ch) {
+            (None, '#') if word.is_empty() => break,
+            (None, '\'' | '"') => (quote, any) = (Some(ch), true),
+            (Some(q), c) if c == q => quote = None,
+            (None, c) if c.is_whitespace() => {
+                if any || !word.is_empty() {
+                    words.push(std::mem::take(&mut word));
+                }
+                any = false;
+            }
+            (_, c) => word.push(c),
+        }
+    }
+    if any || !word.is_empty() {
+        words.push(word);
+    }
+    words
+}
+
+/// The files a command names that are not the repository's, each with whether it writes it
+/// (the word after `-o`, `--output` or `--plot`).
+fn files(words: &[String]) -> impl Iterator<Item = (String, bool)> + '_ {
+    (words.iter().enumerate()).filter_map(|(k, w)| {
+        let output = k > 0 && matches!(words[k - 1].as_str(), "-o" | "--output" | "--plot");
+        own_file(w).map(|name| (name, output))
+    })
+}
+
+/// The name in the scratch directory of a file a docs example reads or writes, or `None`
+/// for the repository's own (`models/`, `scenarios/`) and for what is not a file.
+fn own_file(word: &str) -> Option<String> {
+    let files = [".csv", ".parquet", ".params", ".cal", ".svg", ".bg", ".mat"];
+    let own = files.iter().any(|e| word.ends_with(e))
+        && !word.starts_with("models/")
+        && !word.starts_with("scenarios/")
+        && !word.starts_with('-');
+    own.then(|| word.rsplit('/').next().unwrap_or(word).to_string())
+}
