@@ -13,6 +13,7 @@ mod generator;
 mod hold;
 mod identify;
 mod linalg;
+mod sensor;
 mod size;
 mod step;
 mod walk;

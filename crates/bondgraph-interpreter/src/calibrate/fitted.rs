@@ -5,15 +5,41 @@ use bondgraph_core::Compiled;
 
 use crate::calibrate::samples::Samples;
 use crate::fit::{Estimator, Fit, Integration};
-use crate::identify::{identify, Determined, Origin, Record, Settings, Span};
+use crate::identify::{
+    identify, Determined, Identification, IdentifyError, Origin, Record, Settings, Span,
+};
 
 /// The healthy samples the model is fitted on: a few minutes at the rates benches sample at
 /// determine what a record can, and a fit's time grows with them.
 const FIT_ROWS: usize = 200_000;
 
-/// The Savitzky–Golay window the model is fitted with: long enough that the noise of the
-/// estimates is far below the signals', short enough to follow a bench's dynamics at 1 kHz.
-const FIT_WINDOW: usize = 51;
+/// The Savitzky–Golay windows the model may be fitted with, the shortest first: the first
+/// follows a bench's dynamics at 1 kHz (an equation-error fit's estimates are biased where a
+/// longer window smooths a nonlinearity); a longer one is needed where the signals' noise
+/// swamps the derivatives' estimates over it (an encoder read in counts, whose speed is a
+/// count's difference).
+const FIT_WINDOWS: [usize; 4] = [51, 101, 201, 501];
+
+/// How far above the least (over [`FIT_WINDOWS`]) a window's residuals at the model's values
+/// may be for it to be taken: an order of magnitude is the noise swamping them, not the
+/// model's error, which a shorter window follows better.
+const SWAMPED: f64 = 10.0;
+
+/// Why a fit over one window is not taken, and the combinations it found.
+struct Refused {
+    why: Refusal,
+    combined: Vec<Vec<usize>>,
+}
+
+/// What was wrong with a fit.
+enum Refusal {
+    /// It could not be done.
+    Failed(IdentifyError),
+    /// It moved parameters further than a plant a few percent off its model would.
+    Implausible(String),
+    /// It ran away with every parameter it could fit, these.
+    Lost(Vec<String>),
+}
 
 /// The parameters fitted to the healthy record (its first [`FIT_ROWS`] samples), said on
 /// standard error: what moved, by how much, and what the record does not determine. Where
@@ -29,53 +55,66 @@ pub(super) fn fit_model(
     notes: &mut Vec<String>,
 ) -> (Vec<f64>, Vec<Vec<usize>>) {
     let rows = healthy.len().min(FIT_ROWS);
-    let window = FIT_WINDOW.min((rows / 20) | 1).max(11);
-    let settings = Settings {
-        fit: Fit {
-            step: healthy.step,
-            estimator: Estimator::SavitzkyGolay {
-                window,
-                degree: program.top_order().max(3),
-            },
-            integration: vec![Integration::default(); c.arrs.len()],
-        },
-        free: Vec::new(),
-        bounded: false,
-        // A record that starts singular (at rest) is fitted from where it has settled.
-        span: settled
-            .filter(|&t| t < healthy.time[rows - 1])
-            .map(|from| Span {
-                from,
-                to: healthy.time[rows - 1],
-                origin: Origin::Span,
-            }),
-    };
-    let record = Record {
-        time: &healthy.time[..rows],
-        raw: healthy.columns.iter().map(|c| &c[..rows]).collect(),
-        state: None,
-    };
-    let found = match identify(c, program, params, &[record], &settings) {
+    let (mut window, mut swamped) = fit_window(c, program, params, healthy, rows);
+    let mut fitted = fit_over(c, program, params, (healthy, rows, settled), window);
+    // A longer window needs more samples than a short record has: the shorter ones are
+    // tried in turn, as a fit over a noisier estimate beats none.
+    while let Err(Refused {
+        why: Refusal::Failed(IdentifyError::TooShort { .. }),
+        ..
+    }) = fitted
+    {
+        let Some(&shorter) = FIT_WINDOWS.iter().rev().find(|&&w| w < window) else {
+            break;
+        };
+        window = shorter;
+        swamped = swamped.filter(|&(shortest, _)| shortest < window);
+        fitted = fit_over(c, program, params, (healthy, rows, settled), window);
+    }
+    // A fit that ran away or moved parameters by factors over noisy estimates may hold
+    // over longer ones, whose noise is less: each is tried in turn.
+    let mut refused_over = None;
+    while let Err(refused) = &fitted {
+        if matches!(refused.why, Refusal::Failed(_)) {
+            break;
+        }
+        let Some(&longer) = (FIT_WINDOWS.iter()).find(|&&w| w > window && w <= longest(rows))
+        else {
+            break;
+        };
+        let again = fit_over(c, program, params, (healthy, rows, settled), longer);
+        if let Err(first) = std::mem::replace(&mut fitted, again) {
+            refused_over.get_or_insert((window, first.why));
+        }
+        window = longer;
+    }
+    let found = match fitted {
         Ok(found) => found,
-        Err(e) => {
+        Err(refused) => {
+            let (window, why) = refused_over.unwrap_or((window, refused.why));
             notes.push(format!(
-                "thresholds set on the model's values, which could not be fitted to the \
-                 healthy record ({e})"
+                "thresholds set on the model's values: {} (estimates over {window} samples, \
+                 and over each longer window tried)",
+                why.said(),
             ));
-            return (params.to_vec(), Vec::new());
+            return (params.to_vec(), refused.combined);
         }
     };
     let combined: Vec<Vec<usize>> = (found.undetermined.iter())
         .map(|c| c.scalings.iter().map(|&(k, _)| k).collect())
         .collect();
-    let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
-    if let Some(why) = implausible(params, &found.values, (&names, &found.rms)) {
-        notes.push(format!(
-            "thresholds set on the model's values: fitted to the healthy record, {why}, which \
-             says the record does not determine them (bgc identify says which) or the model \
-             is not the plant, not that the plant is a few percent off it"
+    let mut over = match swamped {
+        None => format!("estimates over {window} samples"),
+        Some((shortest, ratio)) => format!(
+            "estimates over {window} samples: over {shortest}, the residuals at the model's \
+             values are {ratio:.0}× as large, the signals' noise swamping them"
+        ),
+    };
+    if let Some((shorter, why)) = refused_over {
+        over.push_str(&format!(
+            "; over {shorter} (and each longer window tried before this one), {}",
+            why.said()
         ));
-        return (params.to_vec(), combined);
     }
     let moved: Vec<String> = (found.estimates.iter())
         .filter(|e| matches!(e.determined, Determined::Yes | Determined::Weakly))
@@ -106,8 +145,8 @@ pub(super) fn fit_model(
         )
     };
     notes.push(format!(
-        "the model fitted to it before the thresholds are set (keeping the model keeps its \
-         values; 95 % intervals): {}{unseen}; the residuals' RMS there {}",
+        "the model fitted to it before the thresholds are set ({over}; keeping the model keeps \
+         its values; 95 % intervals): {}{unseen}; the residuals' RMS there {}",
         if moved.is_empty() {
             "no parameter moved beyond its interval".to_string()
         } else {
@@ -119,6 +158,185 @@ pub(super) fn fit_model(
             .join(", ")
     ));
     (found.values, combined)
+}
+
+/// The window the model is fitted over, on the first `rows` samples of `healthy`: the
+/// shortest of [`FIT_WINDOWS`] (at most a twentieth of them) whose residuals at the model's
+/// values are within [`SWAMPED`] of the least, each residual by the median of its magnitude
+/// (which a start-up or an input's steps do not move). Second, where it is not the shortest,
+/// the shortest and how many times its residuals are those of the window taken (the largest
+/// ratio over the residuals).
+fn fit_window(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    healthy: &Samples<'_>,
+    rows: usize,
+) -> (usize, Option<(usize, f64)>) {
+    let mut windows: Vec<usize> = FIT_WINDOWS.iter().map(|&w| w.min(longest(rows))).collect();
+    windows.dedup();
+    let medians: Vec<Option<Vec<f64>>> = (windows.iter())
+        .map(|&w| {
+            medians(
+                c,
+                program,
+                params,
+                healthy,
+                rows,
+                &settings_fit(c, program, healthy, w),
+            )
+        })
+        .collect();
+    let least: Vec<f64> = (0..c.arrs.len())
+        .map(|k| {
+            (medians.iter().flatten())
+                .map(|m| m[k])
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    let quiet = |m: &Vec<f64>| m.iter().zip(&least).all(|(a, b)| *a <= SWAMPED * b);
+    let Some(at) = medians.iter().position(|m| m.as_ref().is_some_and(quiet)) else {
+        return (windows[0], None);
+    };
+    if at == 0 {
+        return (windows[0], None);
+    }
+    let ratio = match (&medians[0], &medians[at]) {
+        (Some(first), Some(taken)) => (first.iter().zip(taken))
+            .map(|(a, b)| a / b)
+            .fold(0.0, f64::max),
+        _ => f64::INFINITY,
+    };
+    (windows[at], Some((windows[0], ratio)))
+}
+
+/// The longest window a fit over `rows` samples may take: a twentieth of them.
+fn longest(rows: usize) -> usize {
+    ((rows / 20) | 1).max(11)
+}
+
+/// Each residual's median magnitude over the first `rows` samples, the model at `params`
+/// and estimated as `fit` says; `None` where the generator cannot be built or a residual is
+/// never a number.
+fn medians(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    healthy: &Samples<'_>,
+    rows: usize,
+    fit: &Fit,
+) -> Option<Vec<f64>> {
+    let mut generator = crate::generator::Generator::new(c, program, params, fit).ok()?;
+    let raw: Vec<&[f64]> = healthy.columns.iter().map(|c| &c[..rows]).collect();
+    let mut series: Vec<Vec<f64>> = vec![Vec::new(); c.arrs.len()];
+    generator.run(&healthy.time[..rows], &raw, false, |e| {
+        for (k, s) in series.iter_mut().enumerate().take(e.residual_count()) {
+            s.extend(
+                e.residual(k)
+                    .iter()
+                    .filter(|v| v.is_finite())
+                    .map(|v| v.abs()),
+            );
+        }
+    });
+    (series.into_iter())
+        .map(|mut s| {
+            let mid = s.len() / 2;
+            (!s.is_empty()).then(|| *s.select_nth_unstable_by(mid, f64::total_cmp).1)
+        })
+        .collect()
+}
+
+/// How the model is fitted over `window`-sample estimates.
+fn settings_fit(c: &Compiled, program: &Program, healthy: &Samples<'_>, window: usize) -> Fit {
+    Fit {
+        step: healthy.step,
+        estimator: Estimator::SavitzkyGolay {
+            window,
+            degree: program.top_order().max(3),
+        },
+        integration: vec![Integration::default(); c.arrs.len()],
+    }
+}
+
+/// The model fitted over `window`-sample estimates to the first `rows` samples of the
+/// healthy record (from where it has `settled`), or why that fit is not to be taken.
+fn fit_over(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    (healthy, rows, settled): (&Samples<'_>, usize, Option<f64>),
+    window: usize,
+) -> Result<Identification, Refused> {
+    let settings = Settings {
+        fit: settings_fit(c, program, healthy, window),
+        free: Vec::new(),
+        bounded: false,
+        // A record that starts singular (at rest) is fitted from where it has settled.
+        span: settled
+            .filter(|&t| t < healthy.time[rows - 1])
+            .map(|from| Span {
+                from,
+                to: healthy.time[rows - 1],
+                origin: Origin::Span,
+            }),
+    };
+    let record = Record {
+        time: &healthy.time[..rows],
+        raw: healthy.columns.iter().map(|c| &c[..rows]).collect(),
+        state: None,
+    };
+    let found = identify(c, program, params, &[record], &settings).map_err(|e| Refused {
+        why: Refusal::Failed(e),
+        combined: Vec::new(),
+    })?;
+    let combined: Vec<Vec<usize>> = (found.undetermined.iter())
+        .map(|c| c.scalings.iter().map(|&(k, _)| k).collect())
+        .collect();
+    let names: Vec<&str> = c.arrs.iter().map(|a| a.name.as_str()).collect();
+    if let Some(why) = implausible(params, &found.values, (&names, &found.rms)) {
+        return Err(Refused {
+            why: Refusal::Implausible(why),
+            combined,
+        });
+    }
+    let fitted = (found.estimates.iter()).any(|e| {
+        matches!(
+            e.determined,
+            Determined::Yes | Determined::Weakly | Determined::No
+        )
+    });
+    if !found.lost.is_empty() && !fitted {
+        let lost = (found.lost.iter())
+            .map(|l| found.estimates[l.parameter].name.clone())
+            .collect();
+        return Err(Refused {
+            why: Refusal::Lost(lost),
+            combined,
+        });
+    }
+    Ok(found)
+}
+
+impl Refusal {
+    /// What the note says of it.
+    fn said(&self) -> String {
+        match self {
+            Refusal::Failed(e) => {
+                format!("they could not be fitted to the healthy record ({e})")
+            }
+            Refusal::Implausible(why) => format!(
+                "fitted to the healthy record, {why}, which says the record does not \
+                 determine them (bgc identify says which) or the model is not the plant, not \
+                 that the plant is a few percent off it"
+            ),
+            Refusal::Lost(names) => format!(
+                "the fit ran away with every parameter, {} (out of all proportion to the model's values: the \
+                 record does not hold them over such estimates)",
+                names.join(", ")
+            ),
+        }
+    }
 }
 
 /// How far a calibration's fit may move a parameter, as a factor either way: it is there to

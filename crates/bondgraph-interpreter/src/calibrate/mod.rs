@@ -629,8 +629,8 @@ impl Calibrating<'_> {
         let choices = self.choices;
         let replicas = replicas::Replicas::new(self.healthy.samples);
         if replicas.noisy() && choices.share == 0.0 {
-            let read: Vec<String> = (self.program.raw.values().zip(replicas.deviations()))
-                .map(|(s, d)| format!("{} {d:.2e}", s.name))
+            let read: Vec<String> = (self.program.raw.values().zip(replicas.noises()))
+                .map(|(s, n)| format!("{} {}", s.name, n.said()))
                 .collect();
             let stepping: Vec<String> = (self.program.raw.values().zip(replicas.step_counts()))
                 .filter(|(_, n)| *n > 0)
@@ -648,8 +648,8 @@ impl Calibrating<'_> {
             self.notes.push(format!(
                 "thresholds that a healthy record of its length crosses with probability {} \
                  (at least its own largest |r| times 1 + the margin): what its noise does to \
-                 the residuals, drawn {} times (fresh white noise of the deviation read on \
-                 each signal, {}, added and taken away{steps}) and the maxima taken as a \
+                 the residuals, drawn {} times (fresh noise of the kind read on each signal, \
+                 white of a deviation or a quantiser's, {}, added and taken away{steps}) and the maxima taken as a \
                  Gumbel law (shared equally between a residual's onset test and its hold, \
                  where it has one)",
                 self.crossing(),

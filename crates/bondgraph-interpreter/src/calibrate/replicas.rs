@@ -9,6 +9,7 @@
 
 use crate::calibrate::samples::Samples;
 use crate::calibrate::steps::steps;
+use crate::sensor::{Counter, Noise};
 
 /// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
 /// records, from which the level a record crosses with a stated probability is extrapolated.
@@ -18,15 +19,11 @@ pub const COUNT: usize = 64;
 /// record `bgc simulate` wrote with noise is not replicated with its own numbers.
 const SEED: u64 = 0x6263_6361_6c69_6272;
 
-/// One column's white-noise deviation (see [`crate::deviation`]).
-pub(crate) fn deviation(x: &[f64]) -> f64 {
-    crate::deviation::deviation(x)
-}
-
-/// The healthy record, the deviation of each of its columns' noise, and each column's
-/// steps (see [`steps`]).
+/// The healthy record, each of its columns' noise (see [`crate::sensor`]) and its
+/// deviation, and each column's steps (see [`steps`]).
 pub(crate) struct Replicas<'a> {
     record: &'a Samples<'a>,
+    noises: Vec<Noise>,
     deviations: Vec<f64>,
     steps: Vec<Vec<(usize, f64)>>,
 }
@@ -34,12 +31,14 @@ pub(crate) struct Replicas<'a> {
 impl<'a> Replicas<'a> {
     /// The record with its columns' noise and steps read.
     pub(crate) fn new(record: &'a Samples<'a>) -> Replicas<'a> {
-        let deviations: Vec<f64> = record.columns.iter().map(|x| deviation(x)).collect();
+        let noises: Vec<Noise> = record.columns.iter().map(|x| Noise::read(x)).collect();
+        let deviations: Vec<f64> = noises.iter().map(Noise::deviation).collect();
         let steps = (record.columns.iter().zip(&deviations))
             .map(|(x, &sigma)| steps(x, sigma))
             .collect();
         Replicas {
             record,
+            noises,
             deviations,
             steps,
         }
@@ -51,9 +50,14 @@ impl<'a> Replicas<'a> {
         self.deviations.iter().any(|&s| s > 0.0) || self.steps.iter().any(|s| !s.is_empty())
     }
 
-    /// Each column's noise deviation, as the note gives them.
+    /// Each column's noise deviation (one sample's).
     pub(crate) fn deviations(&self) -> &[f64] {
         &self.deviations
+    }
+
+    /// Each column's noise, as the note gives it.
+    pub(crate) fn noises(&self) -> &[Noise] {
+        &self.noises
     }
 
     /// How many steps each column takes, as the note gives them.
@@ -69,17 +73,16 @@ impl<'a> Replicas<'a> {
             .collect()
     }
 
-    /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: white
-    /// noise of each column's deviation and, at each of its steps, the change of the sample
-    /// that an instant drawn uniformly within the step's interval makes (see [`steps`]).
+    /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: noise
+    /// of each column's kind (white, or a quantiser's) and, at each of its steps, the change
+    /// of the sample that an instant drawn uniformly within the step's interval makes (see
+    /// [`steps`]).
     pub(crate) fn noise(&self, index: usize) -> Vec<Vec<f64>> {
-        let columns = self.record.columns.iter().zip(&self.deviations);
+        let columns = self.record.columns.iter().zip(&self.noises);
         (columns.zip(&self.steps).enumerate())
-            .map(|(c, ((x, sigma), steps))| {
+            .map(|(c, ((x, noise), steps))| {
                 let stream = (index as u64) << 32 | c as u64;
-                let mut e: Vec<f64> = (0..x.len())
-                    .map(|k| sigma * bondgraph_sim::gaussian(SEED, stream, k as u64))
-                    .collect();
+                let mut e = noise.draw(x.len(), &mut Counter { seed: SEED, stream });
                 for &(k, jump) in steps {
                     e[k] += jump * (bondgraph_sim::uniform(SEED, stream, k as u64) - 0.5);
                 }
@@ -89,21 +92,20 @@ impl<'a> Replicas<'a> {
     }
 }
 
-/// `columns` with the `index`-th draw of fresh white noise of the deviations `sigma` added
-/// (`sign` 1) or taken away (`sign` −1): without the steps' instants, which move where the
-/// record steps, not how well it is conditioned.
+/// `columns` with the `index`-th draw of fresh noise of the kinds `noises` added (`sign` 1)
+/// or taken away (`sign` −1): without the steps' instants, which move where the record
+/// steps, not how well it is conditioned.
 pub(crate) fn perturbed(
     columns: &[&[f64]],
-    deviations: &[f64],
+    noises: &[Noise],
     index: usize,
     sign: f64,
 ) -> Vec<Vec<f64>> {
-    (columns.iter().zip(deviations).enumerate())
-        .map(|(c, (x, sigma))| {
+    (columns.iter().zip(noises).enumerate())
+        .map(|(c, (x, noise))| {
             let stream = (index as u64) << 32 | c as u64;
-            (x.iter().enumerate())
-                .map(|(k, v)| v + sign * sigma * bondgraph_sim::gaussian(SEED, stream, k as u64))
-                .collect()
+            let e = noise.draw(x.len(), &mut Counter { seed: SEED, stream });
+            x.iter().zip(e).map(|(v, e)| v + sign * e).collect()
         })
         .collect()
 }
@@ -148,10 +150,10 @@ mod tests {
                 square + (0.5 * t).sin() + 0.01 * bondgraph_sim::gaussian(3, 0, k as u64)
             })
             .collect();
-        let sigma = deviation(&x);
+        let sigma = Noise::read(&x).deviation();
         assert!((sigma / 0.01 - 1.0).abs() < 0.03, "{sigma}");
         let clean: Vec<f64> = (0..n).map(|k| (k as f64 * 1e-3).sin()).collect();
-        assert!(deviation(&clean) < 1e-9);
+        assert!(Noise::read(&clean).deviation() < 1e-9);
     }
 
     /// A heater switched between 0 and 300 W with no noise: the draws change only the

@@ -13,6 +13,7 @@
 use crate::calibrate::replicas;
 use crate::calibrate::samples::Singular;
 use crate::generator::Generator;
+use crate::sensor::Noise;
 
 /// How many times its healthy median a residual's sensitivity to the noise must be for its
 /// samples to be singular: far above what one draw of noise gives anywhere on a record
@@ -147,8 +148,11 @@ impl Conditioning {
 }
 
 /// Each residual's sensitivity to the noise along a record, at each estimate: half the
-/// difference of its values with one draw of noise of `deviations` added and taken away, at
-/// its largest over `window` estimates centred there. With the estimates' instants.
+/// difference of its values with one draw of white noise of `deviations` added and taken
+/// away, at its largest over `window` estimates centred there. With the estimates' instants.
+/// White even for a quantised signal, of its error's deviation: what is kept for a monitored
+/// record is the deviation, and a sample is singular only against the same draw's typical
+/// sensitivity.
 fn local_noise(
     (mut up, mut down): (Generator, Generator),
     time: &[f64],
@@ -156,8 +160,9 @@ fn local_noise(
     deviations: &[f64],
     window: usize,
 ) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let white: Vec<Noise> = deviations.iter().map(|&d| Noise::White(d)).collect();
     let run = |generator: &mut Generator, sign: f64| {
-        let noisy = replicas::perturbed(columns, deviations, DRAW, sign);
+        let noisy = replicas::perturbed(columns, &white, DRAW, sign);
         let noisy: Vec<&[f64]> = noisy.iter().map(Vec::as_slice).collect();
         let (mut at, mut series): (Vec<f64>, Vec<Vec<f64>>) = (Vec::new(), Vec::new());
         generator.run(time, &noisy, false, |e| {

@@ -7,6 +7,8 @@
 //! parameter that multiplies a noisy signal pays for the noise it lets in, which is what
 //! least squares on the plain residual gets wrong (errors in variables).
 
+use crate::sensor::{Draws, Noise};
+
 /// How many samples of a record the noise is probed on: enough for an RMS within a few
 /// percent over residuals correlated for a few hundred samples.
 pub(super) const PROBE_ROWS: usize = 50_000;
@@ -25,16 +27,15 @@ impl Probe {
     /// by).
     pub(super) fn of(time: &[f64], raw: &[&[f64]], seed: u64, rows: usize) -> Option<Probe> {
         let rows = time.len().min(rows);
-        let levels: Vec<f64> = raw.iter().map(|c| level(c)).collect();
-        if levels.iter().all(|&l| l == 0.0) {
+        let levels: Vec<Noise> = raw.iter().map(|c| level(c)).collect();
+        if levels.iter().all(|l| l.deviation() == 0.0) {
             return None;
         }
         let mut normal = Normal::new(seed);
         let noisy = (raw.iter().zip(&levels))
-            .map(|(column, &sigma)| {
-                (column[..rows].iter())
-                    .map(|&x| x + sigma * normal.next())
-                    .collect()
+            .map(|(column, noise)| {
+                let e = noise.draw(rows, &mut normal);
+                column[..rows].iter().zip(e).map(|(x, e)| x + e).collect()
             })
             .collect();
         Some(Probe {
@@ -44,9 +45,9 @@ impl Probe {
     }
 }
 
-/// A signal's noise level (see [`crate::deviation`]).
-pub(super) fn level(column: &[f64]) -> f64 {
-    crate::deviation::deviation(column)
+/// A signal's noise (see [`crate::sensor`]).
+pub(super) fn level(column: &[f64]) -> Noise {
+    Noise::read(column)
 }
 
 /// Standard normal numbers (Box–Muller over a xorshift): the same on every run.
@@ -83,6 +84,17 @@ impl Normal {
     }
 }
 
+/// Sequential: the sample's index is not read.
+impl Draws for Normal {
+    fn gaussian(&mut self, _: u64) -> f64 {
+        self.next()
+    }
+
+    fn uniform(&mut self, _: u64) -> f64 {
+        Normal::uniform(self)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -93,11 +105,11 @@ mod tests {
         let noisy: Vec<f64> = (0..20_000)
             .map(|k| (k as f64 * 1e-3).sin() + 0.01 * normal.next())
             .collect();
-        let found = level(&noisy);
+        let found = level(&noisy).deviation();
         assert!((found / 0.01 - 1.0).abs() < 0.05, "{found}");
         let square: Vec<f64> = (0..20_000)
             .map(|k| if (k / 500) % 2 == 0 { 5.0 } else { 15.0 })
             .collect();
-        assert_eq!(level(&square), 0.0);
+        assert_eq!(level(&square).deviation(), 0.0);
     }
 }

@@ -3,6 +3,7 @@
 //! that came before it at every evaluation.
 
 use crate::generator::Generator;
+use crate::sensor::Noise;
 
 use super::noise::{level, Normal};
 
@@ -18,7 +19,7 @@ const SEED: u64 = 0x7072_6566_6978_2121;
 pub struct Prefix {
     pub(super) clean: Generator,
     pub(super) noisy: Generator,
-    levels: Vec<f64>,
+    levels: Vec<Noise>,
     normal: Normal,
 }
 
@@ -38,11 +39,12 @@ impl Prefix {
     /// signal `k`).
     pub fn advance(&mut self, time: &[f64], raw: &[&[f64]]) {
         self.clean.run(time, raw, false, |_| {});
+        // A quantiser's draw starts afresh at each call: the first sample's error is still
+        // one a quantiser makes, only not correlated with the last call's.
         let noisy: Vec<Vec<f64>> = (raw.iter().zip(&self.levels))
-            .map(|(column, &sigma)| {
-                (column.iter())
-                    .map(|&x| x + sigma * self.normal.next())
-                    .collect()
+            .map(|(column, noise)| {
+                let e = noise.draw(column.len(), &mut self.normal);
+                column.iter().zip(e).map(|(x, e)| x + e).collect()
             })
             .collect();
         let noisy: Vec<&[f64]> = noisy.iter().map(Vec::as_slice).collect();
