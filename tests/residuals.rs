@@ -1568,3 +1568,68 @@ fn pulses_of_an_unmeasured_force_are_in_alarm_while_they_last_and_sized() {
     assert!((force - 176.0).abs() < 0.05 * 176.0, "{said}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Encoders of 4,096 counts per revolution, speeds from differences of counts (the
+/// scenario's `encoder`): calibration reads both speeds as a quantiser's output (not as
+/// almost noiseless, which most of their differences being exactly 0 once made it) and
+/// fits the model over estimates long enough for them. No alarm before the armature's
+/// resistance grows by half, and most of the samples a second after it in alarm.
+#[test]
+fn counted_encoders_are_read_as_quantised_and_a_fault_still_shows() {
+    let dir = scratch("counted");
+    let scenario = dir.join("encoders.scn");
+    std::fs::write(
+        &scenario,
+        "duration 25\nstep 0.001\nseed 3\n\
+         input U0 = 10 + 5*sign(sin(0.6283185307179586*t))\n\
+         encoder y1 4096\nencoder y2 4096\n",
+    )
+    .expect("scenario");
+    let scenario = scenario.display().to_string();
+    let healthy = dir.join("healthy.csv").display().to_string();
+    let faulty = dir.join("faulty.csv").display().to_string();
+    simulate_bench(&[&scenario], &healthy);
+    simulate_bench(
+        &[&scenario, "-e", "seed 4", "-e", "fault Re = 1.5*Re at 12.5"],
+        &faulty,
+    );
+    let out = dir.join("r.csv").display().to_string();
+    let run = bgc(&[
+        "residuals",
+        BENCH,
+        &faulty,
+        "--calibrate",
+        &healthy,
+        "--no-size",
+        "-o",
+        &out,
+    ]);
+    assert_eq!(code(&run), 0, "{}", stderr(&run));
+    let said = stderr(&run);
+    for signal in ["y1", "y2"] {
+        assert!(
+            said.contains(&format!(
+                "{signal} quantised by 1.534e0 (differences of counts)"
+            )),
+            "{said}"
+        );
+    }
+    assert!(said.contains("the signals' noise swamping them"), "{said}");
+    let t = table(&std::fs::read_to_string(&out).expect("residuals"));
+    let (time, alarm1, alarm2) = (
+        column(&t, "t"),
+        column(&t, "alarm_ARR1"),
+        column(&t, "alarm_ARR2"),
+    );
+    let before = (0..time.len()).filter(|&k| time[k] < 12.0);
+    assert_eq!(
+        before
+            .filter(|&k| alarm1[k] > 0.0 || alarm2[k] > 0.0)
+            .count(),
+        0
+    );
+    let after: Vec<usize> = (0..time.len()).filter(|&k| time[k] > 13.5).collect();
+    let share = after.iter().filter(|&&k| alarm1[k] > 0.0).count() as f64 / after.len() as f64;
+    assert!(share > 0.5, "{share}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

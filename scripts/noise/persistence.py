@@ -7,8 +7,9 @@ Outside CI (minutes per case). Records simulated by scipy (scripts/identify/benc
 not bgc), from rest, σ = 1e-4 rad/s on both encoders (or `--counts N`: encoders of N counts
 per revolution, speed from differences of counts, no other noise), 1 kHz. For each input and
 each plant (the model's own, then `--draws` plants drawn ±3 % off with seeds 500, 501, ...):
-a healthy record of `--calibration` s (noise seed 11) to calibrate on, and a record of
-`--seconds` s (noise seed 12) with the fault from half-way. The faults: the dead zone tripled
+a healthy record of `--calibration` s (noise seed 11, or `--seeds`' first) to calibrate on,
+and a record of `--seconds` s (noise seed 12, or `--seeds`' second) with the fault from
+half-way. Plants are drawn from seed `--first-draw` (500) on. The faults: the dead zone tripled
 (`j0=3*j0`) and the armature resistance × 1.5 (`Re=1.5*Re`).
 
 Printed, per case: the share in alarm (any residual) from 1 s after the fault to the end,
@@ -17,7 +18,7 @@ before it: the estimators read half a window ahead) and what the calibration cho
 
 Usage: persistence.py [--bgc target/release/bgc] [--inputs square sine closed]
                       [--draws 5] [--seconds 200] [--calibration 200] [--counts 0]
-                      [--faults j0=3*j0 Re=1.5*Re]
+                      [--faults j0=3*j0 Re=1.5*Re] [--seeds 11 12] [--first-draw 500]
 """
 
 import argparse
@@ -61,12 +62,13 @@ def case(args, tmp, input, draw, fault):
     tag = f"{input}-{draw}-{fault.replace('*', 'x').replace('=', '_')}"
     healthy = os.path.join(tmp, f"h-{input}-{draw}.csv")
     if not os.path.exists(healthy):
-        record(healthy, params, input, args.calibration, 11, (), args.counts)
+        record(healthy, params, input, args.calibration, args.seeds[0], (), args.counts)
     name, rest = fault.split("=")
     factor = float(rest.split("*")[0])
     at = args.seconds / 2
     faulty = os.path.join(tmp, f"f-{tag}.csv")
-    record(faulty, params, input, args.seconds, 12, [(name, factor, at)], args.counts)
+    record(faulty, params, input, args.seconds, args.seeds[1], [(name, factor, at)],
+           args.counts)
     out = os.path.join(tmp, f"r-{tag}.csv")
     run = subprocess.run([args.bgc, "residuals", MODEL, faulty, "--calibrate", healthy,
                           "--no-size", "-o", out] + args.bgc_args, capture_output=True,
@@ -92,17 +94,22 @@ def main():
     a.add_argument("--counts", type=int, default=0)
     a.add_argument("--faults", nargs="+", default=["j0=3*j0", "Re=1.5*Re"])
     a.add_argument("--jobs", type=int, default=2)
+    a.add_argument("--seeds", type=int, nargs=2, default=[11, 12],
+                   help="noise seeds of the healthy and the faulty records")
+    a.add_argument("--first-draw", type=int, default=500,
+                   help="the first plant draw's seed (the others follow it)")
     a.add_argument("--bgc-args", nargs="*", default=[],
                    help="more options for `bgc residuals` (after --), e.g. --within 20")
     args = a.parse_args()
-    plants = [None] + [500 + k for k in range(args.draws)]
+    plants = [None] + [args.first_draw + k for k in range(args.draws)]
     with tempfile.TemporaryDirectory() as tmp:
         # Each input's and plant's healthy record first, once.
         with ThreadPoolExecutor(args.jobs) as pool:
             list(pool.map(lambda ip: record(os.path.join(tmp, f"h-{ip[0]}-{ip[1]}.csv"),
                                             bench_plant.MODEL if ip[1] is None
                                             else bench_plant.draw(ip[1]),
-                                            ip[0], args.calibration, 11, (), args.counts),
+                                            ip[0], args.calibration, args.seeds[0], (),
+                                            args.counts),
                           [(i, p) for i in args.inputs for p in plants]))
         cases = [(i, p, f) for i in args.inputs for p in plants for f in args.faults]
         with ThreadPoolExecutor(args.jobs) as pool:

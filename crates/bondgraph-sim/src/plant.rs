@@ -15,7 +15,7 @@ use bondgraph_core::{
     Parameter, Pool, State, Symbol, Tape,
 };
 
-use crate::scenario::{FaultMode, FaultTarget, Onset, Scenario};
+use crate::scenario::{FaultMode, FaultTarget, Onset, Quantiser, Scenario};
 
 /// A leaf of the simulated plant's expressions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -96,6 +96,8 @@ pub(crate) struct Plant {
     pub initial: Vec<f64>,
     /// Standard deviation of the noise on each recorded signal.
     pub noise: Vec<f64>,
+    /// How each recorded signal is quantised, where it is.
+    pub quantisers: Vec<Option<Quantiser>>,
     /// Times where a fault's course has a kink.
     pub breaks: Vec<f64>,
 }
@@ -159,13 +161,16 @@ pub(crate) fn build(c: &Compiled, scenario: &Scenario) -> Result<Plant, Diagnost
     };
     b.import(space, scenario);
     let noise = b.noise(scenario);
+    let quantisers = b.quantisers(scenario);
     let (commands, written) = b.commands(scenario);
     let commands = b.close_loops(commands, &written);
     if b.errors.has_errors() {
         b.errors.sort();
         return Err(b.errors);
     }
-    b.finish(scenario, &commands, noise)
+    let mut plant = b.finish(scenario, &commands, noise)?;
+    plant.quantisers = quantisers;
+    Ok(plant)
 }
 
 struct Builder<'c> {
@@ -299,15 +304,18 @@ impl Builder<'_> {
         (commands, written)
     }
 
+    /// The recorded signals' names: the inputs, then the measured signals.
+    fn recorded(&self) -> Vec<String> {
+        let c = self.c;
+        (c.inputs.iter())
+            .map(|(_, u)| u.name.clone())
+            .chain(c.sensors.iter().map(|(_, s)| s.name.clone()))
+            .collect()
+    }
+
     /// The noise's deviation on each recorded signal: the inputs, then the measured signals.
     fn noise(&mut self, scenario: &Scenario) -> Vec<f64> {
-        let c = self.c;
-        let names: Vec<&str> = c
-            .inputs
-            .iter()
-            .map(|(_, u)| u.name.as_str())
-            .chain(c.sensors.iter().map(|(_, s)| s.name.as_str()))
-            .collect();
+        let names = self.recorded();
         let mut noise = vec![0.0; names.len()];
         for n in &scenario.noise {
             match names.iter().position(|r| *r == n.name.name) {
@@ -316,6 +324,19 @@ impl Builder<'_> {
             }
         }
         noise
+    }
+
+    /// The quantiser of each recorded signal, where the scenario gives one.
+    fn quantisers(&mut self, scenario: &Scenario) -> Vec<Option<Quantiser>> {
+        let names = self.recorded();
+        let mut quantisers = vec![None; names.len()];
+        for q in &scenario.quantised {
+            match names.iter().position(|r| *r == q.name.name) {
+                Some(k) => quantisers[k] = Some(q.how),
+                None => self.undefined(&q.name, "input or measured signal"),
+            }
+        }
+        quantisers
     }
 
     /// Puts each command into the others until none reads an input: a command still reading
@@ -465,6 +486,7 @@ impl Builder<'_> {
             faults: self.faults,
             initial,
             noise,
+            quantisers: Vec::new(),
             breaks,
         })
     }

@@ -18,6 +18,7 @@ use differential_equations::prelude::{
 use crate::newton;
 use crate::noise::gaussian;
 use crate::plant::{Plant, P};
+use crate::scenario::Quantiser;
 use crate::scenario::{Scenario, Solver};
 
 /// Sampled signals of a simulation: one column per name, one row per output time.
@@ -255,7 +256,52 @@ pub(crate) fn run(
         start = cut;
         progress(cut / end);
     }
+    quantise(plant, scenario, &mut out);
     Ok(out)
+}
+
+/// Set in a signal's number for an encoder's first count, apart from its noise's numbers.
+const PHASE: u64 = 1 << 40;
+
+/// Each recorded signal with a quantiser read through it, after its noise: to a resolution,
+/// the nearest multiple; through an encoder, the speed integrated to an angle (trapezoids
+/// between samples), counted from a first count placed at random, and the counts'
+/// difference over a sample taken as the speed (0 at the first sample, which has none
+/// before it).
+fn quantise(plant: &Plant, scenario: &Scenario, out: &mut Trajectory) {
+    let h = scenario.output_step;
+    for (i, how) in plant.quantisers.iter().enumerate() {
+        let Some(how) = how else { continue };
+        let column = if i < plant.inputs {
+            1 + i
+        } else {
+            1 + plant.model_states + i
+        };
+        let x = &mut out.values[column];
+        match *how {
+            Quantiser::Resolution(q) => {
+                for v in x.iter_mut() {
+                    *v = (*v / q).round() * q;
+                }
+            }
+            Quantiser::Encoder(counts) => {
+                let quantum = std::f64::consts::TAU / counts;
+                let phase = crate::noise::uniform(scenario.seed, PHASE | i as u64, 0);
+                let mut angle = 0.0;
+                let mut last = phase.floor();
+                let mut previous = x.first().copied().unwrap_or(0.0);
+                for (k, v) in x.iter_mut().enumerate() {
+                    if k > 0 {
+                        angle += 0.5 * (previous + *v) * h;
+                    }
+                    previous = *v;
+                    let count = (angle / quantum + phase).floor();
+                    *v = (count - last) * quantum / h;
+                    last = count;
+                }
+            }
+        }
+    }
 }
 
 /// Whether every state's derivative at `t` in state `y` is a finite number, as the solver

@@ -90,6 +90,27 @@ pub(crate) struct Setting {
     pub value: f64,
 }
 
+/// How a recorded signal is quantised as its sensor reads it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Quantiser {
+    /// Read to the nearest multiple of this resolution (a converter's least step, an
+    /// absolute encoder's angle): `resolution y 0.01`.
+    Resolution(f64),
+    /// A shaft's speed as an incremental encoder of this many counts per revolution gives
+    /// it: the speed integrated to an angle, counted, and the counts' difference over one
+    /// sample taken as the speed: `encoder y 4096`.
+    Encoder(f64),
+}
+
+/// A quantised signal of the scenario: its name and its quantiser.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct Quantising {
+    /// The recorded signal quantised.
+    pub name: Ident,
+    /// How.
+    pub how: Quantiser,
+}
+
 /// A scenario, read but not yet checked against a model.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scenario {
@@ -114,6 +135,8 @@ pub struct Scenario {
     pub(crate) noise: Vec<Setting>,
     /// Initial values of states (others start at 0).
     pub(crate) initial: Vec<Setting>,
+    /// Signals read by quantising sensors, after their noise.
+    pub(crate) quantised: Vec<Quantising>,
 }
 
 impl Scenario {
@@ -149,9 +172,13 @@ impl Default for Scenario {
             faults: Vec::new(),
             noise: Vec::new(),
             initial: Vec::new(),
+            quantised: Vec::new(),
         }
     }
 }
+
+/// Most counts per revolution an `encoder` statement takes: a 32-bit encoder's.
+const MAX_COUNTS: f64 = 4_294_967_296.0;
 
 /// Longest simulation, in output samples: a bound on memory and time for a mistyped duration.
 pub const MAX_SAMPLES: f64 = 1e7;
@@ -253,6 +280,24 @@ fn statement(s: &mut Scenario, text: &str, at: usize) -> Parsed {
                 value: positive(value, value_at)?,
             });
         }
+        "resolution" | "encoder" => {
+            let (name, value, value_at) = split_word(rest, rest_at);
+            let name = ident(name, rest_at, rest)?;
+            let how = if word == "encoder" {
+                let counts = positive(value, value_at)?;
+                if counts.fract() != 0.0 || counts > MAX_COUNTS {
+                    return Err(one(
+                        value_at,
+                        value,
+                        "expected a whole number of counts per revolution (at most 2^32)",
+                    ));
+                }
+                Quantiser::Encoder(counts)
+            } else {
+                Quantiser::Resolution(positive(value, value_at)?)
+            };
+            s.quantised.push(Quantising { name, how });
+        }
         "initial" => {
             let (name, value) = definition(rest, rest_at)?;
             let value = match value {
@@ -270,7 +315,7 @@ fn statement(s: &mut Scenario, text: &str, at: usize) -> Parsed {
             return Err(one(
                 at,
                 word,
-                "expected a statement: `duration`, `step`, `solver`, `tolerance`, `seed`, `let`, `input`, `fault`, `noise` or `initial`",
+                "expected a statement: `duration`, `step`, `solver`, `tolerance`, `seed`, `let`, `input`, `fault`, `noise`, `resolution`, `encoder` or `initial`",
             ))
         }
     }
@@ -424,6 +469,20 @@ fn onset(text: &str, at: usize) -> Result<(&str, Onset), Vec<Diagnostic>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn encoders_and_resolutions_are_read_and_bad_counts_refused() {
+        let (s, d) = parse_scenario("encoder y1 4096\nresolution y2 0.01\n");
+        assert!(!d.has_errors(), "{d:?}");
+        let s = s.expect("scenario");
+        assert_eq!(s.quantised[0].name.name, "y1");
+        assert_eq!(s.quantised[0].how, Quantiser::Encoder(4096.0));
+        assert_eq!(s.quantised[1].how, Quantiser::Resolution(0.01));
+        for bad in ["encoder y1 40.5\n", "encoder y1 0\n", "resolution y1 -1\n"] {
+            let (s, d) = parse_scenario(bad);
+            assert!(s.is_none() && d.has_errors(), "{bad}");
+        }
+    }
 
     #[test]
     fn a_scenario_reads_every_statement() {

@@ -77,6 +77,36 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
+    /// A resolution rounds each sample to its nearest multiple; an encoder's samples are
+    /// whole counts per sample, which add up to the signal's integral to within a count.
+    #[test]
+    fn quantisers_round_to_a_resolution_and_count_an_encoders_turns() {
+        let base = "duration 2\nstep 0.01\ninput I = 3\n";
+        let exact = simulate(RC, base).expect("runs");
+        let v = column(&exact, "v");
+        let rounded = simulate(RC, &format!("{base}resolution v 0.25\n")).expect("runs");
+        for (r, v) in column(&rounded, "v").iter().zip(v) {
+            assert!(
+                (r - v).abs() <= 0.125 + 1e-12 && (r / 0.25).fract() == 0.0,
+                "{r} {v}"
+            );
+        }
+        let counted = simulate(RC, &format!("{base}encoder v 100\n")).expect("runs");
+        let (quantum, h) = (std::f64::consts::TAU / 100.0, 0.01);
+        let mut integral = 0.0;
+        let mut counts = 0.0;
+        for (k, c) in column(&counted, "v").iter().enumerate() {
+            let n = c * h / quantum;
+            assert!((n - n.round()).abs() < 1e-9, "{c}");
+            if k > 0 {
+                integral += 0.5 * (v[k] + v[k - 1]) * h;
+            }
+            counts += c * h;
+            assert!((counts - integral).abs() <= quantum + 1e-12, "{k}");
+        }
+        assert!(integral > 10.0 * quantum);
+    }
+
     /// An RC discharge, v = v0 exp(-t / RC), to 1e-7 of v0 with both solvers.
     #[test]
     fn an_rc_discharge_follows_its_exponential() {
