@@ -107,7 +107,8 @@ pub(super) fn fit_model(
         None => format!("estimates over {window} samples"),
         Some((shortest, ratio)) => format!(
             "estimates over {window} samples: over {shortest}, the residuals at the model's \
-             values are {ratio:.0}× as large, the signals' noise swamping them"
+             values are {ratio:.0}× the least over any window tried (the signals' noise \
+             swamping them), over this one within {SWAMPED}× it"
         ),
     };
     if let Some((shorter, why)) = refused_over {
@@ -164,8 +165,8 @@ pub(super) fn fit_model(
 /// shortest of [`FIT_WINDOWS`] (at most a twentieth of them) whose residuals at the model's
 /// values are within [`SWAMPED`] of the least, each residual by the median of its magnitude
 /// (which a start-up or an input's steps do not move). Second, where it is not the shortest,
-/// the shortest and how many times its residuals are those of the window taken (the largest
-/// ratio over the residuals).
+/// the shortest and how many times its residuals are the least (the largest ratio over the
+/// residuals).
 fn fit_window(
     c: &Compiled,
     program: &Program,
@@ -201,11 +202,11 @@ fn fit_window(
     if at == 0 {
         return (windows[0], None);
     }
-    let ratio = match (&medians[0], &medians[at]) {
-        (Some(first), Some(taken)) => (first.iter().zip(taken))
+    let ratio = match &medians[0] {
+        Some(first) => (first.iter().zip(&least))
             .map(|(a, b)| a / b)
             .fold(0.0, f64::max),
-        _ => f64::INFINITY,
+        None => f64::INFINITY,
     };
     (windows[at], Some((windows[0], ratio)))
 }
