@@ -14,7 +14,7 @@ use bondgraph_core::{Compiled, Derive, Realisation, Realise, ResidualForm};
 use bondgraph_interpreter::{
     calibrate, fnv1a, window_of, Calibration, Choices, Conditioning, CusumLevels, Decision,
     Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding, Integration, Mismatch,
-    Range, Samples, Singular, Walk, GAIN, STEP_TOLERANCE, WINDOWS,
+    Range, Samples, Singular, SizeOver, Walk, GAIN, STEP_TOLERANCE, WINDOWS,
 };
 
 use crate::identify::significant;
@@ -935,26 +935,31 @@ fn size_fault(
             bondgraph_interpreter::SIZE_SAMPLES
         ));
     }
-    let span = match until.map(|u| u - first).filter(|&d| d < span) {
-        Some(alarm) => {
-            let within = sizing.span(alarm);
+    let ended = until.map(|u| u - first);
+    let (span, until) = match sizing.over(ended, span) {
+        SizeOver::Brief(alarm) => {
+            report::note(format!(
+                "the fault's size: its first alarm ends {} s after it began, shorter than the \
+                 {} samples a size needs: fitted over {} s from it, as a fault that persists \
+                 (an intermittent fault that brief is averaged with what follows)",
+                significant(alarm.max(0.0)),
+                bondgraph_interpreter::SIZE_SAMPLES,
+                significant(span),
+            ));
+            (span, None)
+        }
+        SizeOver::Episode(alarm) => {
             report::note(format!(
                 "the fault's size: its first alarm ends {} s after it began, within --size-span \
-                 {} s: fitted over {} s, {}",
-                significant(alarm.max(0.0)),
+                 {} s: fitted over {} s, the alarm's samples (an intermittent fault, sized \
+                 over one of its episodes)",
+                significant(alarm),
                 significant(args.size_span),
-                significant(within),
-                if within > alarm {
-                    "the samples a size needs at least (twice its estimator's window): an \
-                     intermittent fault's size averages it with what follows"
-                } else {
-                    "the alarm's samples (an intermittent fault, sized over one of its \
-                     episodes)"
-                }
+                significant(alarm),
             ));
-            within
+            (alarm, until)
         }
-        None => span,
+        SizeOver::Span => (span, until),
     };
     let end = (data.time.last().copied().unwrap_or(first)).min(until.unwrap_or(f64::INFINITY));
     let (sized, told) = sizing.told(ranked, first, span, end);

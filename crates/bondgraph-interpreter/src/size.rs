@@ -63,6 +63,20 @@ struct State {
     prefix: Prefix,
 }
 
+/// What a fault's size is fitted over, given how long its first alarm lasted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SizeOver {
+    /// The span asked for: the alarm lasts past it.
+    Span,
+    /// The first alarm's seconds: it ended within the span, an intermittent fault's episode.
+    Episode(f64),
+    /// The span asked for, although the first alarm (this many seconds) ended within it:
+    /// shorter than a size needs, it tells nothing of how long the fault lasts (a fault that
+    /// persists but shows only at some instants, an encoder's gain seen where the axis moves,
+    /// flickers so), and one episode that brief cannot be sized alone.
+    Brief(f64),
+}
+
 /// How many samples before a span its fit starts from the generator's state there: two
 /// estimator windows, so that the estimates just before the span are there to take the
 /// span's residuals from.
@@ -234,6 +248,17 @@ impl Sizing<'_> {
         })
     }
 
+    /// What a size is fitted over when `span` seconds are asked for and the first alarm
+    /// `ended` that many seconds after it began (`None`: it did not): its seconds, where it
+    /// ended within the span and held the samples a size needs (see [`SizeOver`]).
+    pub fn over(&self, ended: Option<f64>, span: f64) -> SizeOver {
+        match ended.filter(|&d| d < span) {
+            None => SizeOver::Span,
+            Some(alarm) if self.span(alarm) > alarm => SizeOver::Brief(alarm),
+            Some(alarm) => SizeOver::Episode(alarm),
+        }
+    }
+
     /// The span (seconds) a size is fitted over when `span` is asked for: at least
     /// [`SIZE_SAMPLES`] of the record's steps.
     pub fn span(&self, span: f64) -> f64 {
@@ -382,5 +407,33 @@ fn explained(s: &Sized) -> f64 {
         before / after
     } else {
         f64::INFINITY
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// At 1 kHz a size needs 0.102 s: EMPS's pulses (alarms of 0.47 s) are sized over an
+    /// episode; a flickering alarm of 20 ms (an encoder's gain on the real axis, seen where
+    /// it moves) over the span asked for, as the fault persists.
+    #[test]
+    fn a_size_is_fitted_over_an_episode_only_where_it_holds_a_sizes_samples() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/dc_motor.bg"
+        ))
+        .expect("model");
+        let out = bondgraph_core::compile(&text, "m.bg", &bondgraph_core::Options::default())
+            .expect("compiles");
+        let c = &out.compiled;
+        let program = c.program();
+        let params: Vec<f64> = c.parameters.values().map(|p| p.value).collect();
+        let sizing = Sizing::new(c, &program, &params, &[], Vec::new(), 1e-3);
+        assert_eq!(sizing.over(None, 5.0), SizeOver::Span);
+        assert_eq!(sizing.over(Some(7.0), 5.0), SizeOver::Span);
+        assert_eq!(sizing.over(Some(0.465), 5.0), SizeOver::Episode(0.465));
+        assert_eq!(sizing.over(Some(0.02), 5.0), SizeOver::Brief(0.02));
+        assert_eq!(sizing.over(Some(0.0), 5.0), SizeOver::Brief(0.0));
     }
 }

@@ -8,8 +8,8 @@ use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_interpreter::{
     beyond, beyond_said, calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning,
     CusumLevels, Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding,
-    Integration, Range, Samples as CalibrationSamples, Singular, Sized, Sizing, StepError, Walk,
-    SIZE_SAMPLES, STEP_TOLERANCE,
+    Integration, Range, Samples as CalibrationSamples, Singular, SizeOver, Sized, Sizing,
+    StepError, Walk, SIZE_SAMPLES, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -557,9 +557,10 @@ fn sizes(sizing: &Sizing<'_>, pass: &Pass, m: usize, lookahead: f64, span: f64) 
         })
         .unwrap_or_default();
     let first = first + lookahead;
-    let span = match quiet.map(|q| q - first).filter(|&d| d < span) {
-        Some(alarm) => sizing.span(alarm),
-        None => span,
+    let (span, quiet) = match sizing.over(quiet.map(|q| q - first), span) {
+        SizeOver::Episode(alarm) => (sizing.span(alarm), quiet),
+        SizeOver::Brief(_) => (span, None),
+        SizeOver::Span => (span, quiet),
     };
     let end = (pass.at.last().copied().unwrap_or(first)).min(quiet.unwrap_or(f64::INFINITY));
     sizing.told(&ranked, first, span, end).0
