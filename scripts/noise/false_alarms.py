@@ -23,7 +23,7 @@ largest |r|/threshold over every test, and the probability that a record crosses
 Gumbel law fitted to those maxima (L-moments), beside the stated one for a record that long.
 
 Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
-                       [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7]
+                       [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7] [--counts 0]
 """
 
 import argparse
@@ -51,9 +51,16 @@ def write(path, t, U0, y1, y2):
     pq.write_table(pa.table({"t": t, "U0": U0, "y1": y1, "y2": y2}), path)
 
 
-def noisy(clean, seed, rows):
+def noisy(clean, seed, rows, counts=0):
+    """The clean record's first `rows` samples with Gaussian noise of SIGMA on both speeds,
+    or, with `counts`, both speeds as encoders of that many counts per revolution read them
+    (differences of counts, from a first count drawn by `seed`)."""
     t, U0, we, ws = (c[:rows] for c in clean)
     rng = np.random.default_rng(seed)
+    if counts:
+        step = t[1] - t[0]
+        return (t, U0, bench_plant.counted(we, step, counts, rng),
+                bench_plant.counted(ws, step, counts, rng))
     return t, U0, we + SIGMA * rng.standard_normal(rows), ws + SIGMA * rng.standard_normal(rows)
 
 
@@ -122,6 +129,9 @@ def main():
     a.add_argument("--inputs", nargs="+", default=list(bench_plant.INPUTS))
     a.add_argument("--rates", nargs="+", default=["0", "1/h", "4/h"])
     a.add_argument("--draw", type=int, default=7)
+    a.add_argument("--counts", type=int, default=0,
+                   help="encoders of this many counts per revolution (speed from counts) "
+                        "instead of Gaussian noise")
     args = a.parse_args()
     params = bench_plant.draw(args.draw) if args.draw else dict(bench_plant.MODEL)
     print(f"plant: {' '.join(f'{k}={v:.5g}' for k, v in params.items())}")
@@ -131,7 +141,8 @@ def main():
         for input in args.inputs:
             clean = bench_plant.simulate(params, input, args.seconds, sigma=0.0)
             calibration = os.path.join(tmp, "calibration.parquet")
-            write(calibration, *noisy(clean, 1, int(CALIBRATION_SECONDS * 1000) + 1))
+            write(calibration, *noisy(clean, 1, int(CALIBRATION_SECONDS * 1000) + 1,
+                                      args.counts))
             kept = {}
             for rate in args.rates:
                 kept[rate] = os.path.join(tmp, f"{rate.replace('/', '_')}.cal")
@@ -144,7 +155,7 @@ def main():
             maxima = {rate: [] for rate in args.rates}
             for k in range(args.records):
                 record = os.path.join(tmp, "record.parquet")
-                write(record, *noisy(clean, 100 + k, len(clean[0])))
+                write(record, *noisy(clean, 100 + k, len(clean[0]), args.counts))
                 for rate in args.rates:
                     out = os.path.join(tmp, "r.csv")
                     subprocess.run(

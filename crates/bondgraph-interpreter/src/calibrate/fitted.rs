@@ -136,7 +136,7 @@ pub(super) fn fit_model(
         .filter(|e| e.determined == Determined::No)
         .map(|e| e.name.as_str())
         .collect::<Vec<_>>();
-    let unseen = if hidden.is_empty() {
+    let mut unseen = if hidden.is_empty() {
         String::new()
     } else {
         format!(
@@ -145,6 +145,17 @@ pub(super) fn fit_model(
             hidden.join(", ")
         )
     };
+    let lost: Vec<&str> = (found.estimates.iter())
+        .filter(|e| e.determined == Determined::Lost)
+        .map(|e| e.name.as_str())
+        .collect();
+    if !lost.is_empty() {
+        unseen.push_str(&format!(
+            "; {} kept at the model's values, the fit having run them out of all proportion \
+             (the record does not hold them), the others fitted without them",
+            lost.join(", ")
+        ));
+    }
     notes.push(format!(
         "the model fitted to it before the thresholds are set ({over}; keeping the model keeps \
          its values; 95 % intervals): {}{unseen}; the residuals' RMS there {}",
