@@ -64,7 +64,7 @@ fn differences(x: &[f64], order: usize) -> Vec<f64> {
 }
 
 /// The median of the magnitudes (0 for none).
-fn median_abs(d: &mut [f64]) -> f64 {
+pub(crate) fn median_abs(d: &mut [f64]) -> f64 {
     if d.is_empty() {
         return 0.0;
     }

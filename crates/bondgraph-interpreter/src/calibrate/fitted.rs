@@ -55,39 +55,12 @@ pub(super) fn fit_model(
     notes: &mut Vec<String>,
 ) -> (Vec<f64>, Vec<Vec<usize>>) {
     let rows = healthy.len().min(FIT_ROWS);
-    let (mut window, mut swamped) = fit_window(c, program, params, healthy, rows);
-    let mut fitted = fit_over(c, program, params, (healthy, rows, settled), window);
-    // A longer window needs more samples than a short record has: the shorter ones are
-    // tried in turn, as a fit over a noisier estimate beats none.
-    while let Err(Refused {
-        why: Refusal::Failed(IdentifyError::TooShort { .. }),
-        ..
-    }) = fitted
-    {
-        let Some(&shorter) = FIT_WINDOWS.iter().rev().find(|&&w| w < window) else {
-            break;
-        };
-        window = shorter;
-        swamped = swamped.filter(|&(shortest, _)| shortest < window);
-        fitted = fit_over(c, program, params, (healthy, rows, settled), window);
-    }
-    // A fit that ran away or moved parameters by factors over noisy estimates may hold
-    // over longer ones, whose noise is less: each is tried in turn.
-    let mut refused_over = None;
-    while let Err(refused) = &fitted {
-        if matches!(refused.why, Refusal::Failed(_)) {
-            break;
-        }
-        let Some(&longer) = (FIT_WINDOWS.iter()).find(|&&w| w > window && w <= longest(rows))
-        else {
-            break;
-        };
-        let again = fit_over(c, program, params, (healthy, rows, settled), longer);
-        if let Err(first) = std::mem::replace(&mut fitted, again) {
-            refused_over.get_or_insert((window, first.why));
-        }
-        window = longer;
-    }
+    let Searched {
+        window,
+        swamped,
+        refused_over,
+        fitted,
+    } = search(c, program, params, (healthy, rows, settled));
     let found = match fitted {
         Ok(found) => found,
         Err(refused) => {
@@ -172,6 +145,65 @@ pub(super) fn fit_model(
     (found.values, combined)
 }
 
+/// Where the windows were searched to: the window fitted over last, the shortest window's
+/// residuals against the least where the search began past it (see [`fit_window`]), the
+/// first window whose fit was refused before a longer one was tried, and the last fit.
+struct Searched {
+    window: usize,
+    swamped: Option<(usize, f64)>,
+    refused_over: Option<(usize, Refusal)>,
+    fitted: Result<Identification, Refused>,
+}
+
+/// The model fitted over the window [`fit_window`] chooses; where the record is too short
+/// for it, over each shorter one in turn, as a fit over a noisier estimate beats none; where
+/// it ran away or moved parameters by factors over noisy estimates, over each longer one in
+/// turn, whose noise is less.
+fn search(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    (healthy, rows, settled): (&Samples<'_>, usize, Option<f64>),
+) -> Searched {
+    let (mut window, mut swamped) = fit_window(c, program, params, healthy, rows);
+    let mut fitted = fit_over(c, program, params, (healthy, rows, settled), window);
+    // Too short for a window's fit: shorter ones.
+    while let Err(Refused {
+        why: Refusal::Failed(IdentifyError::TooShort { .. }),
+        ..
+    }) = fitted
+    {
+        let Some(&shorter) = FIT_WINDOWS.iter().rev().find(|&&w| w < window) else {
+            break;
+        };
+        window = shorter;
+        swamped = swamped.filter(|&(shortest, _)| shortest < window);
+        fitted = fit_over(c, program, params, (healthy, rows, settled), window);
+    }
+    // Run away or implausible: longer ones.
+    let mut refused_over = None;
+    while let Err(refused) = &fitted {
+        if matches!(refused.why, Refusal::Failed(_)) {
+            break;
+        }
+        let Some(&longer) = (FIT_WINDOWS.iter()).find(|&&w| w > window && w <= longest(rows))
+        else {
+            break;
+        };
+        let again = fit_over(c, program, params, (healthy, rows, settled), longer);
+        if let Err(first) = std::mem::replace(&mut fitted, again) {
+            refused_over.get_or_insert((window, first.why));
+        }
+        window = longer;
+    }
+    Searched {
+        window,
+        swamped,
+        refused_over,
+        fitted,
+    }
+}
+
 /// The window the model is fitted over, on the first `rows` samples of `healthy`: the
 /// shortest of [`FIT_WINDOWS`] (at most a twentieth of them) whose residuals at the model's
 /// values are within [`SWAMPED`] of the least, each residual by the median of its magnitude
@@ -252,10 +284,7 @@ fn medians(
         }
     });
     (series.into_iter())
-        .map(|mut s| {
-            let mid = s.len() / 2;
-            (!s.is_empty()).then(|| *s.select_nth_unstable_by(mid, f64::total_cmp).1)
-        })
+        .map(|mut s| (!s.is_empty()).then(|| crate::deviation::median_abs(&mut s)))
         .collect()
 }
 
