@@ -27,7 +27,9 @@ impl Probe {
     /// by).
     pub(super) fn of(time: &[f64], raw: &[&[f64]], seed: u64, rows: usize) -> Option<Probe> {
         let rows = time.len().min(rows);
-        let levels: Vec<Noise> = raw.iter().map(|c| level(c)).collect();
+        let levels: Vec<Noise> = (raw.iter())
+            .map(|c| level(&c[..c.len().min(PROBE_ROWS)]))
+            .collect();
         if levels.iter().all(|l| l.deviation() == 0.0) {
             return None;
         }
