@@ -32,6 +32,6 @@ pub use identify::{
     Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
     IdentifyError, Lost, Origin, Prefix, Reach, Record, Settings, Span, Stop, HELD_OUT,
 };
-pub use size::{SizeOver, Sized, Sizing, DOUBLINGS, SIZE_SAMPLES, SIZE_WINDOW, TOLD};
+pub use size::{SizeOver, Sized, Sizing, DOUBLINGS, EXPLAINED, SIZE_SAMPLES, SIZE_WINDOW, TOLD};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
 pub use walk::Walk;
