@@ -41,7 +41,7 @@ record):
 
 Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--draw 7]
                       [--inputs square sine closed] [--no-fdt] [--no-direct]
-                      [--substeps 10] [--nominal]
+                      [--substeps 10] [--nominal] [--variant "--estimator modulating" ...]
 """
 
 import argparse
@@ -247,6 +247,8 @@ def main():
                    help="leave out bgc with the relations as written")
     p.add_argument("--substeps", type=int, default=10,
                    help="faultdiagnosistoolbox's Euler steps per sample")
+    p.add_argument("--variant", action="append", default=[], metavar="ARGS",
+                   help="bgc again with these options added (one string), beside its defaults")
     p.add_argument("--nominal", dest="fitted", action="store_false",
                    help="give faultdiagnosistoolbox the model's values, not bgc's fitted ones")
     a = p.parse_args()
@@ -271,6 +273,7 @@ def main():
                 simulate(plant, record, a.seconds, input_name, 2, [(fault_name, factor, at)])
                 hows = [("bgc", [])] + ([] if a.no_direct else
                                         [("bgc --realise direct", ["--realise", "direct"])])
+                hows += [(f"bgc {v}", v.split()) for v in a.variant]
                 for how, extra in hows:
                     for name, t, r, alarm, level, ratio in bgc_residuals(a.bgc, record, healthy,
                                                                          extra):
