@@ -42,6 +42,7 @@ record):
 Usage: bench_noise.py [--bgc target/release/bgc] [--seconds 1000] [--draws 16] [--draw 7]
                       [--inputs square sine closed] [--no-fdt] [--no-direct]
                       [--substeps 10] [--nominal] [--variant "--estimator modulating" ...]
+                      [--partial]
 """
 
 import argparse
@@ -49,6 +50,7 @@ import contextlib
 import csv
 import importlib
 import io
+import math
 import os
 import subprocess
 import sys
@@ -164,6 +166,54 @@ def fdt_run(generator, data, params, substeps):
     return r[::substeps]
 
 
+def partial_run(sensor, data, p):
+    """A copy of the part of the model one encoder's reading is compared with, the other
+    encoder's measured speed imposed on it (`sensor` 1: the motor's current and speed and
+    the twist, driven by U0 and y2; 2: the twist and the load's speed, driven by y1), from
+    rest, by the classic Runge-Kutta scheme at the sample step, the signals joined by
+    straight lines between samples: the residual `y - ŷ` at each sample. A prototype of a
+    realisation bgc does not have yet, measured here beside the two it has."""
+    t, u, y1, y2 = (data[:, c].tolist() for c in range(4))
+    h = t[1] - t[0]
+    K, j0, half_gamma, N = p["K"], p["j0"], 0.5 * p["gamma"], p["N"]
+
+    def torque(z):
+        return K * z - 4.0 * K * j0 * math.tanh(half_gamma * z)
+
+    if sensor == 1:
+        Re, L, ke, Je, fe = p["Re"], p["L"], p["ke"], p["Je"], p["fe"]
+
+        def f(x, v, w):
+            i, w1, z = x
+            return ((v - Re * i - ke * w1) / L, (ke * i - fe * w1 - torque(z)) / Je,
+                    w1 - N * w)
+
+        drive, measured, out = (u, y2), y1, 1
+        x = (0.0, 0.0, 0.0)
+    else:
+        Js, fs = p["Js"], p["fs"]
+
+        def f(x, v, _):
+            z, w2 = x
+            return (v - N * w2, (N * torque(z) - fs * w2) / Js)
+
+        drive, measured, out = (y1, y1), y2, 1
+        x = (0.0, 0.0)
+    a, b = drive
+    r = [measured[0] - x[out]]
+    for k in range(len(t) - 1):
+        a0, a1, b0, b1 = a[k], a[k + 1], b[k], b[k + 1]
+        am, bm = 0.5 * (a0 + a1), 0.5 * (b0 + b1)
+        k1 = f(x, a0, b0)
+        k2 = f(tuple(xi + 0.5 * h * ki for xi, ki in zip(x, k1)), am, bm)
+        k3 = f(tuple(xi + 0.5 * h * ki for xi, ki in zip(x, k2)), am, bm)
+        k4 = f(tuple(xi + h * ki for xi, ki in zip(x, k3)), a1, b1)
+        x = tuple(xi + h / 6.0 * (c1 + 2.0 * c2 + 2.0 * c3 + c4)
+                  for xi, c1, c2, c3, c4 in zip(x, k1, k2, k3, k4))
+        r.append(measured[k + 1] - x[out])
+    return np.asarray(r)
+
+
 def deviation(x):
     """A column's white-noise deviation from its third differences, as bgc reads it."""
     d = np.abs(x[3:] - 3 * x[2:-1] + 3 * x[1:-2] - x[:-3])
@@ -249,6 +299,9 @@ def main():
                    help="faultdiagnosistoolbox's Euler steps per sample")
     p.add_argument("--variant", action="append", default=[], metavar="ARGS",
                    help="bgc again with these options added (one string), beside its defaults")
+    p.add_argument("--partial", action="store_true",
+                   help="also each encoder against a copy of the part of the model the other "
+                        "encoder drives (a prototype), thresholds by the same rule")
     p.add_argument("--nominal", dest="fitted", action="store_false",
                    help="give faultdiagnosistoolbox the model's values, not bgc's fitted ones")
     a = p.parse_args()
@@ -267,6 +320,11 @@ def main():
             params = fitted(a.bgc, healthy, tmp) if a.fitted and generators else PARAMS
             runs = {name: (lambda data, g=g: fdt_run(g, data, params, a.substeps))
                     for name, g in generators}
+            if a.partial:
+                if not generators:
+                    params = fitted(a.bgc, healthy, tmp) if a.fitted else PARAMS
+                runs.update({f"partial y{k}": (lambda data, k=k: partial_run(k, data, params))
+                             for k in (1, 2)})
             levels = {name: fdt_level(run, healthy_data, a.draws) for name, run in runs.items()}
             for fault_name, factor in FAULTS.items():
                 record = os.path.join(tmp, f"{input_name}_{fault_name}.csv")
@@ -282,7 +340,8 @@ def main():
                 data = read(record)
                 for name, run in runs.items():
                     r = run(data)
-                    report(f"{input_name} | {fault_name} | faultdiagnosistoolbox | {name}",
+                    tool = "prototype" if name.startswith("partial") else "faultdiagnosistoolbox"
+                    report(f"{input_name} | {fault_name} | {tool} | {name}",
                            data[:, 0], r, np.abs(r) > levels[name], at,
                            np.full(len(r), levels[name]))
 

@@ -24,6 +24,7 @@ Gumbel law fitted to those maxima (L-moments), beside the stated one for a recor
 
 Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
                        [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7] [--counts 0]
+                       [--where]
 """
 
 import argparse
@@ -80,10 +81,11 @@ def episodes(path):
 
 def nearest(path):
     """The record's largest |r|/threshold over every test (a held residual's onset test and
-    hold): how near it came to an alarm."""
+    hold): how near it came to an alarm; with the test and the instant it came nearest."""
     table = pacsv.read_csv(path)
     names = [c[6:] for c in table.column_names if c.startswith("alarm_")]
-    worst = 0.0
+    time = table["t"].to_numpy()
+    worst = (0.0, "", float("nan"))
     for name in names:
         pairs = [(name, f"threshold_{name}")]
         if f"hold_{name}" in table.column_names:
@@ -91,9 +93,10 @@ def nearest(path):
         for value, level in pairs:
             r = np.abs(table[value].to_numpy(zero_copy_only=False).astype(float))
             t = table[level].to_numpy(zero_copy_only=False).astype(float)
-            ratio = r / t
-            if np.isfinite(ratio).any():
-                worst = max(worst, float(np.nanmax(ratio[np.isfinite(ratio)])))
+            ratio = np.where(np.isfinite(r / t), r / t, -np.inf)
+            k = int(np.argmax(ratio))
+            if ratio[k] > worst[0]:
+                worst = (float(ratio[k]), value, float(time[k]))
     return worst
 
 
@@ -132,6 +135,8 @@ def main():
     a.add_argument("--counts", type=int, default=0,
                    help="encoders of this many counts per revolution (speed from counts) "
                         "instead of Gaussian noise")
+    a.add_argument("--where", action="store_true",
+                   help="print where each record came nearest to an alarm")
     args = a.parse_args()
     params = bench_plant.draw(args.draw) if args.draw else dict(bench_plant.MODEL)
     print(f"plant: {' '.join(f'{k}={v:.5g}' for k, v in params.items())}")
@@ -173,7 +178,10 @@ def main():
                 p = crossing(kept[rate])
                 predicted = args.records * args.seconds / CALIBRATION_SECONDS * p
                 runs, spans, records, samples = counts[rate]
-                near = maxima[rate]
+                near = [m[0] for m in maxima[rate]]
+                if args.where:
+                    for m in maxima[rate]:
+                        print(f"  nearest {m[0]:.3f} by {m[1]} at {m[2]:.3f} s")
                 stated = 1.0 - (1.0 - p) ** (args.seconds / CALIBRATION_SECONDS)
                 print(f"{input:7} {rate:6} {p:11.3g} {predicted:11.2f} {spans:7} {runs:10} "
                       f"{records:8} of {args.records}   {samples}   "
