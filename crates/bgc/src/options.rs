@@ -37,6 +37,10 @@ enum ResidualsArg {
     /// Each detector's reading against a copy of the model the inputs drive from rest (the
     /// output error), one per detector.
     Simulated,
+    /// Each detector's reading against a copy of the part of the model that the inputs and
+    /// the other detectors' measurements drive from rest, one per detector where another
+    /// detector measures a state.
+    Partial,
 }
 
 impl ResidualsArg {
@@ -46,6 +50,7 @@ impl ResidualsArg {
             ResidualsArg::Best => ResidualSet::Best,
             ResidualsArg::All => ResidualSet::All,
             ResidualsArg::Simulated => ResidualSet::Simulated,
+            ResidualsArg::Partial => ResidualSet::Partial,
         }
     }
 }

@@ -341,7 +341,7 @@ fn plot(
     c: &Compiled,
     faults: &[f64],
 ) -> Result<(), Failure> {
-    let (inputs, states) = (c.inputs.len(), c.states.len());
+    let (inputs, states) = (c.inputs.len(), c.model_states());
     let shown: Vec<usize> = (1..=inputs)
         .chain(1 + inputs + states..t.columns.len())
         .collect();

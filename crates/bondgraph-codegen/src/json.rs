@@ -328,6 +328,7 @@ fn isolability(out: &mut String, c: &Compiled) {
         ResidualSet::Best => "best",
         ResidualSet::All => "all",
         ResidualSet::Simulated => "simulated",
+        ResidualSet::Partial => "partial",
     };
     let _ = writeln!(
         out,

@@ -392,7 +392,29 @@ fn arrs(out: &mut String, c: &Compiled) {
             if simulated { ", simulated" } else { "" },
             write(arr.expr)
         );
-        if simulated {
+        let copy = (c.state_space.as_ref())
+            .and_then(|space| space.copies.iter().find(|k| Some(k.sensor) == arr.sensor));
+        if let Some(copy) = copy {
+            let imposed: Vec<&str> = (copy.imposed.iter())
+                .map(|&s| c.sensors[s].name.as_str())
+                .collect();
+            let _ = writeln!(
+                out,
+                "    where the states are those of a copy of the part of the model that {} \
+                 drive{} (each measurement in place of the state it measures) with the inputs \
+                 as commanded, from rest:",
+                imposed.join(", "),
+                if imposed.len() == 1 { "s" } else { "" }
+            );
+            for (k, rhs) in &copy.equations {
+                let _ = writeln!(
+                    out,
+                    "      der({}) = {}",
+                    c.states[*k].name,
+                    printer.text(*rhs)
+                );
+            }
+        } else if simulated {
             let _ = writeln!(
                 out,
                 "    where the states are those of a copy of the model: the state equations above, \

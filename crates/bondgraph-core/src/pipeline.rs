@@ -4,6 +4,7 @@
 use crate::causality::{assign, Causal, Mode};
 use crate::fdi::candidates::{self, Candidate, Origin, ResidualSet};
 use crate::fdi::isolability::Classes;
+use crate::fdi::partial::PartialCopy;
 use crate::fdi::simulated::{self, Simulated};
 use crate::fdi::Component;
 use crate::fdi::{diagnose, Diagnosis, Fsm};
@@ -45,6 +46,8 @@ pub(crate) struct Diagnosed {
     pub unrealised: Vec<candidates::Unrealised>,
     /// The detectors' simulated residuals that the candidates hold.
     pub simulated: Vec<Simulated>,
+    /// For each of them, the partial copy it runs, if it runs one rather than the model.
+    pub copies: Vec<Option<PartialCopy>>,
 }
 
 impl Diagnosed {
@@ -120,6 +123,32 @@ fn every_simulated(
     found
 }
 
+/// Adds to `list` every detector's residual against its partial copy (see
+/// [`crate::fdi::partial`]), with the copies.
+fn every_partial(
+    model: &BondGraph,
+    (integral, state): (&Causal, &StateSpace),
+    fsm: &Fsm,
+    list: &mut Vec<Candidate>,
+) -> (Vec<Simulated>, Vec<Option<PartialCopy>>) {
+    let components: Vec<Component> = fsm.rows.iter().map(|r| r.component.clone()).collect();
+    if state.outputs.len() * integral.system.equations.len() > MAX_SIMULATED_WORK {
+        return (Vec::new(), Vec::new());
+    }
+    let index = crate::fdi::RowIndex::new(&components);
+    let (found, copies): (Vec<Simulated>, Vec<PartialCopy>) =
+        simulated::partial(model, integral, state)
+            .into_iter()
+            .unzip();
+    list.extend(found.iter().enumerate().map(|(k, s)| Candidate {
+        origin: Origin::Simulated(k),
+        without: Vec::new(),
+        order: 0,
+        rows: simulated::rows(s, &components, &index),
+    }));
+    (found, copies.into_iter().map(Some).collect())
+}
+
 /// Adds to `list` the detectors' simulated residuals, when together they tell apart classes
 /// that the derived residuals do not: a residual that needs a copy of the model run from a
 /// known state is kept for what no relation of measured signals can show. Returns those
@@ -160,11 +189,18 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
     };
     let rows = shown_by(&fsm, d.arrs.len());
     let mut found = candidates::candidates(model, d, rows, &components, &possible);
-    let simulated = match set {
-        ResidualSet::PerSensor => Vec::new(),
-        ResidualSet::Simulated => every_simulated(model, simulation, &fsm, &mut found.list),
+    let (simulated, copies) = match set {
+        ResidualSet::PerSensor => (Vec::new(), Vec::new()),
+        ResidualSet::Simulated => {
+            let found = every_simulated(model, simulation, &fsm, &mut found.list);
+            let copies = found.iter().map(|_| None).collect();
+            (found, copies)
+        }
+        ResidualSet::Partial => every_partial(model, simulation, &fsm, &mut found.list),
         ResidualSet::Best | ResidualSet::All => {
-            add_simulated(model, simulation, &fsm, &mut found.list)
+            let found = add_simulated(model, simulation, &fsm, &mut found.list);
+            let copies = found.iter().map(|_| None).collect();
+            (found, copies)
         }
     };
     let all: Vec<&Candidate> = found.list.iter().collect();
@@ -183,6 +219,7 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
         capped: found.capped,
         unrealised: found.unrealised,
         simulated,
+        copies,
     }
 }
 

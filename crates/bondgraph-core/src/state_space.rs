@@ -317,7 +317,7 @@ fn solve_rates(
 }
 
 /// Renumbers `Leaf::State` to the independent states only.
-fn renumber(
+pub(crate) fn renumber(
     pool: &mut Pool,
     states: &mut [StateEquation],
     outputs: &mut [(NodeId, ExprId)],

@@ -254,9 +254,10 @@ fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
                     "best" => ResidualSet::Best,
                     "all" => ResidualSet::All,
                     "simulated" => ResidualSet::Simulated,
+                    "partial" => ResidualSet::Partial,
                     other => {
                         return Err(format!(
-                    "`residuals = {other}`: expected `per_sensor`, `best`, `all` or `simulated`"
+                    "`residuals = {other}`: expected `per_sensor`, `best`, `all`, `simulated` or `partial`"
                 ))
                     }
                 }

@@ -24,8 +24,10 @@ fn residual_set(name: &str) -> PyResult<ResidualSet> {
         "best" => Ok(ResidualSet::Best),
         "all" => Ok(ResidualSet::All),
         "simulated" => Ok(ResidualSet::Simulated),
+        "partial" => Ok(ResidualSet::Partial),
         other => Err(PyValueError::new_err(format!(
-            "residuals={other:?}: expected \"per-sensor\", \"best\", \"all\" or \"simulated\""
+            "residuals={other:?}: expected \"per-sensor\", \"best\", \"all\", \"simulated\" \
+             or \"partial\""
         ))),
     }
 }

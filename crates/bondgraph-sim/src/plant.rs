@@ -258,7 +258,7 @@ impl Builder<'_> {
             .iter()
             .map(|l| (l.name.clone(), import(&mut self.pool, l.residual)))
             .collect();
-        let mut rhs = vec![self.pool.num(0.0); c.states.len()];
+        let mut rhs = vec![self.pool.num(0.0); c.model_states()];
         for (k, e) in &space.equations {
             rhs[k.index()] = import(&mut self.pool, *e);
         }
@@ -442,7 +442,9 @@ impl Builder<'_> {
             roots.extend(found.iter().map(|&(_, arg)| arg));
             ints.extend(found);
         }
-        let mut state_names: Vec<String> = c.states.iter().map(|(_, s)| s.name.clone()).collect();
+        let mut state_names: Vec<String> = (c.states.iter().take(c.model_states()))
+            .map(|(_, s)| s.name.clone())
+            .collect();
         let model_states = state_names.len();
         let integrals: FastMap<Id, usize> = ints
             .iter()
@@ -521,7 +523,7 @@ impl Builder<'_> {
         let mut x = vec![0.0; n];
         for s in &scenario.initial {
             match position(
-                self.c.states.iter().map(|(_, st)| st.name.as_str()),
+                (self.c.states.iter().take(self.c.model_states())).map(|(_, st)| st.name.as_str()),
                 &s.name.name,
             ) {
                 Some(k) => x[k] = s.value,
@@ -666,7 +668,12 @@ impl Builder<'_> {
         let names: Vec<&str> = (c.parameters.values().map(|p| p.name.as_str()))
             .chain(c.inputs.values().map(|u| u.name.as_str()))
             .chain(c.sensors.values().map(|s| s.name.as_str()))
-            .chain(c.states.values().map(|s| s.name.as_str()))
+            .chain(
+                c.states
+                    .values()
+                    .take(c.model_states())
+                    .map(|s| s.name.as_str()),
+            )
             .collect();
         let near = bondgraph_core::closest(&name.name, names.into_iter());
         let mut d = Diagnostic::error(

@@ -303,6 +303,9 @@ struct Plant {
     rhs: Vec<VId>,
     /// How many states the plant has.
     states: usize,
+    /// For each state of the copy, the plant's state it starts from: its own, or for a
+    /// partial copy's the model's state of the same name.
+    starts: Vec<usize>,
     /// Each detector's output, to size the faults put on it.
     outputs: Vec<(Handle<Sensor>, VId)>,
     integrals: Vec<VId>,
@@ -657,6 +660,20 @@ fn through_crossings(healthy: &Run<'_>, initial: &[Vec<f64>]) -> (ZeroCrossings,
     (summary, jumps)
 }
 
+/// For each state, the model's state its copy starts from: itself, or for a partial copy's
+/// the model's state of the same name.
+fn starts(c: &Compiled) -> Vec<usize> {
+    let model = c.model_states();
+    (c.states.values().enumerate())
+        .map(|(k, s)| match s.copy {
+            None => k,
+            Some(_) => (c.states.values().take(model))
+                .position(|m| m.name == s.name)
+                .unwrap_or(k),
+        })
+        .collect()
+}
+
 /// The input a source applies, when it applies exactly one that no other component applies:
 /// a fault of that actuator is then a fault of the input as the plant receives it.
 /// Whether each state's element keeps integral causality in diagnosis: the ARRs then read its
@@ -669,7 +686,10 @@ fn held_in_diagnosis(c: &Compiled) -> Vec<bool> {
             (r.storage.iter()).any(|(name, k)| name == element && *k == StorageCausality::Integral)
         })
     };
-    c.states.values().map(|s| held(&s.element)).collect()
+    // A partial copy's state is none of the plant's: it stays at zero there.
+    (c.states.values())
+        .map(|s| s.copy.is_some() || held(&s.element))
+        .collect()
 }
 
 fn actuator(c: &Compiled, comp: &Component) -> Option<Handle<Input>> {
@@ -725,23 +745,32 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
     for (k, e) in &space.equations {
         rhs[k.index()] = pool.import_from(&c.exprs, *e, plant_leaf);
     }
+    let mut outputs: HashMap<Handle<Sensor>, VId> = HashMap::new();
+    for (s, e) in &space.outputs {
+        outputs.insert(*s, pool.import_from(&c.exprs, *e, plant_leaf));
+    }
     if c.arrs.iter().any(|a| a.form == ResidualForm::Simulated) {
+        // A partial copy reads what a detector measures: the plant's output.
         let copy_leaf = |p: &mut Pool<V>, s: Symbol| match s {
             Symbol::Parameter(k) => p.leaf(V::Nominal(k)),
             Symbol::Input(u, n) => p.leaf(V::Input(u, n)),
             Symbol::State(k) => p.leaf(V::Estimate(k)),
+            Symbol::Sensor(s, 0) => match outputs.get(&s) {
+                Some(&y) => {
+                    let fault = p.leaf(V::SensorFault(s, 0));
+                    p.add(y, fault)
+                }
+                None => p.num(f64::NAN),
+            },
             Symbol::Sensor(..) | Symbol::Auxiliary(..) | Symbol::Time => p.leaf(V::Time),
             Symbol::Loop(_) | Symbol::Root(..) => p.num(f64::NAN),
         };
         let mut copy = vec![pool.num(0.0); n];
-        for (k, e) in &space.equations {
+        let copies = space.copies.iter().flat_map(|k| &k.equations);
+        for (k, e) in space.equations.iter().chain(copies) {
             copy[k.index()] = pool.import_from(&c.exprs, *e, copy_leaf);
         }
         rhs.extend(copy);
-    }
-    let mut outputs: HashMap<Handle<Sensor>, VId> = HashMap::new();
-    for (s, e) in &space.outputs {
-        outputs.insert(*s, pool.import_from(&c.exprs, *e, plant_leaf));
     }
     let loops: Vec<VId> = (space.loops.iter())
         .map(|l| pool.import_from(&c.exprs, l.residual, plant_leaf))
@@ -874,6 +903,7 @@ fn plant(c: &Compiled, space: &bondgraph_core::StateSpace) -> Option<Plant> {
         roots: laws.len(),
         rhs,
         states: n,
+        starts: starts(c),
         outputs,
         integrals,
         residuals,
@@ -1346,7 +1376,7 @@ impl Run<'_> {
         let mut x: Vec<f64> = x0.to_vec();
         // The copy of the model simulated residuals run starts where the plant does.
         if self.plant.rhs.len() > self.plant.states {
-            x.extend_from_slice(x0);
+            x.extend(self.plant.starts.iter().map(|&k| x0[k]));
         }
         x.extend(std::iter::repeat_n(0.0, self.plant.integrals.len()));
         x

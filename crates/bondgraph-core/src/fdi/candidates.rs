@@ -52,13 +52,20 @@ pub enum ResidualSet {
     /// Each detector's simulated residual only: its reading against a copy of the model
     /// that the inputs drive from rest (the output error), one per detector.
     Simulated,
+    /// Each detector's reading against a copy of the part of the model that the inputs and
+    /// the other detectors' measurements drive from rest, one per detector where another
+    /// detector measures a state (see `fdi::partial`).
+    Partial,
 }
 
 impl ResidualSet {
     /// Whether it is one residual per detector, with no candidates derived beyond the whole
     /// model's.
     pub(crate) fn per_detector(self) -> bool {
-        matches!(self, ResidualSet::PerSensor | ResidualSet::Simulated)
+        matches!(
+            self,
+            ResidualSet::PerSensor | ResidualSet::Simulated | ResidualSet::Partial
+        )
     }
 }
 
@@ -566,7 +573,7 @@ pub(crate) fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usiz
             .collect(),
         ResidualSet::All => (0..list.len()).collect(),
         ResidualSet::Best => best(list, n),
-        ResidualSet::Simulated => (0..list.len())
+        ResidualSet::Simulated | ResidualSet::Partial => (0..list.len())
             .filter(|&k| matches!(list[k].origin, Origin::Simulated(_)))
             .collect(),
     }

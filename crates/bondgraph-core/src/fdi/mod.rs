@@ -10,6 +10,7 @@ pub(crate) mod eliminate;
 mod fsm;
 pub(crate) mod isolability;
 mod operator;
+pub(crate) mod partial;
 pub(crate) mod placement;
 pub(crate) mod roots;
 mod sensitivity;

@@ -30,6 +30,9 @@ pub(crate) struct Simulated {
     pub lets: BTreeSet<LetId>,
     /// The parameters the output and the right-hand sides of the states it reads hold.
     pub parameters: BTreeSet<ParamId>,
+    /// The detectors whose measurements drive the copy (a partial copy's; none for a copy
+    /// of the whole model).
+    pub imposed: Vec<NodeId>,
 }
 
 /// The simulated residual of each detector, when the state equations are explicit, complete
@@ -48,25 +51,58 @@ pub(crate) fn simulated(
     if !space.problems.is_empty() || !space.implicit.is_empty() || differentiates {
         return Vec::new();
     }
-    let rate: HashMap<NodeId, usize> = integral
-        .system
-        .states
-        .iter()
-        .filter_map(|s| Some((s.element, integral.solved.solved_by[s.rate.index()]?)))
-        .collect();
+    let rate = rates(integral);
     space
         .outputs
         .iter()
         .filter_map(|&(sensor, output)| {
             let start = computed_at(model, integral, sensor)?;
-            let (nodes, lets) = cone(model, integral, &rate, start);
+            let (nodes, lets) = cone(model, integral, &rate, start, &BTreeSet::new());
             Some(Simulated {
                 sensor,
                 nodes,
                 lets,
                 parameters: parameters(space, output),
+                imposed: Vec::new(),
             })
         })
+        .collect()
+}
+
+/// Each partial copy of the model (see [`super::partial`]) as a simulated residual: the
+/// nodes and `let`s its output is computed from stop at what the imposed detectors measure.
+pub(crate) fn partial(
+    model: &BondGraph,
+    integral: &Causal,
+    space: &StateSpace,
+) -> Vec<(Simulated, super::partial::PartialCopy)> {
+    if simulated(model, integral, space).is_empty() {
+        return Vec::new();
+    }
+    let rate = rates(integral);
+    super::partial::partial_copies(space)
+        .into_iter()
+        .filter_map(|copy| {
+            let start = computed_at(model, integral, copy.own)?;
+            let imposed: BTreeSet<NodeId> = copy.imposed.iter().copied().collect();
+            let (nodes, lets) = cone(model, integral, &rate, start, &imposed);
+            let output = copy.space.outputs.first()?.1;
+            let found = Simulated {
+                sensor: copy.own,
+                nodes,
+                lets,
+                parameters: parameters(&copy.space, output),
+                imposed: copy.imposed.clone(),
+            };
+            Some((found, copy))
+        })
+        .collect()
+}
+
+/// The equation that solves each state's rate, by its storage element.
+fn rates(integral: &Causal) -> HashMap<NodeId, usize> {
+    (integral.system.states.iter())
+        .filter_map(|s| Some((s.element, integral.solved.solved_by[s.rate.index()]?)))
         .collect()
 }
 
@@ -78,14 +114,21 @@ fn computed_at(model: &BondGraph, integral: &Causal, sensor: NodeId) -> Option<u
 }
 
 /// The nodes and `let`s of every equation `start` depends on: through the unknowns it reads,
-/// the rate of each state it reads, and the output of each detector a `let` of it reads.
+/// the rate of each state it reads, and the output of each detector a `let` of it reads;
+/// not through what a detector of `imposed` measures, which is read from it.
 fn cone(
     model: &BondGraph,
     integral: &Causal,
     rate: &HashMap<NodeId, usize>,
     start: usize,
+    imposed: &BTreeSet<NodeId>,
 ) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
     let eqs = &integral.system.equations;
+    let measured: BTreeSet<usize> = (imposed.iter())
+        .filter_map(|&d| model.detector_junction(d))
+        .filter_map(|j| integral.system.var(Var::Common(j)))
+        .map(|v| v.index())
+        .collect();
     let (mut nodes, mut lets) = (BTreeSet::new(), BTreeSet::new());
     let mut seen = BTreeSet::new();
     let mut stack = vec![start];
@@ -97,13 +140,15 @@ fn cone(
         nodes.insert(eq.owner);
         lets.extend(eq.lets.iter().copied());
         stack.extend(
-            eq.vars
-                .iter()
+            (eq.vars.iter())
+                .filter(|v| !measured.contains(&v.index()))
                 .filter_map(|v| integral.solved.solved_by[v.index()]),
         );
         stack.extend(rate.get(&eq.owner).copied());
         for s in super::isolability::sensors_read(&integral.system, eq) {
-            stack.extend(computed_at(model, integral, s));
+            if !imposed.contains(&s) {
+                stack.extend(computed_at(model, integral, s));
+            }
         }
     }
     (nodes, lets)
@@ -147,6 +192,7 @@ pub(crate) fn rows(s: &Simulated, components: &[Component], index: &RowIndex) ->
     }
     rows.extend(s.lets.iter().filter_map(|l| index.modulation(*l)));
     rows.extend(index.node(s.sensor));
+    rows.extend(s.imposed.iter().filter_map(|&d| index.node(d)));
     rows.into_iter()
         .filter(|&r| survives(&components[r]))
         .collect()
@@ -204,6 +250,54 @@ mod tests {
             vec![
                 ("y1".to_string(), expect("y1")),
                 ("y2".to_string(), expect("y2"))
+            ]
+        );
+    }
+
+    /// The rows each partial copy of `text` shows, by component name.
+    fn shown_partial(text: &str) -> Vec<(String, Vec<String>)> {
+        let (model, diagnostics) = crate::graph::load(text);
+        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
+        let integral = assign(&model, Mode::Integral);
+        let space = state_space_of(&model, &integral);
+        let components = components(&model);
+        let index = RowIndex::new(&components);
+        partial(&model, &integral, &space)
+            .iter()
+            .map(|(s, _)| {
+                let names = rows(s, &components, &index)
+                    .into_iter()
+                    .map(|r| components[r].name.clone())
+                    .collect();
+                (model.node(s.sensor).name.clone(), names)
+            })
+            .collect()
+    }
+
+    /// On the bench, the motor's partial copy shows the motor's side, the link, the gear and
+    /// the backlash, and both encoders (the load's drives it), not the load; the load's copy
+    /// the load's side, the link, the gear and the backlash, and both encoders.
+    #[test]
+    fn each_encoder_of_the_bench_is_copied_with_its_side_only() {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../models/backlash_bench.bg"
+        ))
+        .expect("the bench model");
+        let names = |n: &[&str]| -> Vec<String> { n.iter().map(|s| s.to_string()).collect() };
+        assert_eq!(
+            shown_partial(&text),
+            vec![
+                (
+                    "y1".to_string(),
+                    names(&[
+                        "U", "Rm", "Lm", "motor", "Jm", "fm", "Wm", "link", "gear", "w", "y1", "y2"
+                    ])
+                ),
+                (
+                    "y2".to_string(),
+                    names(&["link", "gear", "Jl", "fl", "Wl", "w", "y1", "y2"])
+                ),
             ]
         );
     }

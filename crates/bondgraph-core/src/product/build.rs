@@ -247,8 +247,9 @@ impl<'m> Builder<'m> {
         exprs: &mut Exprs,
         pool: &Pool,
         root: crate::symbolic::ExprId,
-        states: bool,
+        reading: Reading,
     ) -> Result<Expr, Refusal> {
+        let states = reading == Reading::States;
         let e = exprs.try_import(pool, root, &mut |p, leaf| {
             let symbol = match leaf {
                 Leaf::Param(k) => Symbol::Parameter(Handle::new(k.index())),
@@ -258,7 +259,11 @@ impl<'m> Builder<'m> {
                 }
                 Leaf::Sensor(..) => return Err(Refusal::Sensor),
                 Leaf::State(k) if states => Symbol::State(Handle::new(k.index())),
-                Leaf::Aux(k, n) if !states => match self.auxiliary_of.get(&k) {
+                Leaf::State(k) => match reading {
+                    Reading::Copy(base) => Symbol::State(Handle::new(base + k.index())),
+                    _ => return Err(Refusal::Unknown),
+                },
+                Leaf::Aux(k, n) if reading == Reading::Arr => match self.auxiliary_of.get(&k) {
                     Some(Ok(h)) => Symbol::Auxiliary(*h, n),
                     Some(Err(why)) => return Err(*why),
                     None => return Err(Refusal::Unknown),
@@ -267,12 +272,12 @@ impl<'m> Builder<'m> {
                 Leaf::Var(v) if states => {
                     Symbol::Loop(*self.loop_of.get(&v).ok_or(Refusal::Unknown)?)
                 }
-                Leaf::Root(k, n) if !states => match self.root_of.get(&k) {
+                Leaf::Root(k, n) if reading == Reading::Arr => match self.root_of.get(&k) {
                     Some(Ok(h)) => Symbol::Root(*h, n),
                     Some(Err(why)) => return Err(*why),
                     None => return Err(Refusal::Unknown),
                 },
-                Leaf::State(_) | Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) | Leaf::Root(..) => {
+                Leaf::Var(_) | Leaf::Tear(..) | Leaf::Aux(..) | Leaf::Root(..) => {
                     return Err(Refusal::Unknown)
                 }
             };
@@ -306,19 +311,11 @@ impl<'m> Builder<'m> {
             .map(|(k, l)| (l.var, Handle::new(k)))
             .collect();
         for s in &a.state.states {
-            let capacitor = matches!(&m.node(s.element).kind, NodeKind::Element(k, _) if k.base() == ElementKind::C);
-            let detector = matches!(&m.node(s.element).kind, NodeKind::Detector(_));
-            let kind = match (detector, capacitor, s.co_energy) {
-                (true, _, _) => StateKind::Measured,
-                (_, true, false) => StateKind::Displacement,
-                (_, true, true) => StateKind::Effort,
-                (_, _, false) => StateKind::Momentum,
-                (_, _, true) => StateKind::Flow,
-            };
             c.states.push(State {
                 name: s.name.clone(),
                 element: m.node(s.element).name.clone(),
-                kind,
+                kind: state_kind(m, s),
+                copy: None,
             });
         }
         let stage_failed = a.state.problems.iter().any(Diagnostic::is_error);
@@ -326,11 +323,12 @@ impl<'m> Builder<'m> {
             equations: Vec::new(),
             outputs: Vec::new(),
             loops: Vec::new(),
+            copies: Vec::new(),
         };
         let mut refused: Vec<(String, NodeId, Refusal)> = Vec::new();
         let names = self.loop_names(c, &a.state.implicit);
         for (l, name) in a.state.implicit.iter().zip(names) {
-            match self.import(&mut c.exprs, &a.state.pool, l.residual, true) {
+            match self.import(&mut c.exprs, &a.state.pool, l.residual, Reading::States) {
                 Ok(residual) => space.loops.push(LoopUnknown {
                     name,
                     description: l.description.clone(),
@@ -341,13 +339,13 @@ impl<'m> Builder<'m> {
             }
         }
         for (k, s) in a.state.states.iter().enumerate() {
-            match self.import(&mut c.exprs, &a.state.pool, s.rhs, true) {
+            match self.import(&mut c.exprs, &a.state.pool, s.rhs, Reading::States) {
                 Ok(e) => space.equations.push((Handle::new(k), e)),
                 Err(r) => refused.push((format!("der({})", s.name), s.element, r)),
             }
         }
         for (sensor, e) in &a.state.outputs {
-            match self.import(&mut c.exprs, &a.state.pool, *e, true) {
+            match self.import(&mut c.exprs, &a.state.pool, *e, Reading::States) {
                 Ok(e) => space.outputs.push((self.sensor_of[sensor], e)),
                 Err(r) => {
                     refused.push((format!("the output {}", m.node(*sensor).name), *sensor, r))
@@ -394,7 +392,7 @@ impl<'m> Builder<'m> {
             let derivatives: Result<Vec<Expr>, Refusal> = aux
                 .derivatives
                 .iter()
-                .map(|&e| self.import(&mut c.exprs, pool, e, false))
+                .map(|&e| self.import(&mut c.exprs, pool, e, Reading::Arr))
                 .collect();
             let result = derivatives.map(|derivatives| {
                 let name = loop {
@@ -478,10 +476,10 @@ impl<'m> Builder<'m> {
         let name = format!("{letter}_{element}");
         let copy = |this: &mut Self, c: &mut Compiled, h: Handle<Root>| {
             this.root_of.insert(k, Ok(h));
-            let residual = this.import(&mut c.exprs, pool, law.residual, false)?;
-            let slope = this.import(&mut c.exprs, pool, law.slope, false)?;
+            let residual = this.import(&mut c.exprs, pool, law.residual, Reading::Arr)?;
+            let slope = this.import(&mut c.exprs, pool, law.slope, Reading::Arr)?;
             let derivatives = (law.derivatives.iter())
-                .map(|&d| this.import(&mut c.exprs, pool, d, false))
+                .map(|&d| this.import(&mut c.exprs, pool, d, Reading::Arr))
                 .collect::<Result<Vec<_>, _>>()?;
             Ok::<_, Refusal>((residual, slope, derivatives))
         };
@@ -542,7 +540,7 @@ impl<'m> Builder<'m> {
             let pool = &d.causal.system.pool;
             for (pick, k) in picks {
                 let arr = &d.arrs[k];
-                match self.import(&mut c.exprs, pool, arr.residual, false) {
+                match self.import(&mut c.exprs, pool, arr.residual, Reading::Arr) {
                     Ok(e) => {
                         shown.push(&pick.rows);
                         let (reads, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, e);
@@ -569,7 +567,11 @@ impl<'m> Builder<'m> {
         }
         for pick in &dd.chosen {
             if let Origin::Simulated(k) = pick.origin {
-                if let Some(arr) = self.simulated(c, &dd.simulated[k]) {
+                let arr = match dd.copies.get(k).and_then(Option::as_ref) {
+                    Some(copy) => self.partial(c, &dd.simulated[k], copy),
+                    None => self.simulated(c, &dd.simulated[k]),
+                };
+                if let Some(arr) = arr {
                     shown.push(&pick.rows);
                     c.arrs.push(arr);
                 }
@@ -668,6 +670,98 @@ impl Builder<'_> {
             realisation: Realisation::Direct,
             // The copy holds the state equations, whose inversions the simulation's
             // causality states.
+            inverted: Vec::new(),
+        })
+    }
+}
+
+/// Which variable of its element a state is.
+fn state_kind(m: &BondGraph, s: &crate::state_space::StateEquation) -> StateKind {
+    let capacitor =
+        matches!(&m.node(s.element).kind, NodeKind::Element(k, _) if k.base() == ElementKind::C);
+    let detector = matches!(&m.node(s.element).kind, NodeKind::Detector(_));
+    match (detector, capacitor, s.co_energy) {
+        (true, _, _) => StateKind::Measured,
+        (_, true, false) => StateKind::Displacement,
+        (_, true, true) => StateKind::Effort,
+        (_, _, false) => StateKind::Momentum,
+        (_, _, true) => StateKind::Flow,
+    }
+}
+
+/// What an imported expression is: which leaves it may hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reading {
+    /// An ARR's: signals and their derivatives, auxiliary signals, roots; no state.
+    Arr,
+    /// The state equations': states and loop unknowns, inputs; no measured signal.
+    States,
+    /// A partial copy's: its states (after the first `usize` of [`Compiled::states`]),
+    /// inputs and measured signals.
+    Copy(usize),
+}
+
+impl Builder<'_> {
+    /// A detector's residual against its partial copy, `y − ŷ`: the copy's states join
+    /// [`Compiled::states`], marked as its, and its equations the state space's copies.
+    /// `None` when the model's state equations were not written.
+    fn partial(
+        &self,
+        c: &mut Compiled,
+        s: &fdi::simulated::Simulated,
+        copy: &fdi::partial::PartialCopy,
+    ) -> Option<Arr> {
+        c.state_space.as_ref()?;
+        let sensor = self.sensor_of[&s.sensor];
+        let base = c.states.len();
+        let pool = &copy.space.pool;
+        let mut equations = Vec::with_capacity(copy.space.states.len());
+        for (k, st) in copy.space.states.iter().enumerate() {
+            let rhs = self
+                .import(&mut c.exprs, pool, st.rhs, Reading::Copy(base))
+                .ok()?;
+            equations.push((Handle::new(base + k), rhs));
+        }
+        let (_, output) = copy.space.outputs.first()?;
+        let output = self
+            .import(&mut c.exprs, pool, *output, Reading::Copy(base))
+            .ok()?;
+        for st in &copy.space.states {
+            c.states.push(State {
+                name: st.name.clone(),
+                element: self.model.node(st.element).name.clone(),
+                kind: state_kind(self.model, st),
+                copy: Some(sensor),
+            });
+        }
+        let y = c.exprs.leaf(Symbol::Sensor(sensor, 0));
+        let expr = c.exprs.sub(y, output);
+        let (_, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, expr);
+        // What it reads: its detector, and the inputs and measurements that drive the copy.
+        let driven = (equations.iter()).fold(expr, |a, r| c.exprs.add(a, r.1));
+        let (reads, _) = reads(&c.exprs, &c.auxiliaries, &c.roots, driven);
+        let junction = self.model.detector_junction(s.sensor)?;
+        let imposed = copy.imposed.iter().map(|d| self.sensor_of[d]).collect();
+        c.state_space.as_mut()?.copies.push(PartialCopy {
+            sensor,
+            imposed,
+            equations,
+            output,
+        });
+        Some(Arr {
+            name: String::new(),
+            junction: self.model.node(junction).name.clone(),
+            sensor: Some(sensor),
+            expr,
+            form: ResidualForm::Simulated,
+            components: Vec::new(),
+            without: Vec::new(),
+            reads,
+            integrals,
+            auxiliaries: Vec::new(),
+            roots: Vec::new(),
+            sensitivities: None,
+            realisation: Realisation::Direct,
             inverted: Vec::new(),
         })
     }

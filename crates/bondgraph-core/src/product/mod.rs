@@ -172,6 +172,25 @@ pub struct State {
     pub element: String,
     /// Which variable of the element it is.
     pub kind: StateKind,
+    /// The detector whose partial copy holds it (see [`PartialCopy`]); `None` for the
+    /// model's own states, which come first.
+    pub copy: Option<Handle<Sensor>>,
+}
+
+/// A copy of the part of the model that the other detectors' measured signals drive, run
+/// for one detector's simulated residual: its states' equations read those signals where
+/// the model's would read the states they measure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartialCopy {
+    /// The detector whose reading its output is compared with.
+    pub sensor: Handle<Sensor>,
+    /// The detectors whose measurements drive it.
+    pub imposed: Vec<Handle<Sensor>>,
+    /// One right-hand side per state of the copy (states of [`Compiled::states`] whose
+    /// `copy` is `sensor`), in order.
+    pub equations: Vec<(Handle<State>, Expr)>,
+    /// What the copy gives for `sensor`'s reading.
+    pub output: Expr,
 }
 
 /// The model in state-space form: `d(state)/dt = rhs` and each detector's output, with
@@ -185,6 +204,8 @@ pub struct StateSpace {
     /// The unknowns of nonlinear algebraic loops the right-hand sides and outputs read
     /// ([`Symbol::Loop`]); empty when the state equations are explicit.
     pub loops: Vec<LoopUnknown>,
+    /// The partial copies the residuals run, if any.
+    pub copies: Vec<PartialCopy>,
 }
 
 /// An unknown of a nonlinear algebraic loop: the laws of the loop set each other, and the
@@ -768,6 +789,14 @@ pub(crate) fn roots_read(
         }
     }
     out.into_iter().collect()
+}
+
+impl Compiled {
+    /// How many of [`Compiled::states`] are the model's own (the partial copies' come after
+    /// them): the simulation's state vector.
+    pub fn model_states(&self) -> usize {
+        self.states.values().filter(|s| s.copy.is_none()).count()
+    }
 }
 
 impl Compiled {

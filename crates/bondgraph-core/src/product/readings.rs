@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use super::{Compiled, Expr, Handle, Input, ResidualForm, Root, Signal, State, Symbol};
+use super::{Compiled, Expr, Handle, ResidualForm, Root, Signal, State, Symbol};
 use crate::expr::BinOp;
 use crate::symbolic::Node;
 
@@ -35,8 +35,9 @@ pub struct ModelCopy {
     pub rates: Vec<Expr>,
     /// The arguments of the `int(..)` the state equations hold, in the order of their states.
     pub integrals: Vec<Expr>,
-    /// The inputs the rates read, in declaration order.
-    pub inputs: Vec<Handle<Input>>,
+    /// The signals the rates read, in [`Signal`] order: the inputs, then the measured
+    /// signals a partial copy reads.
+    pub inputs: Vec<Signal>,
 }
 
 /// Everything the ARRs read from a bench, in a fixed order.
@@ -125,7 +126,8 @@ impl Compiled {
         }
         let space = self.state_space.as_ref()?;
         let mut rates = vec![None; self.states.len()];
-        for &(k, e) in &space.equations {
+        let copies = space.copies.iter().flat_map(|c| &c.equations);
+        for &(k, e) in space.equations.iter().chain(copies) {
             rates[k.index()] = Some(e);
         }
         let mut rates: Vec<Expr> = rates.into_iter().collect::<Option<_>>()?;
@@ -138,10 +140,11 @@ impl Compiled {
             }
         });
         rates.extend(integrals.iter().copied());
-        let mut inputs: BTreeSet<Handle<Input>> = BTreeSet::new();
+        let mut inputs: BTreeSet<Signal> = BTreeSet::new();
         for &r in &rates {
             inputs.extend(self.exprs.leaves(r).into_iter().filter_map(|l| match l {
-                Symbol::Input(u, _) => Some(u),
+                Symbol::Input(u, _) => Some(Signal::Input(u)),
+                Symbol::Sensor(s, _) => Some(Signal::Sensor(s)),
                 _ => None,
             }));
         }

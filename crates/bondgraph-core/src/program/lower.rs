@@ -191,7 +191,7 @@ impl Lowering<'_> {
             .chain((1..=copy.integrals.len()).map(|k| format!("int{k}")))
             .collect();
         let inputs = (copy.inputs.iter())
-            .filter_map(|&u| raw.find(|r| r.signal == Signal::Input(u)))
+            .filter_map(|&u| raw.find(|r| r.signal == u))
             .collect();
         CopyRates {
             rates,
@@ -299,8 +299,14 @@ impl Lowering<'_> {
             (Symbol::State(k), Context::Copy(..)) => {
                 self.code.leaf(Leaf::State(CopyState::new(k.index())))
             }
+            (Symbol::Sensor(h, 0), Context::Copy(copy)) => {
+                match copy.inputs.iter().position(|&i| i == Signal::Sensor(h)) {
+                    Some(j) => self.code.leaf(Leaf::Input(CopyInput::new(j))),
+                    None => self.code.num(f64::NAN),
+                }
+            }
             (Symbol::Input(u, 0), Context::Copy(copy)) => {
-                match copy.inputs.iter().position(|&i| i == u) {
+                match copy.inputs.iter().position(|&i| i == Signal::Input(u)) {
                     Some(j) => self.code.leaf(Leaf::Input(CopyInput::new(j))),
                     None => self.code.num(f64::NAN),
                 }

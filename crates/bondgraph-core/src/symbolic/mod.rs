@@ -8,7 +8,7 @@
 mod derive;
 mod eval;
 pub(crate) mod hash;
-mod invert;
+pub(crate) mod invert;
 mod monomial;
 mod normal;
 mod pool;
