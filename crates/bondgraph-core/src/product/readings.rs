@@ -29,9 +29,13 @@ pub enum Quantity {
 /// inputs as recorded.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelCopy {
+    /// The states it runs, in [`Compiled::states`] order: those the simulated residuals
+    /// read, directly or through the rates of others (a partial copy's own, not the
+    /// model's it leaves aside).
+    pub states: Vec<Handle<State>>,
     /// Each state's rate, over parameters, input values, time, the model's states
     /// ([`Symbol::State`]) and the integrals of [`ModelCopy::integrals`] (as `int(..)` nodes):
-    /// the state equations, then each integral's argument.
+    /// the state equations of [`ModelCopy::states`], then each integral's argument.
     pub rates: Vec<Expr>,
     /// The arguments of the `int(..)` the state equations hold, in the order of their states.
     pub integrals: Vec<Expr>,
@@ -125,12 +129,15 @@ impl Compiled {
             return None;
         }
         let space = self.state_space.as_ref()?;
-        let mut rates = vec![None; self.states.len()];
+        let mut all = vec![None; self.states.len()];
         let copies = space.copies.iter().flat_map(|c| &c.equations);
         for &(k, e) in space.equations.iter().chain(copies) {
-            rates[k.index()] = Some(e);
+            all[k.index()] = Some(e);
         }
-        let mut rates: Vec<Expr> = rates.into_iter().collect::<Option<_>>()?;
+        let states = self.copied_states(&all);
+        let mut rates: Vec<Expr> = (states.iter())
+            .map(|k| all[k.index()])
+            .collect::<Option<_>>()?;
         let mut integrals: Vec<Expr> = Vec::new();
         self.exprs.visit_reachable(&rates, |_, node| {
             if let Node::Int(arg) = node {
@@ -149,10 +156,31 @@ impl Compiled {
             }));
         }
         Some(ModelCopy {
+            states,
             rates,
             integrals,
             inputs: inputs.into_iter().collect(),
         })
+    }
+
+    /// The states the simulated residuals read, directly or through the rates `rates` (by
+    /// state) of those they read, in order.
+    fn copied_states(&self, rates: &[Option<Expr>]) -> Vec<Handle<State>> {
+        let mut read: BTreeSet<Handle<State>> = BTreeSet::new();
+        let mut stack: Vec<Expr> = (self.arrs.iter())
+            .filter(|a| a.form == ResidualForm::Simulated)
+            .map(|a| a.expr)
+            .collect();
+        while let Some(e) = stack.pop() {
+            for leaf in self.exprs.leaves(e) {
+                if let Symbol::State(k) = leaf {
+                    if read.insert(k) {
+                        stack.extend(rates.get(k.index()).copied().flatten());
+                    }
+                }
+            }
+        }
+        read.into_iter().collect()
     }
 
     /// `e` as `Σ ±cᵢ·signalᵢ` with constant `cᵢ` (parameters and numbers), if it is one: then

@@ -153,7 +153,9 @@ impl Lowering<'_> {
                     .map(|channel| Fill::Estimate { channel, order: 0 }),
                 // Filled below, once every slot it may read exists.
                 Quantity::Nonlinear(_) | Quantity::Root(_) => Some(Fill::Simulated(CopyState(0))),
-                Quantity::Simulated(k) => Some(Fill::Simulated(CopyState::new(k.index()))),
+                Quantity::Simulated(k) => (readings.copy.as_ref())
+                    .and_then(|copy| copy.states.iter().position(|&s| s == k))
+                    .map(|j| Fill::Simulated(CopyState::new(j))),
             };
             // Every signal read has a raw signal and a channel (see `channels`).
             let Some(fill) = fill else { continue };
@@ -187,7 +189,7 @@ impl Lowering<'_> {
         let rates = (copy.rates.iter())
             .map(|&e| self.lower(e, Context::Copy(copy)))
             .collect();
-        let names = (self.c.states.values().map(|s| s.name.clone()))
+        let names = (copy.states.iter().map(|&s| self.c.states[s].name.clone()))
             .chain((1..=copy.integrals.len()).map(|k| format!("int{k}")))
             .collect();
         let inputs = (copy.inputs.iter())
@@ -276,9 +278,7 @@ impl Lowering<'_> {
             Node::Int(a) => match cx {
                 Context::Residual => self.integral(a),
                 Context::Copy(copy) => match copy.integrals.iter().position(|&e| e == a) {
-                    Some(k) => {
-                        (self.code).leaf(Leaf::State(CopyState::new(self.c.states.len() + k)))
-                    }
+                    Some(k) => (self.code).leaf(Leaf::State(CopyState::new(copy.states.len() + k))),
                     None => self.code.num(f64::NAN),
                 },
             },
@@ -296,8 +296,11 @@ impl Lowering<'_> {
         match (s, cx) {
             (Symbol::Parameter(p), _) => self.code.leaf(Leaf::Parameter(p)),
             (Symbol::Time, _) => self.code.leaf(Leaf::Time),
-            (Symbol::State(k), Context::Copy(..)) => {
-                self.code.leaf(Leaf::State(CopyState::new(k.index())))
+            (Symbol::State(k), Context::Copy(copy)) => {
+                match copy.states.iter().position(|&s| s == k) {
+                    Some(j) => self.code.leaf(Leaf::State(CopyState::new(j))),
+                    None => self.code.num(f64::NAN),
+                }
             }
             (Symbol::Sensor(h, 0), Context::Copy(copy)) => {
                 match copy.inputs.iter().position(|&i| i == Signal::Sensor(h)) {
