@@ -414,6 +414,9 @@ fn arrs(out: &mut String, c: &Compiled) {
                     printer.text(*rhs)
                 );
             }
+            if let Some(stability) = stability {
+                let _ = writeln!(out, "    ({})", stability.meaning());
+            }
         } else if simulated {
             let _ = writeln!(
                 out,
