@@ -118,7 +118,7 @@ fn measured_state(pool: &mut Pool, output: ExprId, sensor: NodeId) -> Option<(St
 }
 
 /// Which states `output` reads, directly or through the right-hand sides of those it reads.
-fn read_from(pool: &Pool, states: &[StateEquation], output: ExprId) -> Vec<bool> {
+pub(super) fn read_from(pool: &Pool, states: &[StateEquation], output: ExprId) -> Vec<bool> {
     let mut read = BTreeSet::new();
     let mut stack = vec![output];
     while let Some(e) = stack.pop() {

@@ -157,23 +157,17 @@ fn cone(
 /// The parameters `output` holds, with those of the right-hand sides of the states it reads,
 /// directly or through other states.
 fn parameters(space: &StateSpace, output: ExprId) -> BTreeSet<ParamId> {
-    let mut out = BTreeSet::new();
-    let mut states = BTreeSet::new();
-    let mut stack = vec![output];
-    while let Some(e) = stack.pop() {
-        for leaf in space.pool.leaves(e) {
-            match leaf {
-                Leaf::Param(p) => {
-                    out.insert(p);
-                }
-                Leaf::State(k) if states.insert(k) => {
-                    stack.extend(space.states.get(k.index()).map(|s| s.rhs));
-                }
-                _ => {}
-            }
-        }
-    }
-    out
+    let read = super::partial::read_from(&space.pool, &space.states, output);
+    let rates = (space.states.iter().zip(read))
+        .filter(|(_, read)| *read)
+        .map(|(s, _)| s.rhs);
+    (std::iter::once(output).chain(rates))
+        .flat_map(|e| space.pool.leaves(e))
+        .filter_map(|leaf| match leaf {
+            Leaf::Param(p) => Some(p),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The rows of `components` a simulated residual shows, increasing: the elements and `let`s
@@ -205,15 +199,18 @@ mod tests {
     use crate::fdi::components;
     use crate::state_space::state_space_of;
 
-    /// The rows each detector's simulated residual shows, by component name.
-    fn shown(text: &str) -> Vec<(String, Vec<String>)> {
+    /// The rows each residual `found` builds for `text` shows, by component name.
+    fn shown_by(
+        text: &str,
+        found: impl Fn(&BondGraph, &Causal, &StateSpace) -> Vec<Simulated>,
+    ) -> Vec<(String, Vec<String>)> {
         let (model, diagnostics) = crate::graph::load(text);
         let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
         let integral = assign(&model, Mode::Integral);
         let space = state_space_of(&model, &integral);
         let components = components(&model);
         let index = RowIndex::new(&components);
-        simulated(&model, &integral, &space)
+        found(&model, &integral, &space)
             .iter()
             .map(|s| {
                 let names = rows(s, &components, &index)
@@ -223,6 +220,18 @@ mod tests {
                 (model.node(s.sensor).name.clone(), names)
             })
             .collect()
+    }
+
+    /// The rows each detector's simulated residual shows, by component name.
+    fn shown(text: &str) -> Vec<(String, Vec<String>)> {
+        shown_by(text, simulated)
+    }
+
+    /// The rows each partial copy of `text` shows, by component name.
+    fn shown_partial(text: &str) -> Vec<(String, Vec<String>)> {
+        shown_by(text, |m, i, s| {
+            partial(m, i, s).into_iter().map(|p| p.0).collect()
+        })
     }
 
     /// On the bench, each encoder's simulated residual shows every element, the backlash and
@@ -252,26 +261,6 @@ mod tests {
                 ("y2".to_string(), expect("y2"))
             ]
         );
-    }
-
-    /// The rows each partial copy of `text` shows, by component name.
-    fn shown_partial(text: &str) -> Vec<(String, Vec<String>)> {
-        let (model, diagnostics) = crate::graph::load(text);
-        let model = model.unwrap_or_else(|| panic!("{diagnostics:?}"));
-        let integral = assign(&model, Mode::Integral);
-        let space = state_space_of(&model, &integral);
-        let components = components(&model);
-        let index = RowIndex::new(&components);
-        partial(&model, &integral, &space)
-            .iter()
-            .map(|(s, _)| {
-                let names = rows(s, &components, &index)
-                    .into_iter()
-                    .map(|r| components[r].name.clone())
-                    .collect();
-                (model.node(s.sensor).name.clone(), names)
-            })
-            .collect()
     }
 
     /// On the bench, the motor's partial copy shows the motor's side, the link, the gear and

@@ -646,14 +646,71 @@ impl Builder<'_> {
         let space = c.state_space.as_ref()?;
         let sensor = self.sensor_of[&s.sensor];
         let output = space.outputs.iter().find(|o| o.0 == sensor)?.1;
+        let rates: Vec<Expr> = space.equations.iter().map(|e| e.1).collect();
+        self.compared(c, s.sensor, output, &rates)
+    }
+
+    /// A detector's residual against its partial copy, `y − ŷ`: the copy's states join
+    /// [`Compiled::states`], marked as its, and its equations the state space's copies.
+    /// `None` when the model's state equations were not written.
+    fn partial(
+        &self,
+        c: &mut Compiled,
+        s: &fdi::simulated::Simulated,
+        copy: &fdi::partial::PartialCopy,
+    ) -> Option<Arr> {
+        c.state_space.as_ref()?;
+        let sensor = self.sensor_of[&s.sensor];
+        let base = c.states.len();
+        let pool = &copy.space.pool;
+        let mut equations = Vec::with_capacity(copy.space.states.len());
+        for (k, st) in copy.space.states.iter().enumerate() {
+            let rhs = self
+                .import(&mut c.exprs, pool, st.rhs, Reading::Copy(base))
+                .ok()?;
+            equations.push((Handle::new(base + k), rhs));
+        }
+        let (_, output) = copy.space.outputs.first()?;
+        let output = self
+            .import(&mut c.exprs, pool, *output, Reading::Copy(base))
+            .ok()?;
+        for st in &copy.space.states {
+            c.states.push(State {
+                name: st.name.clone(),
+                element: self.model.node(st.element).name.clone(),
+                kind: state_kind(self.model, st),
+                copy: Some(sensor),
+            });
+        }
+        let rates: Vec<Expr> = equations.iter().map(|e| e.1).collect();
+        let arr = self.compared(c, s.sensor, output, &rates)?;
+        let imposed = copy.imposed.iter().map(|d| self.sensor_of[d]).collect();
+        c.state_space.as_mut()?.copies.push(PartialCopy {
+            sensor,
+            imposed,
+            equations,
+            output,
+        });
+        Some(arr)
+    }
+
+    /// The simulated residual `y − output` of `detector`, whose copy runs the right-hand
+    /// sides `rates`: it reads its detector, and what drives the copy (inputs, and for a
+    /// partial copy the measurements imposed on it).
+    fn compared(
+        &self,
+        c: &mut Compiled,
+        detector: NodeId,
+        output: Expr,
+        rates: &[Expr],
+    ) -> Option<Arr> {
+        let sensor = self.sensor_of[&detector];
         let y = c.exprs.leaf(Symbol::Sensor(sensor, 0));
         let expr = c.exprs.sub(y, output);
         let (_, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, expr);
-        // What it reads: its detector, and the inputs that drive the copy.
-        let rates: Vec<Expr> = space.equations.iter().map(|e| e.1).collect();
-        let driven = rates.into_iter().fold(expr, |a, r| c.exprs.add(a, r));
+        let driven = (rates.iter()).fold(expr, |a, &r| c.exprs.add(a, r));
         let (reads, _) = reads(&c.exprs, &c.auxiliaries, &c.roots, driven);
-        let junction = self.model.detector_junction(s.sensor)?;
+        let junction = self.model.detector_junction(detector)?;
         Some(Arr {
             name: String::new(),
             junction: self.model.node(junction).name.clone(),
@@ -699,72 +756,6 @@ enum Reading {
     /// A partial copy's: its states (after the first `usize` of [`Compiled::states`]),
     /// inputs and measured signals.
     Copy(usize),
-}
-
-impl Builder<'_> {
-    /// A detector's residual against its partial copy, `y − ŷ`: the copy's states join
-    /// [`Compiled::states`], marked as its, and its equations the state space's copies.
-    /// `None` when the model's state equations were not written.
-    fn partial(
-        &self,
-        c: &mut Compiled,
-        s: &fdi::simulated::Simulated,
-        copy: &fdi::partial::PartialCopy,
-    ) -> Option<Arr> {
-        c.state_space.as_ref()?;
-        let sensor = self.sensor_of[&s.sensor];
-        let base = c.states.len();
-        let pool = &copy.space.pool;
-        let mut equations = Vec::with_capacity(copy.space.states.len());
-        for (k, st) in copy.space.states.iter().enumerate() {
-            let rhs = self
-                .import(&mut c.exprs, pool, st.rhs, Reading::Copy(base))
-                .ok()?;
-            equations.push((Handle::new(base + k), rhs));
-        }
-        let (_, output) = copy.space.outputs.first()?;
-        let output = self
-            .import(&mut c.exprs, pool, *output, Reading::Copy(base))
-            .ok()?;
-        for st in &copy.space.states {
-            c.states.push(State {
-                name: st.name.clone(),
-                element: self.model.node(st.element).name.clone(),
-                kind: state_kind(self.model, st),
-                copy: Some(sensor),
-            });
-        }
-        let y = c.exprs.leaf(Symbol::Sensor(sensor, 0));
-        let expr = c.exprs.sub(y, output);
-        let (_, integrals) = reads(&c.exprs, &c.auxiliaries, &c.roots, expr);
-        // What it reads: its detector, and the inputs and measurements that drive the copy.
-        let driven = (equations.iter()).fold(expr, |a, r| c.exprs.add(a, r.1));
-        let (reads, _) = reads(&c.exprs, &c.auxiliaries, &c.roots, driven);
-        let junction = self.model.detector_junction(s.sensor)?;
-        let imposed = copy.imposed.iter().map(|d| self.sensor_of[d]).collect();
-        c.state_space.as_mut()?.copies.push(PartialCopy {
-            sensor,
-            imposed,
-            equations,
-            output,
-        });
-        Some(Arr {
-            name: String::new(),
-            junction: self.model.node(junction).name.clone(),
-            sensor: Some(sensor),
-            expr,
-            form: ResidualForm::Simulated,
-            components: Vec::new(),
-            without: Vec::new(),
-            reads,
-            integrals,
-            auxiliaries: Vec::new(),
-            roots: Vec::new(),
-            sensitivities: None,
-            realisation: Realisation::Direct,
-            inverted: Vec::new(),
-        })
-    }
 }
 
 /// Component indices as handles.
