@@ -7,6 +7,7 @@ mod choose;
 mod error;
 mod fitted;
 mod hold;
+mod instants;
 mod levels;
 mod range;
 mod rate;
@@ -380,7 +381,10 @@ impl Calibrating<'_> {
         let Some(drift) = self.choices.cusum else {
             return Ok(vec![None; n]);
         };
-        let replicas = replicas::Replicas::new(self.healthy.samples);
+        let replicas = replicas::Replicas::new(self.healthy.samples).with_instants(
+            &|| self.generator(estimator, integration, &self.params),
+            &self.healthy,
+        )?;
         if !replicas.noisy() {
             self.notes.push(
                 "no CUSUM: the healthy record has no noise to tell its deviation from".into(),
@@ -627,21 +631,37 @@ impl Calibrating<'_> {
         crossing: &[f64],
     ) -> Result<Levels, CalibrateError> {
         let choices = self.choices;
-        let replicas = replicas::Replicas::new(self.healthy.samples);
+        // Held residuals are generated from the start, and read over their onset window and
+        // as their hold from the same runs.
+        let evaluated: Vec<Integration> = (integration.iter().zip(holds))
+            .map(|(&i, h)| if h.is_some() { Integration::Start } else { i })
+            .collect();
+        let replicas = replicas::Replicas::new(self.healthy.samples).with_instants(
+            &|| self.generator(estimator, &evaluated, &self.params),
+            &self.healthy,
+        )?;
         if replicas.noisy() && choices.share == 0.0 {
             let read: Vec<String> = (self.program.raw.values().zip(replicas.noises()))
                 .map(|(s, n)| format!("{} {}", s.name, n.said()))
                 .collect();
             let stepping: Vec<String> = (self.program.raw.values().zip(replicas.step_counts()))
-                .filter(|(_, n)| *n > 0)
-                .map(|(s, n)| format!("{} {n}", s.name))
+                .filter(|(_, (n, _))| *n > 0)
+                .map(|(s, (n, spread))| match spread.read {
+                    true => format!(
+                        "{} {n}, read on the record within {:.3} of an interval",
+                        s.name, spread.width
+                    ),
+                    false => format!("{} {n}", s.name),
+                })
                 .collect();
             let steps = if stepping.is_empty() {
                 String::new()
             } else {
                 format!(
                     "; and at each step of a signal ({}), the instant it came at drawn within \
-                     its sample interval, which no record tells and the plant responds to",
+                     its sample interval, which no record tells and the plant responds to, or \
+                     within the spread the residuals' answers to the healthy record's own \
+                     steps read, where at least 8 tell it (a clock's steps fall at one place)",
                     stepping.join(", ")
                 )
             };
@@ -679,11 +699,6 @@ impl Calibrating<'_> {
                 }
             }
         }
-        // Held residuals are generated from the start, and read over their onset window and
-        // as their hold from the same runs.
-        let evaluated: Vec<Integration> = (integration.iter().zip(holds))
-            .map(|(&i, h)| if h.is_some() { Integration::Start } else { i })
-            .collect();
         let onset: levels::View = (integration.iter().zip(holds))
             .map(|(i, h)| match (i, h) {
                 (Integration::Window(n), Some(_)) => Some(*n),

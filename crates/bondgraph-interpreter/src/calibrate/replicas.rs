@@ -7,8 +7,11 @@
 //! plant's actual trajectory. (A smoother cannot take the record's own noise out first: what it
 //! leaves is the noise in the signals' band, which is what the residuals see.)
 
-use crate::calibrate::samples::Samples;
+use crate::calibrate::error::CalibrateError;
+use crate::calibrate::instants::{self, Spread};
+use crate::calibrate::samples::{Healthy, Samples};
 use crate::calibrate::steps::steps;
+use crate::generator::Generator;
 use crate::sensor::{Counter, Noise};
 
 /// How many draws of noise a calibration makes (each evaluated twice): the maxima of as many
@@ -20,12 +23,13 @@ pub const COUNT: usize = 64;
 const SEED: u64 = 0x6263_6361_6c69_6272;
 
 /// The healthy record, each of its columns' noise (see [`crate::sensor`]) and its
-/// deviation, and each column's steps (see [`steps`]).
+/// deviation, and each column's steps (see [`steps`]) with how their instants are drawn.
 pub(crate) struct Replicas<'a> {
     record: &'a Samples<'a>,
     noises: Vec<Noise>,
     deviations: Vec<f64>,
     steps: Vec<Vec<(usize, f64)>>,
+    spreads: Vec<Spread>,
 }
 
 impl<'a> Replicas<'a> {
@@ -33,15 +37,27 @@ impl<'a> Replicas<'a> {
     pub(crate) fn new(record: &'a Samples<'a>) -> Replicas<'a> {
         let noises: Vec<Noise> = record.columns.iter().map(|x| Noise::read(x)).collect();
         let deviations: Vec<f64> = noises.iter().map(Noise::deviation).collect();
-        let steps = (record.columns.iter().zip(&deviations))
+        let steps: Vec<Vec<(usize, f64)>> = (record.columns.iter().zip(&deviations))
             .map(|(x, &sigma)| steps(x, sigma))
             .collect();
         Replicas {
             record,
+            spreads: vec![Spread::WHOLE; steps.len()],
             noises,
             deviations,
             steps,
         }
+    }
+
+    /// The same, with each column's steps' instants drawn as the healthy record's fell (see
+    /// [`instants`]), read through the residuals `build` generates.
+    pub(crate) fn with_instants(
+        mut self,
+        build: &dyn Fn() -> Result<Generator, CalibrateError>,
+        healthy: &Healthy<'_>,
+    ) -> Result<Replicas<'a>, CalibrateError> {
+        self.spreads = instants::spreads(build, healthy, &self.steps)?;
+        Ok(self)
     }
 
     /// Whether any column is noisy or steps: a record with neither has nothing to
@@ -60,9 +76,14 @@ impl<'a> Replicas<'a> {
         &self.noises
     }
 
-    /// How many steps each column takes, as the note gives them.
-    pub(crate) fn step_counts(&self) -> Vec<usize> {
-        self.steps.iter().map(Vec::len).collect()
+    /// How many steps each column takes, and how their instants are drawn, as the note
+    /// gives them.
+    pub(crate) fn step_counts(&self) -> Vec<(usize, Spread)> {
+        self.steps
+            .iter()
+            .map(Vec::len)
+            .zip(self.spreads.iter().copied())
+            .collect()
     }
 
     /// The record's columns with the `index`-th draw of fresh noise added (`sign` 1) or
@@ -75,20 +96,23 @@ impl<'a> Replicas<'a> {
 
     /// The `index`-th draw of fresh noise alone, what [`Replicas::perturbed`] adds: noise
     /// of each column's kind (white, or a quantiser's) and, at each of its steps, the change
-    /// of the sample that an instant drawn uniformly within the step's interval makes (see
-    /// [`steps`]).
+    /// of the sample that an instant drawn uniformly within the step's interval (or within
+    /// the spread the healthy record's steps showed, see [`instants`]) makes (see [`steps`]).
     pub(crate) fn noise(&self, index: usize) -> Vec<Vec<f64>> {
         let columns = self.record.columns.iter().zip(&self.noises);
-        (columns.zip(&self.steps).enumerate())
-            .map(|(c, ((x, noise), steps))| {
-                let stream = (index as u64) << 32 | c as u64;
-                let mut e = noise.draw(x.len(), &mut Counter { seed: SEED, stream });
-                for &(k, jump) in steps {
-                    e[k] += jump * (bondgraph_sim::uniform(SEED, stream, k as u64) - 0.5);
-                }
-                e
-            })
-            .collect()
+        (columns
+            .zip(self.steps.iter().zip(&self.spreads))
+            .enumerate())
+        .map(|(c, ((x, noise), (steps, spread)))| {
+            let stream = (index as u64) << 32 | c as u64;
+            let mut e = noise.draw(x.len(), &mut Counter { seed: SEED, stream });
+            for &(k, jump) in steps {
+                let place = bondgraph_sim::uniform(SEED, stream, k as u64) - 0.5;
+                e[k] += jump * spread.width * place;
+            }
+            e
+        })
+        .collect()
     }
 }
 
@@ -172,7 +196,7 @@ mod tests {
         };
         let replicas = Replicas::new(&samples);
         assert!(replicas.noisy());
-        assert_eq!(replicas.step_counts(), [5]);
+        assert_eq!(replicas.step_counts(), [(5, Spread::WHOLE)]);
         let draws: Vec<Vec<f64>> = (0..COUNT).map(|i| replicas.noise(i).remove(0)).collect();
         for draw in &draws {
             for (k, e) in draw.iter().enumerate() {

@@ -62,11 +62,36 @@ impl Healthy<'_> {
     /// `estimated`, the estimators' output over these columns is taken from there.
     pub(crate) fn residuals_viewed(
         &self,
-        mut generator: Generator,
+        generator: Generator,
         columns: &[&[f64]],
         views: &[View],
         estimated: Option<&Estimated>,
     ) -> Vec<Vec<Vec<f64>>> {
+        let (at, series) = self.generated(generator, columns, estimated);
+        (views.iter())
+            .map(|view| self.viewed(&at, &series, view))
+            .collect()
+    }
+
+    /// The instant of each estimate, and each residual over them (as
+    /// [`Healthy::residuals_with`] gives it).
+    pub(crate) fn residuals_timed(
+        &self,
+        generator: Generator,
+        columns: &[&[f64]],
+    ) -> (Vec<f64>, Vec<Vec<f64>>) {
+        let (at, series) = self.generated(generator, columns, None);
+        let viewed = self.viewed(&at, &series, &Vec::new());
+        (at, viewed)
+    }
+
+    /// The instant of each estimate, and each residual as generated over these columns.
+    fn generated(
+        &self,
+        mut generator: Generator,
+        columns: &[&[f64]],
+        estimated: Option<&Estimated>,
+    ) -> (Vec<f64>, Vec<Vec<f64>>) {
         let mut series: Vec<Vec<f64>> = Vec::new();
         let mut at: Vec<f64> = Vec::new();
         let time = self.samples.time;
@@ -83,22 +108,23 @@ impl Healthy<'_> {
             Some(e) => generator.run_estimated(time, columns, e, false, take),
             None => generator.run(time, columns, false, take),
         }
-        let singular = &self.singular;
-        (views.iter())
-            .map(|view| {
-                (series.iter().enumerate())
-                    .map(|(k, s)| {
-                        let mut window = view.get(k).copied().flatten().map(Reference::window);
-                        (s.iter().zip(&at))
-                            .map(|(&r, &t)| {
-                                let r = window.as_mut().map_or(r, |w| w.push(r));
-                                if singular.contains(k, t) {
-                                    f64::NAN
-                                } else {
-                                    r
-                                }
-                            })
-                            .collect()
+        (at, series)
+    }
+
+    /// Each residual of `series` (at the instants `at`) in `view`, not a number where it is
+    /// singular.
+    fn viewed(&self, at: &[f64], series: &[Vec<f64>], view: &View) -> Vec<Vec<f64>> {
+        (series.iter().enumerate())
+            .map(|(k, s)| {
+                let mut window = view.get(k).copied().flatten().map(Reference::window);
+                (s.iter().zip(at))
+                    .map(|(&r, &t)| {
+                        let r = window.as_mut().map_or(r, |w| w.push(r));
+                        if self.singular.contains(k, t) {
+                            f64::NAN
+                        } else {
+                            r
+                        }
                     })
                     .collect()
             })
