@@ -303,6 +303,100 @@ fn the_partial_copies_hold_on_the_healthy_bench_and_see_the_backlash() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The bank (`--residuals bank`): the bench's two ARRs and its two partial copies, calibrated
+/// on a healthy record. The parameters are fitted by the relations alone and the estimator's
+/// window is chosen by them (a copy reads no estimate), as without the copies; no alarm
+/// before the dead zone widens, the link ranked first and its width sized; the kept
+/// calibration is for the bank and decides as the calibration did.
+#[test]
+fn the_bank_is_calibrated_by_its_relations_and_sees_the_backlash() {
+    let dir = scratch("bank");
+    let record = |name: &str, extra: &[&str]| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", BENCH, "-e", "input U0 = 6 + 12*sin(0.5*t)"];
+        args.extend(["-e", "noise y1 1e-4", "-e", "noise y2 1e-4"]);
+        args.extend(extra);
+        args.extend(["-o", &path]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    let healthy = record("healthy.csv", &["-e", "duration 20", "-e", "seed 1"]);
+    let faulty = record(
+        "faulty.csv",
+        &[
+            "-e",
+            "duration 20",
+            "-e",
+            "seed 2",
+            "-e",
+            "fault j0 = 3*j0 at 12",
+        ],
+    );
+    let calibrate = |set: &str, kept: &str| {
+        let kept = dir.join(kept).display().to_string();
+        let args = ["residuals", BENCH, &faulty, "--residuals", set];
+        let mut args = args.to_vec();
+        args.extend(["--calibrate", &healthy, "--save-calibration", &kept]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        let estimator = std::fs::read_to_string(&kept).expect("kept");
+        let estimator = (estimator.lines())
+            .find(|l| l.starts_with("estimator "))
+            .expect("an estimator")
+            .to_string();
+        (out, kept, estimator)
+    };
+    let (_, _, alone) = calibrate("per-sensor", "arrs.cal");
+    let (out, kept, estimator) = calibrate("bank", "bank.cal");
+    assert_eq!(estimator, alone);
+    let said = stderr(&out);
+    assert!(said.contains("(by the relations alone"), "{said}");
+    let text = stdout(&out);
+    let t = table(&text);
+    let time = column(&t, "t");
+    for name in ["ARR1", "ARR2", "ARR3", "ARR4"] {
+        let on = column(&t, &format!("alarm_{name}"));
+        let early = (time.iter().zip(on)).filter(|(&t, &a)| t < 11.75 && a == 1.0);
+        assert_eq!(early.count(), 0, "{name} in alarm before the fault");
+    }
+    let seen = (time.iter().zip(column(&t, "alarm_ARR3")))
+        .filter(|(&t, &a)| t > 13.0 && a == 1.0)
+        .count();
+    assert!(seen > 1_000, "y1's copy in alarm after the fault: {seen}");
+    // With the copies' signatures beside the ARRs', the link is told apart from the gear
+    // and the encoders, which the ARRs alone rank with it.
+    assert!(said.contains("   1  link w: matches"), "{said}");
+    let sized = (said.lines())
+        .find(|l| l.starts_with("    1  w: j0 = "))
+        .unwrap_or_else(|| panic!("{said}"));
+    let ratio: f64 = sized
+        .split('×')
+        .next()
+        .and_then(|l| l.rsplit(' ').next())
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("{sized}"));
+    assert!((ratio - 3.0).abs() < 0.15, "{sized}");
+    assert!(
+        std::fs::read_to_string(&kept)
+            .expect("kept")
+            .contains("\nresiduals bank lowest\n"),
+        "the kept calibration names the bank"
+    );
+    let again = bgc(&[
+        "residuals",
+        BENCH,
+        &faulty,
+        "--residuals",
+        "bank",
+        "--calibration",
+        &kept,
+    ]);
+    assert_eq!(code(&again), 0, "{}", stderr(&again));
+    assert_eq!(stdout(&again), text);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Recorded data with a missing column, a NaN, time going back or an irregular step is
 /// refused with the line.
 #[test]

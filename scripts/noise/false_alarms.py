@@ -24,7 +24,7 @@ Gumbel law fitted to those maxima (L-moments), beside the stated one for a recor
 
 Usage: false_alarms.py [--bgc target/release/bgc] [--records 20] [--seconds 3000]
                        [--inputs square sine closed] [--rates 0 1/h 4/h] [--draw 7] [--counts 0]
-                       [--where]
+                       [--where] [--residuals per-sensor|bank|partial]
 """
 
 import argparse
@@ -132,6 +132,8 @@ def main():
     a.add_argument("--inputs", nargs="+", default=list(bench_plant.INPUTS))
     a.add_argument("--rates", nargs="+", default=["0", "1/h", "4/h"])
     a.add_argument("--draw", type=int, default=7)
+    a.add_argument("--residuals", default="per-sensor",
+                   help="bgc's --residuals for both the calibration and the records")
     a.add_argument("--counts", type=int, default=0,
                    help="encoders of this many counts per revolution (speed from counts) "
                         "instead of Gaussian noise")
@@ -154,7 +156,7 @@ def main():
                 subprocess.run(
                     [args.bgc, "residuals", MODEL, calibration, "--calibrate", calibration,
                      "--false-alarm-rate", rate, "--save-calibration", kept[rate],
-                     "-o", os.devnull],
+                     "-o", os.devnull, "--residuals", args.residuals],
                     check=True, capture_output=True)
             counts = {rate: [0, 0, 0, 0] for rate in args.rates}
             maxima = {rate: [] for rate in args.rates}
@@ -165,7 +167,7 @@ def main():
                     out = os.path.join(tmp, "r.csv")
                     subprocess.run(
                         [args.bgc, "residuals", MODEL, record, "--calibration", kept[rate],
-                         "--no-size", "-o", out],
+                         "--no-size", "-o", out, "--residuals", args.residuals],
                         check=True, capture_output=True)
                     runs, spans, samples = episodes(out)
                     maxima[rate].append(nearest(out))

@@ -41,6 +41,8 @@ enum ResidualsArg {
     /// the other detectors' measurements drive from rest, one per detector where another
     /// detector measures a state.
     Partial,
+    /// One ARR per detector and, beside them, the partial copies where the model has them.
+    Bank,
 }
 
 impl ResidualsArg {
@@ -51,6 +53,7 @@ impl ResidualsArg {
             ResidualsArg::All => ResidualSet::All,
             ResidualsArg::Simulated => ResidualSet::Simulated,
             ResidualsArg::Partial => ResidualSet::Partial,
+            ResidualsArg::Bank => ResidualSet::Bank,
         }
     }
 }

@@ -914,14 +914,16 @@ fn size_fault(
     data: &Data,
     (first, until, ranked): (f64, Option<f64>, &[String]),
 ) -> Result<Vec<crate::size::Known>, Failure> {
-    let sizing = bondgraph_interpreter::Sizing::new(
-        c,
-        program,
-        params,
-        &data.time,
-        data.columns.iter().map(Vec::as_slice).collect(),
-        data.step,
-    );
+    // A bank's sizes are fitted by its relations: a copy of the model run again at every
+    // evaluation cost minutes on a 300-s record.
+    let relations = bondgraph_interpreter::Relations::of(c, program);
+    let columns: Vec<&[f64]> = data.columns.iter().map(Vec::as_slice).collect();
+    let (c, program, columns) = match &relations {
+        Some(r) => (&r.compiled, &r.program, r.columns(&columns)),
+        None => (c, program, columns),
+    };
+    let sizing =
+        bondgraph_interpreter::Sizing::new(c, program, params, &data.time, columns, data.step);
     let span = sizing.span(args.size_span);
     if span > args.size_span {
         report::note(format!(

@@ -329,6 +329,7 @@ fn isolability(out: &mut String, c: &Compiled) {
         ResidualSet::All => "all",
         ResidualSet::Simulated => "simulated",
         ResidualSet::Partial => "partial",
+        ResidualSet::Bank => "bank",
     };
     let _ = writeln!(
         out,

@@ -196,7 +196,9 @@ fn diagnosed(model: &BondGraph, set: ResidualSet, simulation: (&Causal, &StateSp
             let copies = found.iter().map(|_| None).collect();
             (found, copies)
         }
-        ResidualSet::Partial => every_partial(model, simulation, &fsm, &mut found.list),
+        ResidualSet::Partial | ResidualSet::Bank => {
+            every_partial(model, simulation, &fsm, &mut found.list)
+        }
         ResidualSet::Best | ResidualSet::All => {
             let found = add_simulated(model, simulation, &fsm, &mut found.list);
             let copies = found.iter().map(|_| None).collect();

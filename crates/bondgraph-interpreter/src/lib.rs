@@ -13,6 +13,7 @@ mod generator;
 mod hold;
 mod identify;
 mod linalg;
+mod relations;
 mod sensor;
 mod size;
 mod step;
@@ -32,6 +33,7 @@ pub use identify::{
     Chosen, Combination, Criteria, Criterion, Determined, Estimate, Evidence, Identification,
     IdentifyError, Lost, Origin, Prefix, Reach, Record, Settings, Span, Stop, HELD_OUT,
 };
+pub use relations::Relations;
 pub use size::{SizeOver, Sized, Sizing, DOUBLINGS, EXPLAINED, SIZE_SAMPLES, SIZE_WINDOW, TOLD};
 pub use step::{uniform_step, Step, StepError, JITTER_NOTED, STEP_TOLERANCE};
 pub use walk::Walk;

@@ -255,9 +255,10 @@ fn settings(rest: &[TokenTree]) -> Result<Settings, String> {
                     "all" => ResidualSet::All,
                     "simulated" => ResidualSet::Simulated,
                     "partial" => ResidualSet::Partial,
+                    "bank" => ResidualSet::Bank,
                     other => {
                         return Err(format!(
-                    "`residuals = {other}`: expected `per_sensor`, `best`, `all`, `simulated` or `partial`"
+                    "`residuals = {other}`: expected `per_sensor`, `best`, `all`, `simulated`, `partial` or `bank`"
                 ))
                     }
                 }

@@ -25,9 +25,10 @@ fn residual_set(name: &str) -> PyResult<ResidualSet> {
         "all" => Ok(ResidualSet::All),
         "simulated" => Ok(ResidualSet::Simulated),
         "partial" => Ok(ResidualSet::Partial),
+        "bank" => Ok(ResidualSet::Bank),
         other => Err(PyValueError::new_err(format!(
-            "residuals={other:?}: expected \"per-sensor\", \"best\", \"all\", \"simulated\" \
-             or \"partial\""
+            "residuals={other:?}: expected \"per-sensor\", \"best\", \"all\", \"simulated\", \
+             \"partial\" or \"bank\""
         ))),
     }
 }

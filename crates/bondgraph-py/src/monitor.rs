@@ -8,8 +8,8 @@ use bondgraph::{Cusum, Episode, Signature, Threshold};
 use bondgraph_interpreter::{
     beyond, beyond_said, calibrate, uniform_step, Calibrated, Calibration, Choices, Conditioning,
     CusumLevels, Estimates, Estimator, EstimatorKind, FalseAlarms, Fit, Generator, Hold, Holding,
-    Integration, Range, Samples as CalibrationSamples, Singular, SizeOver, Sized, Sizing,
-    StepError, Walk, SIZE_SAMPLES, STEP_TOLERANCE,
+    Integration, Range, Relations, Samples as CalibrationSamples, Singular, SizeOver, Sized,
+    Sizing, StepError, Walk, SIZE_SAMPLES, STEP_TOLERANCE,
 };
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray1};
 use pyo3::exceptions::PyValueError;
@@ -372,7 +372,13 @@ pub(crate) fn residuals<'py>(
         .collect();
     let slots: Vec<usize> = roots.iter().map(|r| r.0).collect();
     let pass = py.detach(|| run(generator, time, &data, &settings, &rows, &slots));
-    let sizing = Sizing::new(c, &program, &params, time, data.to_vec(), step);
+    // As the CLI: a bank's sizes are fitted by its relations alone.
+    let relations = Relations::of(c, &program);
+    let (sized_by, sized_program, columns) = match &relations {
+        Some(r) => (&r.compiled, &r.program, r.columns(&data)),
+        None => (c, &program, data.to_vec()),
+    };
+    let sizing = Sizing::new(sized_by, sized_program, &params, time, columns, step);
     let lookahead = (window.saturating_sub(1) / 2) as f64 * step;
     let sized = match size_span {
         Some(span) => py.detach(|| sizes(&sizing, &pass, c.arrs.len(), lookahead, span)),

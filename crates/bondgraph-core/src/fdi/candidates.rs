@@ -56,6 +56,10 @@ pub enum ResidualSet {
     /// the other detectors' measurements drive from rest, one per detector where another
     /// detector measures a state (see `fdi::partial`).
     Partial,
+    /// One ARR per detector and, beside them, each detector's partial copy where the model
+    /// has one (see [`ResidualSet::Partial`]): a bank whose residuals each have a test, the
+    /// ARRs needing no initial state, the copies filtering the noise through the model.
+    Bank,
 }
 
 impl ResidualSet {
@@ -64,7 +68,10 @@ impl ResidualSet {
     pub(crate) fn per_detector(self) -> bool {
         matches!(
             self,
-            ResidualSet::PerSensor | ResidualSet::Simulated | ResidualSet::Partial
+            ResidualSet::PerSensor
+                | ResidualSet::Simulated
+                | ResidualSet::Partial
+                | ResidualSet::Bank
         )
     }
 }
@@ -575,6 +582,9 @@ pub(crate) fn select(list: &[Candidate], n: usize, set: ResidualSet) -> Vec<usiz
         ResidualSet::Best => best(list, n),
         ResidualSet::Simulated | ResidualSet::Partial => (0..list.len())
             .filter(|&k| matches!(list[k].origin, Origin::Simulated(_)))
+            .collect(),
+        ResidualSet::Bank => (0..list.len())
+            .filter(|&k| list[k].is_per_sensor() || matches!(list[k].origin, Origin::Simulated(_)))
             .collect(),
     }
 }

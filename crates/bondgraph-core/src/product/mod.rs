@@ -797,6 +797,30 @@ impl Compiled {
     pub fn model_states(&self) -> usize {
         self.states.values().filter(|s| s.copy.is_none()).count()
     }
+
+    /// The same model with its relations alone, where it carries simulated residuals beside
+    /// them (the bank): what a fit of its parameters and a fault's size read, at the cost of
+    /// the relations (a copy runs the model at every evaluation). Each component's marks are
+    /// those of the relations kept; the isolability stays the whole set's. `None` where
+    /// there is no simulated residual to leave out, or nothing else.
+    pub fn relations(&self) -> Option<Compiled> {
+        let kept: Vec<usize> = (0..self.arrs.len())
+            .filter(|&k| self.arrs[k].form == ResidualForm::Relation)
+            .collect();
+        if kept.is_empty() || kept.len() == self.arrs.len() {
+            return None;
+        }
+        let mut out = self.clone();
+        out.arrs = kept.iter().map(|&k| self.arrs[k].clone()).collect();
+        let handles: Vec<Handle<Component>> = out.components.iter().map(|(h, _)| h).collect();
+        for h in handles {
+            let component = out.components.get_mut(h);
+            component.marks = (component.marks.iter())
+                .filter_map(|m| kept.iter().position(|k| k == m))
+                .collect();
+        }
+        Some(out)
+    }
 }
 
 impl Compiled {

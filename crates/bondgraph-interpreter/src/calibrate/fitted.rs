@@ -8,6 +8,7 @@ use crate::fit::{Estimator, Fit, Integration};
 use crate::identify::{
     identify, Determined, Identification, IdentifyError, Origin, Record, Settings, Span,
 };
+use crate::relations::Relations;
 
 /// The healthy samples the model is fitted on: a few minutes at the rates benches sample at
 /// determine what a record can, and a fit's time grows with them.
@@ -46,7 +47,43 @@ enum Refusal {
 /// the fit cannot be done, the model's values, with the reason. Second, the combinations the
 /// fit found the parameters determined only in (each by the parameters' places): their
 /// values rest on one another's, and a fault's size on them is a ratio only.
+///
+/// Where simulated residuals sit beside the relations (the bank), the relations alone are
+/// fitted (see [`Relations`]).
 pub(super) fn fit_model(
+    c: &Compiled,
+    program: &Program,
+    params: &[f64],
+    healthy: &Samples<'_>,
+    settled: Option<f64>,
+    notes: &mut Vec<String>,
+) -> (Vec<f64>, Vec<Vec<usize>>) {
+    let Some(relations) = Relations::of(c, program) else {
+        return fit_program(c, program, params, healthy, settled, notes);
+    };
+    let samples = Samples {
+        time: healthy.time,
+        columns: relations.columns(&healthy.columns),
+        step: healthy.step,
+    };
+    let fitted = fit_program(
+        &relations.compiled,
+        &relations.program,
+        params,
+        &samples,
+        settled,
+        notes,
+    );
+    if let Some(note) = notes.last_mut() {
+        note.push_str(
+            " (by the relations alone: the simulated residuals run with the values they find)",
+        );
+    }
+    fitted
+}
+
+/// [`fit_model`] on the residuals of `program`, whichever they are.
+fn fit_program(
     c: &Compiled,
     program: &Program,
     params: &[f64],

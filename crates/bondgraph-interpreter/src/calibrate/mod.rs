@@ -19,7 +19,7 @@ mod singular;
 mod steps;
 
 use bondgraph_core::program::Program;
-use bondgraph_core::{Compiled, Realisation};
+use bondgraph_core::{Compiled, Realisation, ResidualForm};
 
 use crate::fit::{Estimator, Fit, Integration};
 use crate::generator::Generator;
@@ -447,7 +447,10 @@ impl Calibrating<'_> {
         let window = match kind {
             EstimatorKind::SavitzkyGolay => {
                 let build = |w| self.generator(of(kind, w), integration, &self.params);
-                let window = choose::longest_steady_window(&build, &self.healthy)?;
+                let estimated: Vec<bool> = (self.c.arrs.iter())
+                    .map(|a| a.form != ResidualForm::Simulated)
+                    .collect();
+                let window = choose::longest_steady_window(&build, &self.healthy, &estimated)?;
                 self.notes.push(format!(
                     "estimates over {window} samples, the longest window up to which no \
                      residual grows there"

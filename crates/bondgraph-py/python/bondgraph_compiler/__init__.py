@@ -69,7 +69,9 @@ def compile(source: Source, *, residuals: str = "per-sensor", realise: str = "lo
     """Compiles a model, as ``bgc MODEL --residuals SET --realise HOW`` does.
 
     `source` is a path to a ``.bg`` file or the model's text. `residuals` is
-    ``"per-sensor"`` (one ARR per detector), ``"best"`` or ``"all"``; `realise` is
+    ``"per-sensor"`` (one ARR per detector), ``"best"``, ``"all"``, ``"simulated"``,
+    ``"partial"`` or ``"bank"`` (the ARRs and, beside them, the partial copies where the
+    model has them); `realise` is
     ``"lowest"`` (integrated once where that lowers the derivatives read) or ``"direct"``.
     Raises `ModelError` when the model has errors.
     """
