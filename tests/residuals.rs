@@ -33,6 +33,18 @@ fn candidates_column(text: &str) -> usize {
     (header.split(',').position(|h| h == "candidates")).expect("a candidates column")
 }
 
+/// The places of ARR1's and ARR2's alarms in a residual CSV, whichever residuals follow them.
+fn alarm_columns(text: &str) -> (usize, usize) {
+    let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
+    let at = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .expect("an alarm column")
+    };
+    (at("alarm_ARR1"), at("alarm_ARR2"))
+}
+
 fn column<'a>(t: &'a (Vec<String>, Vec<Vec<f64>>), name: &str) -> &'a [f64] {
     let k = t.0.iter().position(|h| h == name).expect("column");
     &t.1[k]
@@ -397,6 +409,62 @@ fn the_bank_is_calibrated_by_its_relations_and_sees_the_backlash() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A copy starts from rest; a record that starts elsewhere (the two-mass drive from a
+/// twisted shaft) leaves its start in the copy for a while. The healthy record's start-up,
+/// left out of calibration, is left out of every record monitored with it, whether or not
+/// that record's own start shows one: before, both copies alarmed over the faulty record's
+/// first 0.6 s and ranked the motor first. And the resistive loop's partial copies: the
+/// source current imposed on the capacitor voltage's copy is measured through R1, which
+/// moves that copy (its signature missed it, which `bgc verify` found).
+#[test]
+fn a_bank_leaves_out_the_start_its_healthy_record_was_calibrated_without() {
+    const MODEL: &str = "models/two_mass_friction.bg";
+    let dir = scratch("bank-start");
+    let simulate = |name: &str, seed: &str, fault: bool| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", MODEL, "-e", "duration 40", "-e", "step 0.001"];
+        args.extend(["-e", "input T = 1.5*sin(t)", "-e", "initial p_load = -0.05"]);
+        args.extend(["-e", "noise w1 1e-3", "-e", "noise w2 1e-3", "-e", seed]);
+        if fault {
+            args.extend(["-e", "fault Fc = 2*Fc at 30"]);
+        }
+        args.extend(["-o", &path]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    let healthy = simulate("healthy.csv", "seed 1", false);
+    let record = simulate("fault.csv", "seed 2", true);
+    let kept = dir.join("bank.cal").display().to_string();
+    let args = ["residuals", MODEL, &record, "--residuals", "bank"];
+    let mut args = args.to_vec();
+    args.extend([
+        "--calibrate",
+        &healthy,
+        "--save-calibration",
+        &kept,
+        "--no-size",
+    ]);
+    let out = bgc(&args);
+    assert_eq!(code(&out), 0, "{}", stderr(&out));
+    let said = stderr(&out);
+    assert!(said.contains("alarms from 30.0"), "{said}");
+    let first = (said.lines())
+        .find(|l| l.trim_start().starts_with("1  "))
+        .expect("a ranking");
+    assert!(first.contains("load fric"), "{said}");
+    let file = std::fs::read_to_string(&kept).expect("kept");
+    assert!(file.contains("\nstart-up 0.9"), "{file}");
+    let verified = bgc(&[
+        "verify",
+        "models/resistive_loop.bg",
+        "--residuals",
+        "partial",
+    ]);
+    assert_eq!(code(&verified), 0, "{}", stdout(&verified));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Recorded data with a missing column, a NaN, time going back or an irregular step is
 /// refused with the line.
 #[test]
@@ -494,14 +562,15 @@ fn calibrated_thresholds_separate_healthy_from_faulty() {
     let candidates = candidates_column(&text);
     let mut alarms_before = 0;
     let mut named = 0;
+    let (a1, a2) = alarm_columns(&text);
     for line in text.lines().skip(1) {
         let cells: Vec<&str> = line.split(',').collect();
         let t: f64 = cells[0].parse().expect("time");
-        let alarm = cells[5] == "1" || cells[6] == "1";
+        let alarm = cells[a1] == "1" || cells[a2] == "1";
         if t < 9.8 && alarm {
             alarms_before += 1;
         }
-        if t > 10.2 && cells[6] == "1" && cells[candidates].split(' ').any(|c| c == "w") {
+        if t > 10.2 && cells[a2] == "1" && cells[candidates].split(' ').any(|c| c == "w") {
             named += 1;
         }
     }
@@ -593,13 +662,14 @@ fn adaptive_thresholds_allow_for_the_stated_uncertainty_and_still_see_the_fault(
         let out = bgc(&args);
         assert_eq!(code(&out), 0, "{}", stderr(&out));
         let (mut before, mut after) = (0, 0);
+        let (a1, a2) = alarm_columns(&stdout(&out));
         for line in stdout(&out).lines().skip(1) {
             let cells: Vec<&str> = line.split(',').collect();
             let t: f64 = cells[0].parse().expect("time");
-            if t < 9.8 && (cells[5] == "1" || cells[6] == "1") {
+            if t < 9.8 && (cells[a1] == "1" || cells[a2] == "1") {
                 before += 1;
             }
-            if t > 10.2 && cells[6] == "1" {
+            if t > 10.2 && cells[a2] == "1" {
                 after += 1;
             }
         }
@@ -689,7 +759,10 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
     // Calibrated once, as a monitor is; the fault's size is not what is checked here (sizing
     // made most of this test's minute).
     let kept = dir.join("s6.cal").display().to_string();
+    // The paper's ARRs alone, as it has them.
     let calibrate = [
+        "--residuals",
+        "per-sensor",
         "--window",
         "51",
         "--realise",
@@ -710,6 +783,8 @@ fn the_papers_section_6_shows_what_the_reproduction_says() {
             "residuals",
             model,
             record,
+            "--residuals",
+            "per-sensor",
             "--realise",
             "direct",
             "--calibration",
@@ -794,16 +869,17 @@ fn calibrate_alone_chooses_windows_that_name_the_dead_zone() {
     );
     let (mut before, mut named, mut motor) = (0, 0, 0);
     let candidates = candidates_column(&stdout(&out));
+    let (a1, a2) = alarm_columns(&stdout(&out));
     for line in stdout(&out).lines().skip(1) {
         let cells: Vec<&str> = line.split(',').collect();
         let t: f64 = cells[0].parse().expect("time");
-        if t < 9.7 && (cells[5] == "1" || cells[6] == "1") {
+        if t < 9.7 && (cells[a1] == "1" || cells[a2] == "1") {
             before += 1;
         }
         if t > 10.5 && cells[candidates] == "link w" {
             named += 1;
         }
-        if t > 10.5 && cells[5] == "1" {
+        if t > 10.5 && cells[a1] == "1" {
             motor += 1;
         }
     }
@@ -866,19 +942,20 @@ fn calibrate_alone_holds_a_wider_dead_zone_in_alarm_for_as_long_as_it_lasts() {
     let out = bgc(&args);
     assert_eq!(code(&out), 0, "{}", stderr(&out));
     let (mut before, mut after, mut on, mut first) = (0, 0, 0, f64::INFINITY);
+    let (a1, a2) = alarm_columns(&stdout(&out));
     for line in stdout(&out).lines().skip(1) {
         let cells: Vec<&str> = line.split(',').collect();
         let t: f64 = cells[0].parse().expect("time");
         // Centred estimates read up to half their window (at most 501 samples) ahead.
-        if t < 30.0 && (cells[5] == "1" || cells[6] == "1") {
+        if t < 30.0 && (cells[a1] == "1" || cells[a2] == "1") {
             before += 1;
         }
-        if cells[6] == "1" {
+        if cells[a2] == "1" {
             first = first.min(t);
         }
         if t > 31.25 {
             after += 1;
-            on += usize::from(cells[6] == "1");
+            on += usize::from(cells[a2] == "1");
         }
     }
     assert_eq!(before, 0, "false alarms before the fault");
@@ -1528,8 +1605,11 @@ fn a_stated_rate_sets_the_crossing_probability_of_the_thresholds() {
     assert!(said.contains("crosses with probability 0.001"), "{said}");
     let (stated, said) = level(&["--false-alarm-rate", "1/min", "--save-calibration", &kept]);
     assert!(said.contains("crosses with probability 0.158"), "{said}");
+    // A copy's threshold may be its healthy record's largest |r| (times 1 + the margin),
+    // which no stated rate moves; the ARRs' are set by the noise.
     assert!(
-        default.iter().zip(&stated).all(|(d, s)| s < d),
+        default.iter().zip(&stated).all(|(d, s)| s <= d)
+            && default.iter().zip(&stated).take(2).all(|(d, s)| s < d),
         "{default:?} {stated:?}"
     );
     let file = std::fs::read_to_string(&kept).expect("kept");

@@ -694,6 +694,7 @@ impl Chosen {
             residuals: args.choice.spelled(),
             healthy: (name.to_string(), healthy.time.len(), healthy.step),
             crossing: self.crossing,
+            start_up: (self.conditioning.as_ref()).and_then(|c| c.start_up),
             estimator: self.estimator,
             params: (c.parameters.values().map(|p| p.name.clone()))
                 .zip(self.params.iter().copied())

@@ -392,7 +392,9 @@ fn arrs(out: &mut String, c: &Compiled) {
             if simulated { ", simulated" } else { "" },
             write(arr.expr)
         );
+        // A relation of the same detector (the bank's ARR beside its copy) reads no copy.
         let copy = (c.state_space.as_ref())
+            .filter(|_| simulated)
             .and_then(|space| space.copies.iter().find(|k| Some(k.sensor) == arr.sensor));
         if let Some(copy) = copy {
             let imposed: Vec<&str> = (copy.imposed.iter())

@@ -12,6 +12,7 @@
 //! residuals per-sensor lowest
 //! healthy "healthy.csv" rows 200001 step 0.001
 //! crossing 0.001
+//! start-up 0.994
 //! estimator savitzky-golay 201 3
 //! param ke 0.5082694886183107
 //! noise y1 1.0e-4
@@ -21,6 +22,9 @@
 //! arr ARR2 250 1.5e-2 typical 2.2e-5
 //! ```
 //!
+//! `start-up SECONDS`: where the healthy record started unsettled, how long it took to
+//! settle; every record monitored is left undecided at least that long (none where it
+//! started settled).
 //! `noise SIGNAL DEVIATION`: a signal's noise as read on the healthy record, for the samples
 //! where a residual is singular (see `Conditioning`); none where no residual can be.
 //! `combined NAME…`: parameters the calibration's fit found determined only together (the
@@ -77,6 +81,9 @@ pub struct Calibration {
     pub healthy: (String, usize, f64),
     /// The probability a healthy record of the healthy one's length crosses a threshold.
     pub crossing: f64,
+    /// Where the healthy record started unsettled, the seconds it took to settle (see
+    /// `Conditioning::start_up`).
+    pub start_up: Option<f64>,
     /// The signals' estimator.
     pub estimator: Estimator,
     /// Each parameter's value, in the model's order.
@@ -144,6 +151,9 @@ impl Calibration {
             number(*step)
         );
         out += &format!("crossing {}\n", number(self.crossing));
+        if let Some(seconds) = self.start_up {
+            out += &format!("start-up {}\n", number(seconds));
+        }
         out += &match self.estimator {
             Estimator::SavitzkyGolay { window, degree } => {
                 format!("estimator savitzky-golay {window} {degree}\n")
@@ -234,6 +244,7 @@ struct Parts {
     residuals: Option<(String, String)>,
     healthy: Option<(String, usize, f64)>,
     crossing: Option<f64>,
+    start_up: Option<f64>,
     estimator: Option<Estimator>,
     params: Vec<(String, f64)>,
     noise: Vec<(String, f64)>,
@@ -261,6 +272,7 @@ impl Parts {
                 self.healthy = Some((name.to_string(), rows, positive(step)?));
             }
             ["crossing", p] => self.crossing = Some(positive(p)?),
+            ["start-up", s] => self.start_up = Some(positive(s)?),
             ["estimator", "savitzky-golay", window, degree] => {
                 self.estimator = Some(Estimator::SavitzkyGolay {
                     window: count(window)?,
@@ -383,13 +395,11 @@ impl Parts {
                     hold,
                 });
             }
-            _ => {
-                return Err(
-                    "expected `model`, `residuals`, `healthy`, `crossing`, `estimator`, \
+            _ => return Err(
+                "expected `model`, `residuals`, `healthy`, `crossing`, `start-up`, `estimator`, \
                             `param`, `noise` or `arr` with their fields"
-                        .into(),
-                )
-            }
+                    .into(),
+            ),
         }
         Ok(())
     }
@@ -404,6 +414,7 @@ impl Parts {
             residuals: self.residuals.ok_or_else(|| missing("residuals"))?,
             healthy: self.healthy.ok_or_else(|| missing("healthy"))?,
             crossing: self.crossing.ok_or_else(|| missing("crossing"))?,
+            start_up: self.start_up,
             estimator: self.estimator.ok_or_else(|| missing("estimator"))?,
             params: self.params,
             noise: self.noise,
@@ -572,6 +583,7 @@ impl Calibration {
         (!self.noise.is_empty()).then(|| Conditioning {
             deviations: self.noise.iter().map(|(_, d)| *d).collect(),
             typical: self.decisions.iter().map(|d| d.typical).collect(),
+            start_up: self.start_up,
         })
     }
 
@@ -610,6 +622,7 @@ mod tests {
             residuals: ("per-sensor".into(), "lowest".into()),
             healthy: ("h.csv".into(), 2001, 1e-3),
             crossing: 1e-3,
+            start_up: Some(0.994),
             estimator: Estimator::SavitzkyGolay {
                 window: 201,
                 degree: 3,
@@ -685,7 +698,7 @@ mod tests {
         let text = sample().write().replace("arr ARR3 250", "arr ARR3 0");
         let e = Calibration::parse(&text).unwrap_err();
         assert!(
-            e.starts_with("line 16: `arr ARR3 0 0.015 hold start"),
+            e.starts_with("line 17: `arr ARR3 0 0.015 hold start"),
             "{e}"
         );
         assert!(e.contains("expected a count of samples"), "{e}");

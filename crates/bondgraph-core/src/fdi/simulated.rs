@@ -33,6 +33,10 @@ pub(crate) struct Simulated {
     /// The detectors whose measurements drive the copy (a partial copy's; none for a copy
     /// of the whole model).
     pub imposed: Vec<NodeId>,
+    /// The elements the imposed measurements' outputs are computed from, but for the
+    /// storage whose state they stand for: shown where a parameter of theirs survives in
+    /// the copy (a source or a junction between, which has none, shows through the rest).
+    pub through: BTreeSet<NodeId>,
 }
 
 /// The simulated residual of each detector, when the state equations are explicit, complete
@@ -57,13 +61,14 @@ pub(crate) fn simulated(
         .iter()
         .filter_map(|&(sensor, output)| {
             let start = computed_at(model, integral, sensor)?;
-            let (nodes, lets) = cone(model, integral, &rate, start, &BTreeSet::new());
+            let (nodes, lets) = cone(model, integral, Some(&rate), start, &BTreeSet::new());
             Some(Simulated {
                 sensor,
                 nodes,
                 lets,
                 parameters: parameters(space, output),
                 imposed: Vec::new(),
+                through: BTreeSet::new(),
             })
         })
         .collect()
@@ -85,7 +90,21 @@ pub(crate) fn partial(
         .filter_map(|copy| {
             let start = computed_at(model, integral, copy.own)?;
             let imposed: BTreeSet<NodeId> = copy.imposed.iter().copied().collect();
-            let (nodes, lets) = cone(model, integral, &rate, start, &imposed);
+            let (nodes, mut lets) = cone(model, integral, Some(&rate), start, &imposed);
+            let mut through = BTreeSet::new();
+            // An imposed measurement stands for the state it is affine in, solved from its
+            // output's equation: what that equation is computed from enters the copy too
+            // (on a resistive loop, the source current measured through R1 gives the
+            // capacitor's charge, and R1 moves the capacitor voltage's copy), though not
+            // the state's rate, which the copy no longer integrates.
+            for &d in &copy.imposed {
+                let Some(at) = computed_at(model, integral, d) else {
+                    continue;
+                };
+                let (n, l) = cone(model, integral, None, at, &BTreeSet::new());
+                through.extend(n.into_iter().filter(|&n| between(model, n)));
+                lets.extend(l);
+            }
             let output = copy.space.outputs.first()?.1;
             let found = Simulated {
                 sensor: copy.own,
@@ -93,10 +112,30 @@ pub(crate) fn partial(
                 lets,
                 parameters: parameters(&copy.space, output),
                 imposed: copy.imposed.clone(),
+                through,
             };
             Some((found, copy))
         })
         .collect()
+}
+
+/// Whether `node` can stand between a measured quantity and the state it is affine in: a
+/// resistor or a converter. A storage's state is what the measurement stands for, and a
+/// source acts on the state's rate, which the copy no longer integrates (the bench's
+/// load-side backlash torque on its load speed).
+fn between(model: &BondGraph, node: NodeId) -> bool {
+    use crate::graph::model::{ElementKind, NodeKind};
+    matches!(
+        model.node(node).kind,
+        NodeKind::Element(
+            ElementKind::R
+                | ElementKind::TF
+                | ElementKind::GY
+                | ElementKind::MTF
+                | ElementKind::MGY,
+            _
+        )
+    )
 }
 
 /// The equation that solves each state's rate, by its storage element.
@@ -114,12 +153,13 @@ fn computed_at(model: &BondGraph, integral: &Causal, sensor: NodeId) -> Option<u
 }
 
 /// The nodes and `let`s of every equation `start` depends on: through the unknowns it reads,
-/// the rate of each state it reads, and the output of each detector a `let` of it reads;
-/// not through what a detector of `imposed` measures, which is read from it.
+/// the rate of each state it reads (where `rate` is given), and the output of each detector
+/// a `let` of it reads; not through what a detector of `imposed` measures, which is read
+/// from it.
 fn cone(
     model: &BondGraph,
     integral: &Causal,
-    rate: &HashMap<NodeId, usize>,
+    rate: Option<&HashMap<NodeId, usize>>,
     start: usize,
     imposed: &BTreeSet<NodeId>,
 ) -> (BTreeSet<NodeId>, BTreeSet<LetId>) {
@@ -144,7 +184,7 @@ fn cone(
                 .filter(|v| !measured.contains(&v.index()))
                 .filter_map(|v| integral.solved.solved_by[v.index()]),
         );
-        stack.extend(rate.get(&eq.owner).copied());
+        stack.extend(rate.and_then(|r| r.get(&eq.owner)).copied());
         for s in super::isolability::sensors_read(&integral.system, eq) {
             if !imposed.contains(&s) {
                 stack.extend(computed_at(model, integral, s));
@@ -180,6 +220,15 @@ pub(crate) fn rows(s: &Simulated, components: &[Component], index: &RowIndex) ->
     for n in &s.nodes {
         if let Some(r) = index.node(*n) {
             if matches!(components[r].kind, ComponentKind::Element(_)) {
+                rows.insert(r);
+            }
+        }
+    }
+    for n in &s.through {
+        if let Some(r) = index.node(*n) {
+            let c = &components[r];
+            let holds = c.parameters.iter().any(|p| s.parameters.contains(p));
+            if matches!(c.kind, ComponentKind::Element(_)) && holds {
                 rows.insert(r);
             }
         }

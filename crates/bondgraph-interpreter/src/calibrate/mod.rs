@@ -230,9 +230,11 @@ pub fn calibrate(
     }
     let best = on.integrations(estimator)?;
     let (integration, walks, holds) = on.onsets_and_holds(estimator, best)?;
+    let start_up_seconds = settled.map(|k| healthy.time[k] - healthy.time[0]);
     let mut conditioning = noisy.then(|| Conditioning {
         deviations: deviations.clone(),
         typical: vec![None; n],
+        start_up: start_up_seconds,
     });
     if conditioned {
         let from_start: Vec<bool> = (integration.iter().zip(&c.arrs))
@@ -245,7 +247,10 @@ pub fn calibrate(
         on.healthy.singular = singular;
         on.healthy.singular.start_up_until(start_up(settled));
         on.note_singular();
-        conditioning = Some(read);
+        conditioning = Some(Conditioning {
+            start_up: start_up_seconds,
+            ..read
+        });
     }
     let crossing: Vec<f64> = (holds.iter())
         .map(|h| on.crossing() / if h.is_some() { 2.0 } else { 1.0 })

@@ -32,6 +32,12 @@ pub struct Conditioning {
     pub deviations: Vec<f64>,
     /// Each residual's typical sensitivity to that noise.
     pub typical: Vec<Option<f64>>,
+    /// Where the healthy record started unsettled, the seconds it took to settle from its
+    /// first sample: a record monitored is left undecided at least that long, whether or
+    /// not its own start shows it (a copy of the model starts from rest, and carries a start
+    /// the record's signals no longer show: on the two-mass drive from a twisted shaft, both
+    /// copies alarmed over the first 0.6 s of a record whose start-up was not found).
+    pub start_up: Option<f64>,
 }
 
 impl Conditioning {
@@ -51,6 +57,7 @@ impl Conditioning {
         let conditioning = Conditioning {
             deviations: deviations.to_vec(),
             typical,
+            start_up: None,
         };
         let singular = conditioning.spans(&at, &local);
         (conditioning, singular)
@@ -94,7 +101,8 @@ impl Conditioning {
     }
 
     /// Where a monitored record is not decided on, as calibration leaves the healthy one
-    /// out: its start-up, until it has settled under `estimator` (see [`Self::settled`]), and
+    /// out: its start-up, until it has settled under `estimator` (see [`Self::settled`]) and
+    /// at least as long as the healthy record took (see [`Conditioning::start_up`]), and
     /// after it the spans where each residual is singular; with the first settled sample.
     pub fn undecided(
         &self,
@@ -104,7 +112,11 @@ impl Conditioning {
         columns: &[&[f64]],
         estimator: crate::fit::Estimator,
     ) -> (Singular, Option<usize>) {
-        let first = self.settled(program, columns, estimator);
+        let own = self.settled(program, columns, estimator);
+        let healthy = (self.start_up.zip(time.first()))
+            .map(|(s, &t0)| time.partition_point(|&t| t < t0 + s))
+            .filter(|&k| k > 0 && k < time.len());
+        let first = own.max(healthy);
         let mut singular = self.singular(pair, time, columns, estimator.window());
         singular.start_up_until(first.map(|k| time[k]));
         (singular, first)
@@ -245,6 +257,7 @@ mod tests {
         let conditioning = Conditioning {
             deviations: vec![0.1],
             typical: vec![Some(1.0), None],
+            start_up: None,
         };
         let at: Vec<f64> = (0..10).map(|k| k as f64).collect();
         let mut local = vec![1.0; 10];
