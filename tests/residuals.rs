@@ -1496,7 +1496,7 @@ fn a_kept_calibration_decides_as_the_calibration_did_and_only_for_its_model() {
     ]);
     assert_eq!(code(&out), 1, "{}", stderr(&out));
     assert!(
-        stderr(&out).contains("made with residuals `per-sensor`"),
+        stderr(&out).contains("made with residuals `bank`"),
         "{}",
         stderr(&out)
     );

@@ -61,13 +61,15 @@ impl ResidualsArg {
 /// How expressions are written: the e-graph search for their shortest form.
 /// `--residuals` and `--realise`, which every command that derives ARRs takes: which
 /// residuals, and how residual generators evaluate them.
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Clone, Debug)]
 pub(crate) struct ResidualChoice {
     /// Which residuals: one ARR per detector (as the reference paper does), the smallest
     /// set found that tells apart every fault class bgc can reach (`best`), or every
-    /// candidate with a signature of its own (`all`).
-    #[arg(long, value_enum, value_name = "SET", default_value = "per-sensor")]
-    residuals: ResidualsArg,
+    /// candidate with a signature of its own (`all`) [default: per-sensor; for `bgc
+    /// residuals` deciding on a calibration (`--calibrate`, `--calibration`), `bank`: the
+    /// ARRs and, beside them, the partial copies where the model has them]
+    #[arg(long, value_enum, value_name = "SET")]
+    residuals: Option<ResidualsArg>,
 
     /// How residual generators evaluate each ARR: integrated once where that lowers the
     /// derivatives it reads (`lowest`; `bgc verify` checks such a one as its rate plus its
@@ -79,7 +81,18 @@ pub(crate) struct ResidualChoice {
 impl ResidualChoice {
     /// The residual set asked for.
     pub(crate) fn set(&self) -> ResidualSet {
-        self.residuals.set()
+        self.residuals.unwrap_or(ResidualsArg::PerSensor).set()
+    }
+
+    /// The same choice where the residuals decide on a calibration and no set was asked
+    /// for: the bank, whose every residual the calibration prices, so that a fault shows
+    /// in whichever sees it best.
+    pub(crate) fn deciding(&self, deciding: bool) -> ResidualChoice {
+        let mut choice = self.clone();
+        if deciding {
+            choice.residuals.get_or_insert(ResidualsArg::Bank);
+        }
+        choice
     }
 
     /// The realisation asked for.
@@ -93,7 +106,7 @@ impl ResidualChoice {
             v.map_or_else(String::new, |v| v.get_name().to_string())
         };
         (
-            spell(self.residuals.to_possible_value()),
+            spell((self.residuals.unwrap_or(ResidualsArg::PerSensor)).to_possible_value()),
             spell(self.realise.to_possible_value()),
         )
     }

@@ -207,7 +207,13 @@ pub(crate) struct ResidualArgs {
 }
 
 /// Runs `bgc residuals`.
-pub(crate) fn run(args: ResidualArgs) -> Result<(), Failure> {
+pub(crate) fn run(mut args: ResidualArgs) -> Result<(), Failure> {
+    // The bounds of `--adaptive` are the ARRs' as written, which a copy has none of; a
+    // record read `--from` a later instant does not start where a copy does (at rest).
+    let deciding = (args.calibrate.is_some() || args.calibration.is_some())
+        && !args.adaptive
+        && args.from.is_none();
+    args.choice = args.choice.deciding(deciding);
     if let Some(path) = &args.plot {
         crate::plot::check_path(path).map_err(report::usage)?;
     }

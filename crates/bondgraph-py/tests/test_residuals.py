@@ -403,7 +403,12 @@ def test_a_kept_calibration_decides_in_python_as_in_the_cli(bench, tmp_path):
     )
     header, rows = read_csv(bgc_cli("residuals", str(BENCH), str(faulty), "--calibration", str(kept)))
     data = {name: np.array(column) for name, column in zip(*_columns_of(faulty))}
-    run = bench.residuals(data, calibration=kept)
+    # The CLI decides on a calibration with the bank (the ARRs and the partial copies)
+    # unless told otherwise: the file is for those residuals, and says so.
+    with pytest.raises(bgc.DataError, match="bank"):
+        bench.residuals(data, calibration=kept)
+    bank = bgc.compile(BENCH, residuals="bank")
+    run = bank.residuals(data, calibration=kept)
     _assert_decides_as_the_cli(header, rows, run)
     assert run.alarms.any(), "the dead zone raises alarms"
 
@@ -454,9 +459,11 @@ def test_calibration_in_python_decides_as_the_cli_on_a_pump_from_rest(tmp_path):
         "simulate", str(PUMP), str(PUMP_SCENARIO), "--duration", "12", "--seed", "2",
         "-e", "fault c = 0.6*c at 8", "-o", str(clogged),
     )
-    # The decisions are compared, not the sizes (test_identify.py compares those).
+    # The decisions are compared, not the sizes (test_identify.py compares those); the
+    # CLI's residuals named as the model's here are (it decides with the bank by default).
     header, rows = read_csv(bgc_cli(
-        "residuals", str(PUMP), str(clogged), "--calibrate", str(healthy), "--no-size",
+        "residuals", str(PUMP), str(clogged), "--residuals", "per-sensor", "--calibrate",
+        str(healthy), "--no-size",
     ))
     pump = bgc.compile(PUMP)
     columns = lambda path: {n: np.array(c) for n, c in zip(*_columns_of(path))}
@@ -467,8 +474,8 @@ def test_calibration_in_python_decides_as_the_cli_on_a_pump_from_rest(tmp_path):
     assert run.episode[-1] == "tank drain"
     # A CUSUM beside each threshold decides alike too.
     header, rows = read_csv(bgc_cli(
-        "residuals", str(PUMP), str(clogged), "--calibrate", str(healthy), "--keep-model", "--cusum", "0.7",
-        "--no-size",
+        "residuals", str(PUMP), str(clogged), "--residuals", "per-sensor", "--calibrate", str(healthy),
+        "--keep-model", "--cusum", "0.7", "--no-size",
     ))
     run = pump.residuals(
         columns(clogged), calibrate=columns(healthy), keep_model=True, cusum=0.7, size_span=None,
