@@ -974,11 +974,12 @@ fn size_fault(
     let (sized, told) = sizing.told(ranked, first, span, end);
     if told > span {
         report::note(format!(
-            "the fault's size: the best two candidates fit alike over {} s (the second's cost \
-             under {} times the best's): fitted over {} s, the span doubled until they were \
-             told apart or it was {} times as long (a change that shows in the plant's \
-             transients and one that shows in its statics fit alike over a span much shorter \
-             than its time constants)",
+            "the fault's size: the best two candidates, or the best one's two parameters, fit \
+             alike over {} s (the second's cost under {} times the best's): fitted over {} s, \
+             the span doubled until they were told apart or it was {} times as long (a change \
+             that shows in the plant's transients and one that shows in its statics, or a dead \
+             zone's width and its slope, fit alike over a span much shorter than the plant's \
+             time constants or a cycle of its motion)",
             significant(span),
             bondgraph_interpreter::TOLD,
             significant(told),
