@@ -33,6 +33,32 @@ fn candidates_column(text: &str) -> usize {
     (header.split(',').position(|h| h == "candidates")).expect("a candidates column")
 }
 
+/// The two-mass drive with Coulomb friction.
+const TWO_MASS: &str = "models/two_mass_friction.bg";
+
+/// A healthy record (seed 1) and one whose load's Coulomb friction doubles at 30 s (seed 2)
+/// of the two-mass drive, driven by a sine torque from a twisted shaft, lasting `duration`
+/// (a scenario line), both encoders with noise 1e-3.
+fn two_mass_records(dir: &std::path::Path, duration: &str) -> (String, String) {
+    let simulate = |name: &str, seed: &str, fault: bool| {
+        let path = dir.join(name).display().to_string();
+        let mut args = vec!["simulate", TWO_MASS, "-e", duration, "-e", "step 0.001"];
+        args.extend(["-e", "input T = 1.5*sin(t)", "-e", "initial p_load = -0.05"]);
+        args.extend(["-e", "noise w1 1e-3", "-e", "noise w2 1e-3", "-e", seed]);
+        if fault {
+            args.extend(["-e", "fault Fc = 2*Fc at 30"]);
+        }
+        args.extend(["-o", &path]);
+        let out = bgc(&args);
+        assert_eq!(code(&out), 0, "{}", stderr(&out));
+        path
+    };
+    (
+        simulate("healthy.csv", "seed 1", false),
+        simulate("fault.csv", "seed 2", true),
+    )
+}
+
 /// The places of ARR1's and ARR2's alarms in a residual CSV, whichever residuals follow them.
 fn alarm_columns(text: &str) -> (usize, usize) {
     let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
@@ -418,23 +444,9 @@ fn the_bank_is_calibrated_by_its_relations_and_sees_the_backlash() {
 /// moves that copy (its signature missed it, which `bgc verify` found).
 #[test]
 fn a_bank_leaves_out_the_start_its_healthy_record_was_calibrated_without() {
-    const MODEL: &str = "models/two_mass_friction.bg";
+    const MODEL: &str = TWO_MASS;
     let dir = scratch("bank-start");
-    let simulate = |name: &str, seed: &str, fault: bool| {
-        let path = dir.join(name).display().to_string();
-        let mut args = vec!["simulate", MODEL, "-e", "duration 40", "-e", "step 0.001"];
-        args.extend(["-e", "input T = 1.5*sin(t)", "-e", "initial p_load = -0.05"]);
-        args.extend(["-e", "noise w1 1e-3", "-e", "noise w2 1e-3", "-e", seed]);
-        if fault {
-            args.extend(["-e", "fault Fc = 2*Fc at 30"]);
-        }
-        args.extend(["-o", &path]);
-        let out = bgc(&args);
-        assert_eq!(code(&out), 0, "{}", stderr(&out));
-        path
-    };
-    let healthy = simulate("healthy.csv", "seed 1", false);
-    let record = simulate("fault.csv", "seed 2", true);
+    let (healthy, record) = two_mass_records(&dir, "duration 40");
     let kept = dir.join("bank.cal").display().to_string();
     let args = ["residuals", MODEL, &record, "--residuals", "bank"];
     let mut args = args.to_vec();
@@ -977,23 +989,9 @@ fn calibrate_alone_holds_a_wider_dead_zone_in_alarm_for_as_long_as_it_lasts() {
 /// class stays first. Counted by share alone, ARR1 was seen and named the motor's class.
 #[test]
 fn brief_alarms_outside_a_signature_do_not_decide_the_class() {
-    const MODEL: &str = "models/two_mass_friction.bg";
+    const MODEL: &str = TWO_MASS;
     let dir = scratch("glitches");
-    let simulate = |name: &str, seed: &str, fault: bool| {
-        let path = dir.join(name).display().to_string();
-        let mut args = vec!["simulate", MODEL, "-e", "duration 60", "-e", "step 0.001"];
-        args.extend(["-e", "input T = 1.5*sin(t)", "-e", "initial p_load = -0.05"]);
-        args.extend(["-e", "noise w1 1e-3", "-e", "noise w2 1e-3", "-e", seed]);
-        if fault {
-            args.extend(["-e", "fault Fc = 2*Fc at 30"]);
-        }
-        args.extend(["-o", &path]);
-        let out = bgc(&args);
-        assert_eq!(code(&out), 0, "{}", stderr(&out));
-        path
-    };
-    let healthy = simulate("healthy.csv", "seed 1", false);
-    let record = simulate("fault.csv", "seed 2", true);
+    let (healthy, record) = two_mass_records(&dir, "duration 60");
     let text = std::fs::read_to_string(&record).expect("record");
     let mut glitched = String::new();
     for (k, line) in text.lines().enumerate() {
